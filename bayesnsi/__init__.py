@@ -1,0 +1,2 @@
+"""bayesnsi."""
+__version__ = "0.1.0"

@@ -1,0 +1,69 @@
+"""Errors and warnings raised by bayesnsi.
+
+Every error a user can cause derives from :class:`BayesNSIError`, and also from the builtin
+exception it refines (``ShapeError`` is a ``ValueError``), so callers can catch either.
+Each message states what was expected, what was found and what to do.
+"""
+
+__all__ = [
+    "BayesNSIError",
+    "InputDataError",
+    "ShapeError",
+    "ExpressionError",
+    "ConfigError",
+    "BlockRowsError",
+    "OrderError",
+    "NotIdentifiableError",
+    "UnstableModelError",
+    "BayesNSIWarning",
+    "SpuriousPoleWarning",
+    "ConvergenceWarning",
+]
+
+
+class BayesNSIError(Exception):
+    """Base class of every error that bad input or an ill-posed problem can cause."""
+
+
+class InputDataError(BayesNSIError, ValueError):
+    """Signals are unusable: NaN/Inf, constant channels, mismatched lengths, unknown columns."""
+
+
+class ShapeError(InputDataError):
+    """An array does not have the documented shape."""
+
+
+class ExpressionError(BayesNSIError, ValueError):
+    """A candidate term expression is outside the grammar of SPEC section 9."""
+
+
+class ConfigError(BayesNSIError, ValueError):
+    """An experiment configuration (TOML) is missing a field or holds an invalid value."""
+
+
+class BlockRowsError(BayesNSIError, ValueError):
+    """Too few samples for the requested number of block rows."""
+
+
+class OrderError(BayesNSIError, ValueError):
+    """The requested model order is impossible for the Hankel matrix size."""
+
+
+class NotIdentifiableError(BayesNSIError, ValueError):
+    """A nonlinear coefficient cannot be separated from the measured channels (SPEC section 4)."""
+
+
+class UnstableModelError(BayesNSIError, RuntimeError):
+    """An identified or simulated model is unstable, or has no physical modes."""
+
+
+class BayesNSIWarning(UserWarning):
+    """Base class of bayesnsi warnings: a result was computed but deserves a second look."""
+
+
+class SpuriousPoleWarning(BayesNSIWarning):
+    """Identified poles were discarded as non-physical (real, or zeta outside (0, 1))."""
+
+
+class ConvergenceWarning(BayesNSIWarning):
+    """An MCMC run did not meet the convergence criteria (r_hat, effective sample size)."""

@@ -1,0 +1,1 @@
+"""File input/output: the only layer that touches files."""

@@ -1,0 +1,166 @@
+"""Nonlinear terms with a location, and candidate models (SPEC sections 1 and 9)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from ..exceptions import ConfigError, ExpressionError
+from .expressions import Expression, parse_expression
+
+__all__ = ["Term", "CandidateModel", "nonlinear_force"]
+
+
+def _normalise_location(at) -> tuple[int, ...]:
+    if isinstance(at, (int, np.integer)) and not isinstance(at, bool):
+        loc = (int(at),)
+    elif isinstance(at, (list, tuple)) and len(at) in (1, 2) and all(
+        isinstance(a, (int, np.integer)) and not isinstance(a, bool) for a in at
+    ):
+        loc = tuple(int(a) for a in at)
+    else:
+        raise ExpressionError(
+            f"term location must be a DOF number (at = 3) or a pair of DOFs (at = [3, 4]), got {at!r}"
+        )
+    if any(a < 1 for a in loc):
+        raise ExpressionError(f"DOFs are numbered from 1, got at = {at!r}")
+    if len(loc) == 2 and loc[0] == loc[1]:
+        raise ExpressionError(f"an element between DOFs needs two different DOFs, got at = {at!r}")
+    return loc
+
+
+@dataclass(frozen=True)
+class Term:
+    """One nonlinear term λ l n(x, v) of the equation of motion (SPEC Eq. 6).
+
+    Parameters
+    ----------
+    expr : str or Expression
+        The basis function n(x, v), e.g. ``"v1*abs(v1)"``.
+    at : int or (int, int)
+        Location: DOF ``k`` (l = e_k, grounded) or DOFs ``(j, k)`` (l = e_j - e_k, an element
+        between two DOFs: force +n at j, -n at k).
+    """
+
+    expr: Expression
+    at: tuple[int, ...]
+
+    def __init__(self, expr, at):
+        object.__setattr__(self, "expr", expr if isinstance(expr, Expression) else parse_expression(expr))
+        object.__setattr__(self, "at", _normalise_location(at))
+
+    @property
+    def name(self) -> str:
+        """Readable identifier, e.g. ``v1*abs(v1)@1`` or ``(x3-x4)**3@3-4``."""
+        return f"{self.expr.canonical}@{'-'.join(map(str, self.at))}"
+
+    @property
+    def at_value(self):
+        """Location as written in a config: an int, or a list of two ints."""
+        return self.at[0] if len(self.at) == 1 else list(self.at)
+
+    @property
+    def dofs(self) -> tuple[int, ...]:
+        """All DOFs the term reads or acts on."""
+        return tuple(sorted(set(self.expr.dofs) | set(self.at)))
+
+    def location_vector(self, n_dofs: int) -> np.ndarray:
+        """Location vector l (SPEC Eq. 6), shape (n_dofs,)."""
+        if max(self.at) > n_dofs:
+            raise ExpressionError(f"term {self.name} acts on DOF {max(self.at)} but the model has {n_dofs} DOFs")
+        loc = np.zeros(n_dofs)
+        loc[self.at[0] - 1] = 1.0
+        if len(self.at) == 2:
+            loc[self.at[1] - 1] = -1.0
+        return loc
+
+    def evaluate(self, x, v) -> np.ndarray:
+        """Basis function n(x, v); see :meth:`Expression.evaluate` for the DOF-major layout."""
+        return self.expr.evaluate(x, v)
+
+    def __str__(self) -> str:
+        return self.name
+
+
+@dataclass(frozen=True)
+class CandidateModel:
+    """A named set of nonlinear terms with a prior probability (SPEC section 9).
+
+    Parameters
+    ----------
+    name : str
+        Label used in tables and results.json.
+    terms : sequence of Term
+        The nonlinear terms; may be empty (a linear model).
+    prior : float
+        Prior model probability P(μ) (unnormalised; normalised over the candidate set).
+    coefficient_priors : mapping or None
+        Optional per-term prior scale of the coefficient (used by the evidence).
+    """
+
+    name: str
+    terms: tuple[Term, ...]
+    prior: float = 1.0
+    coefficient_prior_scales: tuple[float | None, ...] = field(default=())
+
+    def __post_init__(self):
+        object.__setattr__(self, "terms", tuple(self.terms))
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise ConfigError("every candidate needs a non-empty name")
+        if not all(isinstance(t, Term) for t in self.terms):
+            raise ConfigError(f"candidate {self.name!r}: terms must be Term objects")
+        names = [t.name for t in self.terms]
+        if len(set(names)) != len(names):
+            raise ConfigError(f"candidate {self.name!r} repeats a term: {names}")
+        if not (np.isfinite(self.prior) and self.prior > 0):
+            raise ConfigError(f"candidate {self.name!r}: prior must be a positive number, got {self.prior!r}")
+        scales = tuple(self.coefficient_prior_scales) or (None,) * len(self.terms)
+        if len(scales) != len(self.terms):
+            raise ConfigError(f"candidate {self.name!r}: one prior scale per term expected")
+        object.__setattr__(self, "coefficient_prior_scales", scales)
+
+    @classmethod
+    def from_terms(cls, name: str, terms: Iterable, prior: float = 1.0) -> "CandidateModel":
+        """Build from ``(expr, at)`` pairs or Term objects."""
+        built = tuple(t if isinstance(t, Term) else Term(*t) for t in terms)
+        return cls(name=name, terms=built, prior=prior)
+
+    @property
+    def n_terms(self) -> int:
+        """Number of nonlinear terms q."""
+        return len(self.terms)
+
+    def with_term(self, term: Term, name: str | None = None) -> "CandidateModel":
+        """A new candidate with one more term (used when closing the loop)."""
+        return CandidateModel(
+            name=name or f"{self.name} + {term.name}",
+            terms=self.terms + (term,),
+            prior=self.prior,
+            coefficient_prior_scales=self.coefficient_prior_scales + (None,),
+        )
+
+
+def nonlinear_force(terms: Sequence[Term], coefficients, x, v, n_dofs: int) -> np.ndarray:
+    """Total nonlinear restoring force Σ λ_i l_i n_i(x, v) (SPEC Eq. 6).
+
+    Parameters
+    ----------
+    terms : sequence of Term
+    coefficients : array_like, shape (q,)
+    x, v : ndarray, shape (n_dofs, ...)
+        DOF-major displacements and velocities.
+    n_dofs : int
+
+    Returns
+    -------
+    ndarray, shape (n_dofs, ...)
+    """
+    force = np.zeros((n_dofs,) + np.shape(x)[1:])
+    for term, coef in zip(terms, np.atleast_1d(coefficients)):
+        value = coef * term.evaluate(x, v)
+        force[term.at[0] - 1] += value
+        if len(term.at) == 2:
+            force[term.at[1] - 1] -= value
+    return force

@@ -1,0 +1,1 @@
+"""Identification (SPEC sections 2-5)."""

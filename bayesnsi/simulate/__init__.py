@@ -1,0 +1,1 @@
+"""Reference simulators (SPEC section 8)."""

@@ -15,6 +15,7 @@ __all__ = [
     "OrderError",
     "NotIdentifiableError",
     "UnstableModelError",
+    "OutputExistsError",
     "BayesNSIWarning",
     "SpuriousPoleWarning",
     "ConvergenceWarning",
@@ -55,6 +56,10 @@ class NotIdentifiableError(BayesNSIError, ValueError):
 
 class UnstableModelError(BayesNSIError, RuntimeError):
     """An identified or simulated model is unstable, or has no physical modes."""
+
+
+class OutputExistsError(BayesNSIError, FileExistsError):
+    """An output directory already holds results; pass ``--force`` or choose another directory."""
 
 
 class BayesNSIWarning(UserWarning):

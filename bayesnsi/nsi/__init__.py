@@ -1,1 +1,23 @@
-"""Identification (SPEC sections 2-5)."""
+"""Nonlinear subspace identification (SPEC sections 2-5); numpy/scipy only."""
+
+from .identify import NSIResult, extended_input, identify, select_order, stabilization
+from .physics import CoefficientEstimate, Mode, coefficient_spectrum, split_poles
+from .reconstruct import Reconstruction, initial_state, nrmse, reconstruct
+from .statespace import StateSpaceModel
+
+__all__ = [
+    "identify",
+    "NSIResult",
+    "extended_input",
+    "select_order",
+    "stabilization",
+    "CoefficientEstimate",
+    "Mode",
+    "coefficient_spectrum",
+    "split_poles",
+    "Reconstruction",
+    "reconstruct",
+    "initial_state",
+    "nrmse",
+    "StateSpaceModel",
+]

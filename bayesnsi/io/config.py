@@ -1,0 +1,730 @@
+"""Experiment configuration: TOML file -> frozen :class:`ExperimentConfig` (SPEC section 9).
+
+Layout (everything but ``[data]`` inputs/outputs and ``[[candidates]]`` has a default)::
+
+    seed = 0                                  # optional; or in [evidence]
+
+    [data]
+    file = "two_dof.csv"                      # relative to this config file's folder
+    fs = 100.0                                # Hz; omit to derive it from the time column "t"
+    inputs = { f2 = 2 }                       # force column -> DOF (numbered from 1)
+    outputs = { x1 = 1, x2 = 2 }              # displacement column -> DOF
+    velocities = { v1 = 1, v2 = 2 }           # optional, same DOFs as outputs
+    accelerations = { a1 = 1 }                # optional, stored only
+    estimation = [0, 800]                     # optional sample window [start, stop)
+    remove_mean = false                       # optional
+
+    [nsi]                                     # all optional
+    block_rows = 40
+    order = "auto"                            # or an integer
+    band_hz = [1.0, 10.0]                     # "band" is accepted as an alias
+    velocity_method = "fourth"                # "central", "fourth", "sixth"
+    bd_method = "robust"                      # or "output-error"
+    max_order = 40
+    zero_feedthrough = true
+
+    [[candidates]]
+    name = "quadratic damping"
+    prior = 1.0                               # optional, unnormalised
+    terms = [{ expr = "v1*abs(v1)", at = 1, prior_scale = 50.0 }]   # at = [j, k]: element j-k
+
+    [[validation]]                            # optional, never used for estimation
+    name = "tail"
+    start = 800
+    stop = 1000                               # or: file = "other.csv" (same columns)
+
+    [evidence]                                # optional, numbers/strings/bools (and lists of them)
+    [meta]                                    # optional, free-form notes (e.g. the true values)
+
+Every mistake raises :class:`~bayesnsi.exceptions.ConfigError` naming the file, the section and
+key, what was expected, what was found and what to do. Nothing in the file is evaluated: the
+TOML is parsed by :mod:`tomllib` and expressions by :func:`bayesnsi.models.parse_expression`.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import os
+import re
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..exceptions import ConfigError, ExpressionError
+from ..models import CandidateModel, Term
+
+__all__ = [
+    "DataSpec",
+    "NSISettings",
+    "ValidationSegment",
+    "ExperimentConfig",
+    "load_config",
+    "dump_config",
+    "VELOCITY_METHODS",
+    "BD_METHODS",
+]
+
+VELOCITY_METHODS = ("central", "fourth", "sixth")
+"""Finite-difference stencils for velocities derived from displacements."""
+BD_METHODS = ("robust", "output-error")
+"""Ways of estimating B and D (SPEC section 3)."""
+
+_TOP_KEYS = ("seed", "data", "nsi", "candidates", "validation", "evidence", "meta")
+_DATA_KEYS = (
+    "file", "fs", "time_column", "inputs", "outputs", "velocities", "accelerations", "estimation", "remove_mean",
+)
+_NSI_KEYS = (
+    "block_rows", "order", "band_hz", "band", "velocity_method", "bd_method", "max_order", "zero_feedthrough",
+)
+_CANDIDATE_KEYS = ("name", "prior", "terms")
+_TERM_KEYS = ("expr", "at", "prior_scale")
+_VALIDATION_KEYS = ("name", "start", "stop", "file")
+_MISSING = object()
+_BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
+
+
+@dataclass(frozen=True)
+class DataSpec:
+    """Where the measurements are and which column is what (``[data]``).
+
+    Parameters
+    ----------
+    file : Path
+        CSV file, absolute (resolved relative to the config file's folder).
+    fs : float or None
+        Sampling frequency [Hz]; None means: derive it from the time column.
+    inputs : dict of str to int
+        Force column -> DOF (1-based), in the order written in the config.
+    outputs : dict of str to int
+        Displacement column -> DOF, in the order written in the config.
+    velocities : dict of str to int or None
+        Measured velocity column -> DOF; the same DOFs as ``outputs``.
+    accelerations : dict of str to int
+        Acceleration column -> DOF; recorded, not used by the identification.
+    estimation : (int, int) or None
+        Half-open sample window ``[start, stop)`` used for estimation; None: the whole record.
+    remove_mean : bool
+        Subtract each channel's mean over the estimation window (also from validation data).
+    time_column : str
+        Name of the time column [s], read when ``fs`` is None (and checked when present).
+    """
+
+    file: Path
+    fs: float | None
+    inputs: dict[str, int]
+    outputs: dict[str, int]
+    velocities: dict[str, int] | None = None
+    accelerations: dict[str, int] = field(default_factory=dict)
+    estimation: tuple[int, int] | None = None
+    remove_mean: bool = False
+    time_column: str = "t"
+
+    @property
+    def dofs(self) -> tuple[int, ...]:
+        """Sorted DOFs that are forced or measured."""
+        return tuple(sorted(set(self.inputs.values()) | set(self.outputs.values())))
+
+
+@dataclass(frozen=True)
+class NSISettings:
+    """Settings of the subspace identification (``[nsi]``; SPEC sections 3-4).
+
+    Parameters
+    ----------
+    block_rows : int
+        Number of block rows i of the Hankel matrices.
+    order : int or "auto"
+        Model order n, or "auto" to choose it from the singular values.
+    band_hz : (float, float) or None
+        Band [Hz] over which λ_i(ω) is averaged; None: the band holding the identified modes.
+    velocity_method : {"central", "fourth", "sixth"}
+        Stencil for velocities derived from displacements.
+    bd_method : {"robust", "output-error"}
+        Estimator of B and D.
+    max_order : int
+        Largest order considered by "auto" and by the stabilisation diagram.
+    zero_feedthrough : bool
+        Impose D = 0 (displacement outputs).
+    """
+
+    block_rows: int = 40
+    order: int | str = "auto"
+    band_hz: tuple[float, float] | None = None
+    velocity_method: str = "fourth"
+    bd_method: str = "robust"
+    max_order: int = 40
+    zero_feedthrough: bool = True
+
+
+@dataclass(frozen=True)
+class ValidationSegment:
+    """A stretch of data kept for validation only (``[[validation]]``).
+
+    Parameters
+    ----------
+    name : str
+        Label used in results.json.
+    start, stop : int or None
+        Half-open sample window ``[start, stop)``; None for the start or end of the record.
+        Always given for segments of the estimation file.
+    file : Path or None
+        Another CSV with the same columns; None: the estimation file.
+    """
+
+    name: str
+    start: int | None
+    stop: int | None
+    file: Path | None = None
+
+
+@dataclass(frozen=True)
+class ExperimentConfig:
+    """A validated experiment configuration.
+
+    Parameters
+    ----------
+    path : Path
+        The config file, absolute.
+    data : DataSpec
+    nsi : NSISettings
+    candidates : tuple of CandidateModel
+    validation : tuple of ValidationSegment
+    evidence_settings : dict
+        The ``[evidence]`` table without ``seed`` (numbers, strings, bools and lists of them).
+    seed : int
+        Seed of every random generator of the run.
+    raw : dict
+        The parsed TOML, to record the settings with the results.
+    meta : dict
+        The free-form ``[meta]`` table (empty if absent).
+    """
+
+    path: Path
+    data: DataSpec
+    nsi: NSISettings
+    candidates: tuple[CandidateModel, ...]
+    validation: tuple[ValidationSegment, ...]
+    evidence_settings: dict[str, Any]
+    seed: int
+    raw: dict[str, Any]
+    meta: dict[str, Any] = field(default_factory=dict)
+
+
+def load_config(path: str | os.PathLike, check_files: bool = True) -> ExperimentConfig:
+    """Read and validate an experiment configuration (TOML, SPEC section 9).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The TOML file.
+    check_files : bool
+        Check that the data and validation files exist (their contents are read later, by
+        :func:`bayesnsi.io.load_signals`).
+
+    Returns
+    -------
+    ExperimentConfig
+
+    Raises
+    ------
+    ConfigError
+        On any mistake: unreadable TOML, unknown keys, wrong types, missing data mapping,
+        bad expressions, terms on unmeasured DOFs, overlapping validation segments, missing files.
+    """
+    path = Path(path).expanduser().resolve()
+    if not path.is_file():
+        raise ConfigError(f"config file {path} not found; check the path (relative paths start at the working folder)")
+    try:
+        with open(path, "rb") as fh:
+            raw = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML ({exc}); fix the syntax at that line") from exc
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: not UTF-8 text ({exc}); save the config as UTF-8") from exc
+    top = _Where(path, "top level")
+    _check_keys(raw, _TOP_KEYS, top)
+    data = _parse_data(raw.get("data", _MISSING), _Where(path, "[data]"), check_files)
+    nsi = _parse_nsi(raw.get("nsi", {}), _Where(path, "[nsi]"), data)
+    candidates = _parse_candidates(raw.get("candidates", _MISSING), path, data)
+    validation = _parse_validation(raw.get("validation", []), path, data, check_files)
+    evidence, seed = _parse_evidence(raw, path)
+    meta = raw.get("meta", {})
+    if not isinstance(meta, dict):
+        raise _Where(path, "top level").error("meta", "a table [meta]", meta, "write notes as [meta] key = value")
+    return ExperimentConfig(
+        path=path, data=data, nsi=nsi, candidates=candidates, validation=validation,
+        evidence_settings=evidence, seed=seed, raw=raw, meta=meta,
+    )
+
+
+def dump_config(config: Mapping[str, Any]) -> str:
+    """Write a configuration dict as TOML text (the subset :func:`load_config` reads).
+
+    Parameters
+    ----------
+    config : mapping
+        Plain values: str, bool, int, float, path-like, lists/tuples, and mappings. At the top
+        level a mapping becomes a ``[table]`` and a non-empty list of mappings an array of
+        tables ``[[name]]``; deeper mappings become inline tables, and lists of mappings
+        inside a table are written one inline table per line.
+
+    Returns
+    -------
+    str
+        TOML text with ``tomllib.loads(dump_config(d)) == d`` for such dicts (tuples and paths
+        come back as lists and strings; NaN never compares equal).
+
+    Raises
+    ------
+    ConfigError
+        For values TOML cannot hold (None, other objects), naming the key.
+
+    Examples
+    --------
+    >>> print(dump_config({"seed": 1, "nsi": {"order": "auto"}}), end="")
+    seed = 1
+    <BLANKLINE>
+    [nsi]
+    order = "auto"
+    """
+    if not isinstance(config, Mapping):
+        raise ConfigError(f"dump_config needs a mapping, got {type(config).__name__}")
+    lines: list[str] = []
+    tables, arrays = [], []
+    for key, value in config.items():
+        if isinstance(value, Mapping):
+            tables.append((key, value))
+        elif _is_table_array(value):
+            arrays.append((key, value))
+        else:
+            lines.append(f"{_toml_key(key)} = {_toml_value(value, str(key))}")
+    for key, table in tables:
+        lines += ["", f"[{_toml_key(key)}]"] + _toml_table_body(table, str(key))
+    for key, items in arrays:
+        for index, table in enumerate(items):
+            lines += ["", f"[[{_toml_key(key)}]]"] + _toml_table_body(table, f"{key}[{index}]")
+    if lines and lines[0] == "":
+        lines = lines[1:]
+    return "\n".join(lines) + "\n"
+
+
+# ---------------------------------------------------------------------------------------------
+# error messages
+
+
+class _Where:
+    """A place in the config file, to build messages: file, section, key, expected, found, fix."""
+
+    def __init__(self, path: Path, section: str):
+        self.path = path
+        self.section = section
+
+    def error(self, key: str | None, expected: str, found: Any = _MISSING, fix: str = "") -> ConfigError:
+        place = f"{self.path}: {self.section}" + (f" {key}" if key else "")
+        found_text = "nothing (the key is missing)" if found is _MISSING else _describe(found)
+        return ConfigError(f"{place}: expected {expected}, found {found_text}" + (f"; {fix}" if fix else ""))
+
+    def problem(self, key: str | None, message: str) -> ConfigError:
+        place = f"{self.path}: {self.section}" + (f" {key}" if key else "")
+        return ConfigError(f"{place}: {message}")
+
+
+def _describe(value: Any) -> str:
+    kind = {bool: "a boolean", int: "an integer", float: "a number", str: "a string", list: "an array",
+            dict: "a table"}.get(type(value), type(value).__name__)
+    text = repr(value)
+    if len(text) > 80:
+        text = text[:77] + "..."
+    return f"{text} ({kind})"
+
+
+def _check_keys(table: Mapping, allowed: tuple[str, ...], where: _Where) -> None:
+    unknown = [k for k in table if k not in allowed]
+    if not unknown:
+        return
+    hints = []
+    for key in unknown:
+        close = difflib.get_close_matches(key, allowed, n=1)
+        hints.append(f"{key!r}" + (f" (did you mean {close[0]!r}?)" if close else ""))
+    raise where.problem(
+        None, f"unknown key(s) {', '.join(hints)}; allowed keys are: {', '.join(allowed)}. "
+        "Fix the spelling or remove the key"
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# typed getters
+
+
+def _int(table: Mapping, key: str, where: _Where, default: Any = _MISSING, minimum: int | None = None):
+    value = table.get(key, default)
+    if value is _MISSING:
+        raise where.error(key, "an integer", fix=f"add {key} = <integer>")
+    if value is None and default is None:
+        return None
+    if not isinstance(value, int) or isinstance(value, bool):
+        raise where.error(key, "an integer", value, "write it without quotes or decimal point")
+    if minimum is not None and value < minimum:
+        raise where.error(key, f"an integer >= {minimum}", value)
+    return value
+
+
+def _number(table: Mapping, key: str, where: _Where, default: Any = _MISSING, positive: bool = False):
+    value = table.get(key, default)
+    if value is _MISSING:
+        raise where.error(key, "a number", fix=f"add {key} = <number>")
+    if value is None:
+        return None
+    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+        raise where.error(key, "a finite number", value, "write it without quotes, e.g. 100.0")
+    if positive and value <= 0:
+        raise where.error(key, "a positive number", value)
+    return float(value)
+
+
+def _bool(table: Mapping, key: str, where: _Where, default: bool) -> bool:
+    value = table.get(key, default)
+    if not isinstance(value, bool):
+        raise where.error(key, "true or false", value, "write true or false without quotes")
+    return value
+
+
+def _choice(table: Mapping, key: str, where: _Where, choices: tuple[str, ...], default: str) -> str:
+    value = table.get(key, default)
+    if not isinstance(value, str) or value not in choices:
+        raise where.error(key, f"one of {', '.join(map(repr, choices))}", value)
+    return value
+
+
+def _text(table: Mapping, key: str, where: _Where, default: Any = _MISSING) -> str:
+    value = table.get(key, default)
+    if value is _MISSING:
+        raise where.error(key, "a string", fix=f'add {key} = "..."')
+    if not isinstance(value, str) or not value.strip():
+        raise where.error(key, "a non-empty string", value, "put the text in double quotes")
+    return value
+
+
+def _window(value: Any, where: _Where, key: str) -> tuple[int, int]:
+    ok = (isinstance(value, list) and len(value) == 2
+          and all(isinstance(v, int) and not isinstance(v, bool) for v in value))
+    if not ok or not 0 <= value[0] < value[1]:
+        raise where.error(key, "[start, stop] sample indices with 0 <= start < stop (stop excluded)", value)
+    return value[0], value[1]
+
+
+# ---------------------------------------------------------------------------------------------
+# sections
+
+
+def _parse_data(table: Any, where: _Where, check_files: bool) -> DataSpec:
+    if table is _MISSING:
+        raise where.problem(None, 'the [data] section is missing; add [data] with file = "...", fs, inputs and outputs')
+    if not isinstance(table, dict):
+        raise where.error(None, "a table [data]", table)
+    _check_keys(table, _DATA_KEYS, where)
+    file = _resolve_file(_text(table, "file", where), where, "file", check_files)
+    fs = _number(table, "fs", where, None, positive=True)
+    time_column = _text(table, "time_column", where, "t")
+    inputs = _dof_map(table, "inputs", where, required=True)
+    outputs = _dof_map(table, "outputs", where, required=True)
+    velocities = _dof_map(table, "velocities", where, required=False)
+    accelerations = _dof_map(table, "accelerations", where, required=False) or {}
+    if velocities is not None and sorted(velocities.values()) != sorted(outputs.values()):
+        raise where.error(
+            "velocities", f"the same DOFs as outputs {sorted(outputs.values())}", velocities,
+            "give one velocity column per displacement column, or drop velocities to derive them",
+        )
+    _check_columns_unique(where, time_column if fs is None else None, inputs, outputs, velocities, accelerations)
+    estimation = table.get("estimation")
+    if estimation is not None:
+        estimation = _window(estimation, where, "estimation")
+    return DataSpec(
+        file=file, fs=fs, inputs=inputs, outputs=outputs, velocities=velocities,
+        accelerations=accelerations, estimation=estimation,
+        remove_mean=_bool(table, "remove_mean", where, False), time_column=time_column,
+    )
+
+
+def _resolve_file(name: str, where: _Where, key: str, check_files: bool) -> Path:
+    file = Path(name).expanduser()
+    if not file.is_absolute():
+        file = where.path.parent / file
+    file = file.resolve()
+    if check_files and not file.is_file():
+        raise where.problem(
+            key, f"data file {name!r} not found (looked for {file}); paths are relative to the "
+            "config file's folder - fix the name or move the file there"
+        )
+    return file
+
+
+def _dof_map(table: Mapping, key: str, where: _Where, required: bool) -> dict[str, int] | None:
+    value = table.get(key, _MISSING)
+    example = f"{key} = {{ column_name = 1 }}"
+    if value is _MISSING:
+        if required:
+            raise where.error(key, "a table mapping column names to DOFs", fix=f"add {example}")
+        return None
+    if not isinstance(value, dict) or (required and not value):
+        raise where.error(key, "a non-empty table mapping column names to DOFs", value, f"write {example}")
+    seen: dict[int, str] = {}
+    for column, dof in value.items():
+        if not isinstance(dof, int) or isinstance(dof, bool) or dof < 1:
+            raise where.error(f"{key}.{column}", "a DOF number >= 1 (DOFs are numbered from 1)", dof)
+        if dof in seen:
+            raise where.problem(
+                key, f"DOF {dof} is mapped twice (columns {seen[dof]!r} and {column!r}); map each DOF to one column"
+            )
+        seen[dof] = column
+    return dict(value)
+
+
+def _check_columns_unique(where: _Where, time_column: str | None, *maps) -> None:
+    names = ("inputs", "outputs", "velocities", "accelerations")
+    used: dict[str, str] = {time_column: "time_column"} if time_column else {}
+    for role, mapping in zip(names, maps):
+        for column in mapping or {}:
+            if column in used:
+                raise where.problem(
+                    role, f"column {column!r} is already used as {used[column]}; each column has one role"
+                )
+            used[column] = role
+
+
+def _parse_nsi(table: Any, where: _Where, data: DataSpec) -> NSISettings:
+    if not isinstance(table, dict):
+        raise where.error(None, "a table [nsi]", table)
+    _check_keys(table, _NSI_KEYS, where)
+    defaults = NSISettings()
+    block_rows = _int(table, "block_rows", where, defaults.block_rows, minimum=1)
+    order = table.get("order", defaults.order)
+    if order != "auto":
+        if not isinstance(order, int) or isinstance(order, bool) or order < 1:
+            raise where.error("order", 'a positive integer or "auto"', order)
+        limit = block_rows * len(data.outputs)
+        if order > limit:
+            raise where.error(
+                "order", f"at most block_rows x outputs = {block_rows} x {len(data.outputs)} = {limit}", order,
+                "raise block_rows or lower order",
+            )
+    return NSISettings(
+        block_rows=block_rows,
+        order=order,
+        band_hz=_band(table, where, data.fs),
+        velocity_method=_choice(table, "velocity_method", where, VELOCITY_METHODS, defaults.velocity_method),
+        bd_method=_choice(table, "bd_method", where, BD_METHODS, defaults.bd_method),
+        max_order=_int(table, "max_order", where, defaults.max_order, minimum=1),
+        zero_feedthrough=_bool(table, "zero_feedthrough", where, defaults.zero_feedthrough),
+    )
+
+
+def _band(table: Mapping, where: _Where, fs: float | None) -> tuple[float, float] | None:
+    if "band" in table and "band_hz" in table:
+        raise where.problem("band", "band and band_hz are the same setting; keep only band_hz")
+    key = "band" if "band" in table else "band_hz"
+    value = table.get(key)
+    if value is None:
+        return None
+    ok = (isinstance(value, list) and len(value) == 2
+          and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value))
+    if not ok or not 0 <= value[0] < value[1]:
+        raise where.error(key, "[low, high] in Hz with 0 <= low < high", value)
+    if fs is not None and value[1] > fs / 2:
+        raise where.error(key, f"a band below the Nyquist frequency {fs / 2:g} Hz", value)
+    return float(value[0]), float(value[1])
+
+
+def _parse_candidates(items: Any, path: Path, data: DataSpec) -> tuple[CandidateModel, ...]:
+    top = _Where(path, "[[candidates]]")
+    how = 'add at least one [[candidates]] table with name = "..." and terms = [{ expr = "...", at = 1 }]'
+    if items is _MISSING or items == []:
+        raise top.problem(None, f"no candidate models are given; {how}")
+    if not isinstance(items, list) or not all(isinstance(item, dict) for item in items):
+        raise top.error(None, "an array of tables written [[candidates]] (double brackets)", items, how)
+    models, names = [], set()
+    for index, item in enumerate(items, start=1):
+        where = _Where(path, f"[[candidates]] #{index}")
+        _check_keys(item, _CANDIDATE_KEYS, where)
+        name = _text(item, "name", where)
+        where = _Where(path, f"[[candidates]] #{index} ({name!r})")
+        if name in names:
+            raise where.problem("name", f"candidate name {name!r} is used twice; give each candidate its own name")
+        names.add(name)
+        prior = _number(item, "prior", where, 1.0, positive=True)
+        terms, scales = _parse_terms(item, where, data)
+        try:
+            models.append(CandidateModel(name=name, terms=terms, prior=prior, coefficient_prior_scales=scales))
+        except (ConfigError, ExpressionError) as exc:
+            raise where.problem(None, f"{exc}; fix the terms of this candidate") from exc
+    return tuple(models)
+
+
+def _parse_terms(item: Mapping, where: _Where, data: DataSpec) -> tuple[tuple[Term, ...], tuple]:
+    value = item.get("terms", _MISSING)
+    if value is _MISSING or not isinstance(value, list) or not all(isinstance(t, dict) for t in value):
+        raise where.error(
+            "terms", 'an array of tables like [{ expr = "v1*abs(v1)", at = 1 }]', value,
+            "write terms = [] for a linear model",
+        )
+    measured = set(data.outputs.values())
+    located = set(data.dofs)
+    terms, scales = [], []
+    for index, entry in enumerate(value, start=1):
+        key = f"terms[{index}]"
+        here = _Where(where.path, f"{where.section} {key}")
+        _check_keys(entry, _TERM_KEYS, here)
+        if "expr" not in entry:
+            raise here.error("expr", 'an expression string such as "v1*abs(v1)"', fix='add expr = "..."')
+        expr = _text(entry, "expr", here)
+        if "at" not in entry:
+            raise here.error("at", "a DOF (at = 1) or a pair of DOFs (at = [1, 2])", fix="add at = <DOF>")
+        try:
+            term = Term(expr, entry["at"])
+        except ExpressionError as exc:
+            raise where.problem(key, f"{exc}") from exc
+        unmeasured = sorted(set(term.expr.dofs) - measured)
+        if unmeasured:
+            raise where.problem(
+                f"{key}.expr", f"{expr!r} reads DOF(s) {unmeasured}, but outputs measure only DOFs "
+                f"{sorted(measured)}; use measured DOFs or add the missing displacement columns to [data] outputs"
+            )
+        outside = sorted(set(term.at) - located)
+        if outside:
+            raise where.problem(
+                f"{key}.at", f"the term acts at DOF(s) {outside}, which are neither forced nor measured "
+                f"(known DOFs: {sorted(located)}), so its coefficient cannot be identified (SPEC section 4); "
+                "place it at a measured DOF"
+            )
+        terms.append(term)
+        scales.append(_number(entry, "prior_scale", here, None, positive=True))
+    return tuple(terms), tuple(scales)
+
+
+def _parse_validation(items: Any, path: Path, data: DataSpec, check_files: bool) -> tuple[ValidationSegment, ...]:
+    top = _Where(path, "[[validation]]")
+    if not isinstance(items, list) or not all(isinstance(item, dict) for item in items):
+        raise top.error(None, "an array of tables written [[validation]] (double brackets)", items)
+    segments, names = [], set()
+    for index, item in enumerate(items, start=1):
+        where = _Where(path, f"[[validation]] #{index}")
+        _check_keys(item, _VALIDATION_KEYS, where)
+        name = _text(item, "name", where)
+        if name in names:
+            raise where.problem("name", f"validation name {name!r} is used twice; give each segment its own name")
+        names.add(name)
+        file = _resolve_file(_text(item, "file", where), where, "file", check_files) if "file" in item else None
+        start = _int(item, "start", where, None if file else _MISSING, minimum=0)
+        stop = _int(item, "stop", where, None if file else _MISSING, minimum=1)
+        if start is not None and stop is not None and start >= stop:
+            raise where.error("stop", f"an index greater than start = {start}", stop)
+        if file is None or file == data.file:
+            _check_no_overlap(where, name, start, stop, data.estimation)
+        segments.append(ValidationSegment(name=name, start=start, stop=stop, file=file))
+    return tuple(segments)
+
+
+def _check_no_overlap(where, name, start, stop, estimation) -> None:
+    if estimation is None:
+        raise where.problem(
+            None, f"segment {name!r} [{start}, {stop}) is in the data file, but the estimation window is the "
+            "whole record by default; set [data] estimation = [start, stop] to a window that excludes it"
+        )
+    lo = 0 if start is None else start
+    hi = math.inf if stop is None else stop
+    if lo < estimation[1] and estimation[0] < hi:
+        raise where.problem(
+            None, f"segment {name!r} [{start}, {stop}) overlaps the estimation window "
+            f"[{estimation[0]}, {estimation[1]}); validation data must never be used for estimation - "
+            "move the segment or shrink [data] estimation"
+        )
+
+
+def _parse_evidence(raw: Mapping, path: Path) -> tuple[dict[str, Any], int]:
+    where = _Where(path, "[evidence]")
+    table = raw.get("evidence", {})
+    if not isinstance(table, dict):
+        raise where.error(None, "a table [evidence]", table)
+    for key, value in table.items():
+        values = value if isinstance(value, list) else [value]
+        if not all(isinstance(v, (bool, int, float, str)) for v in values):
+            raise where.error(key, "a number, string, boolean or a flat array of them", value)
+    top = _Where(path, "top level")
+    seeds = {}
+    if "seed" in raw:
+        seeds["top"] = _int(raw, "seed", top, minimum=0)
+    if "seed" in table:
+        seeds["evidence"] = _int(table, "seed", where, minimum=0)
+    if len(set(seeds.values())) > 1:
+        raise top.problem("seed", f"seed = {seeds['top']} disagrees with [evidence] seed = {seeds['evidence']}; keep one")
+    settings = {k: v for k, v in table.items() if k != "seed"}
+    return settings, next(iter(seeds.values()), 0)
+
+
+# ---------------------------------------------------------------------------------------------
+# TOML writer
+
+
+def _is_table_array(value: Any) -> bool:
+    return isinstance(value, (list, tuple)) and len(value) > 0 and all(isinstance(v, Mapping) for v in value)
+
+
+def _toml_table_body(table: Mapping, where: str) -> list[str]:
+    lines = []
+    for key, value in table.items():
+        name = _toml_key(key)
+        if _is_table_array(value):
+            lines.append(f"{name} = [")
+            lines += [f"    {_toml_value(v, f'{where}.{key}[{i}]')}," for i, v in enumerate(value)]
+            lines.append("]")
+        else:
+            lines.append(f"{name} = {_toml_value(value, f'{where}.{key}')}")
+    return lines
+
+
+def _toml_key(key: Any) -> str:
+    if not isinstance(key, str):
+        raise ConfigError(f"TOML keys must be strings, got {key!r}; convert the key with str()")
+    return key if _BARE_KEY.match(key) else _toml_string(key)
+
+
+def _toml_value(value: Any, where: str) -> str:
+    if isinstance(value, (bool, np.bool_)):
+        return "true" if value else "false"
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        value = float(value)
+        return repr(value) if math.isfinite(value) else ("nan" if math.isnan(value) else ("inf" if value > 0 else "-inf"))
+    if isinstance(value, str):
+        return _toml_string(value)
+    if isinstance(value, os.PathLike):
+        return _toml_string(Path(value).as_posix())
+    if isinstance(value, Mapping):
+        items = [f"{_toml_key(k)} = {_toml_value(v, f'{where}.{k}')}" for k, v in value.items()]
+        return "{ " + ", ".join(items) + " }" if items else "{}"
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return "[" + ", ".join(_toml_value(v, f"{where}[{i}]") for i, v in enumerate(value)) + "]"
+    if value is None:
+        raise ConfigError(f"{where} is None, which TOML cannot hold; drop the key or give it a value")
+    raise ConfigError(f"{where} is a {type(value).__name__}, which TOML cannot hold; use str, numbers, lists or dicts")
+
+
+def _toml_string(text: str) -> str:
+    out = []
+    for char in text:
+        code = ord(char)
+        if char in '"\\':
+            out.append("\\" + char)
+        elif char in "\b\t\n\f\r":
+            out.append({"\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}[char])
+        elif code < 0x20 or code == 0x7F:
+            out.append(f"\\u{code:04X}")
+        else:
+            out.append(char)
+    return '"' + "".join(out) + '"'

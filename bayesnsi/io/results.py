@@ -1,0 +1,314 @@
+"""Writing results safely: atomic files, JSON conversion, version records, output folders.
+
+Every file bayesnsi writes goes through :func:`atomic_open` (or the two helpers built on it):
+the content is written to a temporary file in the target's folder, flushed to disk and then
+renamed over the target with :func:`os.replace`, so a reader never sees a half-written file
+and an interrupted run leaves the previous file intact (STYLE section 3, item 14).
+
+``results.json`` (SPEC section 9) holds plain JSON only: :func:`to_jsonable` converts numpy
+scalars and arrays, tuples, paths and dataclasses, and writes NaN and ±Inf as ``null``
+(JSON has no NaN).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import enum
+import importlib.metadata
+import json
+import math
+import os
+import platform
+import secrets
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+
+from ..exceptions import OutputExistsError
+
+__all__ = [
+    "RESULTS_FILENAME",
+    "atomic_open",
+    "atomic_write_text",
+    "atomic_write_json",
+    "to_jsonable",
+    "versions",
+    "prepare_output_dir",
+]
+
+RESULTS_FILENAME = "results.json"
+"""Name of the results file that ``bayesnsi select`` and ``bayesnsi diagnose`` write."""
+
+_OPTIONAL_PACKAGES = (
+    "pandas",
+    "emcee",
+    "arviz",
+    "arviz-base",
+    "arviz-stats",
+    "arviz-plots",
+    "xarray",
+    "matplotlib",
+)
+
+
+@contextlib.contextmanager
+def atomic_open(path: str | os.PathLike, mode: str = "w", encoding: str = "utf-8") -> Iterator[IO]:
+    """Open a temporary file that replaces ``path`` only when the block ends without error.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Target file. Its folder must exist.
+    mode : {"w", "wb"}
+        Text or binary writing.
+    encoding : str
+        Text encoding (ignored in binary mode).
+
+    Yields
+    ------
+    file object
+        Write to it inside the ``with`` block. On success the data are flushed, fsync'ed and
+        the temporary file is renamed over ``path`` (:func:`os.replace`, atomic on POSIX and
+        Windows); on an exception the temporary file is removed and ``path`` is untouched.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> target = pathlib.Path(tempfile.mkdtemp()) / "note.txt"
+    >>> with atomic_open(target) as fh:
+    ...     _ = fh.write("done")
+    >>> target.read_text()
+    'done'
+    """
+    if mode not in ("w", "wb"):
+        raise ValueError(f"mode must be 'w' or 'wb', got {mode!r}")
+    target = Path(path)
+    folder = target.parent
+    if not folder.is_dir():
+        raise FileNotFoundError(f"cannot write {target}: folder {folder} does not exist; create it first")
+    tmp_name, fd = _create_temporary(target)
+    try:
+        with os.fdopen(fd, mode, **({} if "b" in mode else {"encoding": encoding, "newline": ""})) as fh:
+            yield fh
+            fh.flush()
+            os.fsync(fh.fileno())
+        with contextlib.suppress(FileNotFoundError):
+            os.chmod(tmp_name, target.stat().st_mode & 0o7777)
+        os.replace(tmp_name, target)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp_name)
+        raise
+    _fsync_folder(folder)
+
+
+def atomic_write_text(path: str | os.PathLike, text: str, encoding: str = "utf-8") -> Path:
+    """Write ``text`` to ``path`` atomically (temporary file in the same folder, then rename).
+
+    Parameters
+    ----------
+    path : str or path-like
+        Target file; its folder must exist.
+    text : str
+        Content. Line endings are written exactly as given.
+    encoding : str
+        Text encoding.
+
+    Returns
+    -------
+    Path
+        The path written.
+    """
+    with atomic_open(path, "w", encoding=encoding) as fh:
+        fh.write(text)
+    return Path(path)
+
+
+def atomic_write_json(path: str | os.PathLike, obj: Any, indent: int | None = 2) -> Path:
+    """Write ``obj`` as JSON atomically, after :func:`to_jsonable` (NaN/Inf become ``null``).
+
+    Parameters
+    ----------
+    path : str or path-like
+        Target file; its folder must exist.
+    obj : object
+        Anything :func:`to_jsonable` accepts.
+    indent : int or None
+        Indentation of the JSON text.
+
+    Returns
+    -------
+    Path
+        The path written.
+    """
+    text = json.dumps(to_jsonable(obj), indent=indent, allow_nan=False, ensure_ascii=False)
+    return atomic_write_text(path, text + "\n")
+
+
+def to_jsonable(obj: Any) -> Any:
+    """Convert results to plain JSON values, recursively.
+
+    Parameters
+    ----------
+    obj : object
+        Built from dicts (any mapping), lists, tuples, sets, str, bool, int, float, None,
+        numpy scalars and arrays, :class:`pathlib.Path`, enums, dataclass instances and
+        objects with a ``to_dict()`` method.
+
+    Returns
+    -------
+    object
+        Only dict (str keys), list, str, int, float, bool and None. NaN and ±Inf become
+        ``None``; complex numbers become ``{"real": ..., "imag": ...}``; arrays become nested
+        lists; sets become sorted lists; paths become POSIX strings.
+
+    Raises
+    ------
+    TypeError
+        For any other type, naming where in ``obj`` it was found.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> to_jsonable({"x": np.array([1.0, np.nan]), "n": np.int64(3)})
+    {'x': [1.0, None], 'n': 3}
+    """
+    return _convert(obj, "obj")
+
+
+def versions() -> dict[str, str]:
+    """Versions of Python, the platform, bayesnsi and its numerical dependencies.
+
+    Optional packages (pandas, emcee, arviz*, xarray, matplotlib) are listed when installed;
+    they are looked up with :mod:`importlib.metadata` and never imported.
+
+    Returns
+    -------
+    dict of str to str
+        Keys ``python``, ``platform``, ``bayesnsi``, ``numpy``, ``scipy`` and any installed
+        optional package.
+    """
+    from .. import __version__
+
+    found = {
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+        "bayesnsi": __version__,
+        "numpy": np.__version__,
+        "scipy": _distribution_version("scipy") or "not installed",
+    }
+    for name in _OPTIONAL_PACKAGES:
+        version = _distribution_version(name)
+        if version is not None:
+            found[name] = version
+    return found
+
+
+def prepare_output_dir(path: str | os.PathLike, force: bool = False) -> Path:
+    """Create an output directory, refusing to overwrite earlier results unless forced.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Directory to create (with its parents).
+    force : bool
+        When True an existing ``results.json`` may be overwritten later; nothing is deleted here.
+
+    Returns
+    -------
+    Path
+        The directory, absolute.
+
+    Raises
+    ------
+    OutputExistsError
+        If ``path`` is a file, or a directory that already holds ``results.json`` and
+        ``force`` is False.
+    """
+    folder = Path(path).expanduser().resolve()
+    if folder.exists() and not folder.is_dir():
+        raise OutputExistsError(f"output path {folder} exists and is a file, not a directory; choose another --out")
+    if (folder / RESULTS_FILENAME).exists() and not force:
+        raise OutputExistsError(
+            f"output directory {folder} already holds {RESULTS_FILENAME} from an earlier run; "
+            "pass --force to overwrite it, or choose another directory with --out"
+        )
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+def _convert(obj: Any, where: str) -> Any:
+    if obj is None or isinstance(obj, (str, bool)):
+        return obj
+    if isinstance(obj, int):
+        return int(obj)
+    if isinstance(obj, float):
+        return float(obj) if math.isfinite(obj) else None
+    if isinstance(obj, complex):
+        return {"real": _convert(obj.real, where), "imag": _convert(obj.imag, where)}
+    if isinstance(obj, np.generic):
+        return _convert(obj.item(), where)
+    if isinstance(obj, np.ndarray):
+        return _convert(obj.tolist(), where)
+    if isinstance(obj, Mapping):
+        return {_key(k, where): _convert(v, f"{where}[{k!r}]") for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_convert(v, f"{where}[{i}]") for i, v in enumerate(obj)]
+    if isinstance(obj, (set, frozenset)):
+        return [_convert(v, f"{where}[{i}]") for i, v in enumerate(sorted(obj, key=repr))]
+    if isinstance(obj, os.PathLike):
+        return Path(obj).as_posix()
+    if isinstance(obj, enum.Enum):
+        return _convert(obj.value, where)
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return {f.name: _convert(getattr(obj, f.name), f"{where}.{f.name}") for f in dataclasses.fields(obj)}
+    if callable(getattr(obj, "to_dict", None)):
+        return _convert(obj.to_dict(), f"{where}.to_dict()")
+    raise TypeError(
+        f"cannot convert {type(obj).__name__} at {where} to JSON; convert it to numbers, "
+        "strings, lists or dicts first (or give its class a to_dict() method)"
+    )
+
+
+def _key(key: Any, where: str) -> str:
+    if isinstance(key, str):
+        return key
+    if isinstance(key, (bool, int, float, np.generic)) or key is None:
+        return str(_convert(key, where))
+    if isinstance(key, os.PathLike):
+        return Path(key).as_posix()
+    raise TypeError(f"cannot use a {type(key).__name__} as a JSON key at {where}; use strings")
+
+
+def _distribution_version(name: str) -> str | None:
+    try:
+        return importlib.metadata.version(name)
+    except importlib.metadata.PackageNotFoundError:
+        return None
+
+
+def _create_temporary(target: Path) -> tuple[Path, int]:
+    """Create a new hidden file beside ``target`` (mode 0o666 less the umask, like ``open``)."""
+    for _ in range(100):
+        name = target.with_name(f".{target.name}.{secrets.token_hex(4)}.tmp")
+        try:
+            return name, os.open(name, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
+        except FileExistsError:
+            continue
+    raise FileExistsError(f"could not create a temporary file beside {target}")
+
+
+def _fsync_folder(folder: Path) -> None:
+    """Make the rename durable where the platform allows fsync on a directory."""
+    if os.name != "posix":
+        return
+    fd = os.open(folder, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)

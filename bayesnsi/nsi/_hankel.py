@@ -1,0 +1,111 @@
+"""Block Hankel products: correlation (Gram) route and LQ reference route (SPEC section 3).
+
+Both routes return a square-root factor ``L`` of the normalised Gram matrix of the stacked block
+Hankel matrix ``H = [U_{0|2i-1}; Y_{0|2i-1}]``, ``L Lᵀ = H Hᵀ / j``, rows grouped as
+``[U_p; U_f; Y_p; Y_f]``. Every quantity of the subspace algorithm is a row-space operation on
+``H``; such operations are invariant under ``H -> H Q`` with ``Q`` orthonormal, so they can be
+carried out on ``L`` (Van Overschee & De Moor 1996, sec. 6.1: the "R factor" of the LQ).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+
+__all__ = ["hankel_gram", "gram_factor", "lq_factor", "grouped_order"]
+
+_CHUNK = 4096
+
+
+def grouped_order(block_rows: int, n_inputs: int, n_outputs: int) -> np.ndarray:
+    """Permutation from the interleaved Hankel layout to the grouped one.
+
+    Interleaved: block row r holds ``z_r = [u_r; y_r]`` (k = m + l channels). Grouped:
+    ``[U_{0|2i-1}; Y_{0|2i-1}]``. Returns ``perm`` with ``grouped = interleaved[perm]``.
+    """
+    k = n_inputs + n_outputs
+    blocks = np.arange(2 * block_rows)[:, None] * k
+    u_rows = (blocks + np.arange(n_inputs)).ravel()
+    y_rows = (blocks + n_inputs + np.arange(n_outputs)).ravel()
+    return np.concatenate([u_rows, y_rows])
+
+
+def hankel_gram(z: np.ndarray, block_rows: int) -> np.ndarray:
+    """Gram matrix of the interleaved block Hankel matrix from lagged correlations.
+
+    Parameters
+    ----------
+    z : ndarray, shape (n_samples, k)
+        Stacked signals ``[u, y]``.
+    block_rows : int
+        i; the Hankel matrix has 2i block rows and ``j = n_samples - 2i + 1`` columns.
+
+    Returns
+    -------
+    ndarray, shape (2ik, 2ik)
+        ``Σ_t h_t h_tᵀ`` with ``h_t = [z_t; z_{t+1}; ...; z_{t+2i-1}]`` (not normalised).
+
+    Notes
+    -----
+    One pass over the data in chunks computes ``T_d = Σ_{t<j} z_t z_{t+d}ᵀ`` for all lags
+    ``d < 2i`` (O(i k² N) flops, memory independent of N); block ``(r, r+d)`` of the Gram matrix
+    then follows exactly by the recursion
+    ``S_{r,d} = S_{r-1,d} + z_{r-1+j} z_{r-1+j+d}ᵀ - z_{r-1} z_{r-1+d}ᵀ`` (O(i² k²)).
+    """
+    n, k = z.shape
+    two_i = 2 * block_rows
+    j = n - two_i + 1
+    windows = sliding_window_view(z, (two_i, k))[:, 0]  # (j, 2i, k) strided view, no copy
+    base = np.zeros((k, two_i * k))
+    for start in range(0, j, _CHUNK):
+        stop = min(start + _CHUNK, j)
+        block = windows[start:stop].reshape(stop - start, two_i * k)
+        base += z[start:stop].T @ block
+    base = base.reshape(k, two_i, k).transpose(1, 0, 2)  # base[d] = T_d, (k, k)
+    gram = np.empty((two_i * k, two_i * k))
+    for d in range(two_i):
+        s = base[d].copy()
+        for r in range(two_i - d):
+            if r > 0:
+                s += np.outer(z[r - 1 + j], z[r - 1 + j + d]) - np.outer(z[r - 1], z[r - 1 + d])
+            rows = slice(r * k, (r + 1) * k)
+            cols = slice((r + d) * k, (r + d + 1) * k)
+            gram[rows, cols] = s
+            if d:
+                gram[cols, rows] = s.T
+    return gram
+
+
+def gram_factor(z: np.ndarray, block_rows: int, n_inputs: int) -> np.ndarray:
+    """Square-root factor of the grouped, normalised Hankel Gram matrix (fast route).
+
+    Returns lower-triangular ``L`` with ``L Lᵀ = H Hᵀ / j``, rows ``[U_p; U_f; Y_p; Y_f]``.
+    A tiny diagonal load (relative 1e-12, raised until Cholesky succeeds) guards against rows
+    that are exactly dependent, e.g. an input that is a delayed copy of another.
+    """
+    n, k = z.shape
+    j = n - 2 * block_rows + 1
+    perm = grouped_order(block_rows, n_inputs, k - n_inputs)
+    gram = hankel_gram(z, block_rows)[np.ix_(perm, perm)] / j
+    scale = np.trace(gram) / len(gram)
+    load = 0.0
+    for exponent in range(-14, -5):
+        try:
+            return np.linalg.cholesky(gram + load * np.eye(len(gram)))
+        except np.linalg.LinAlgError:
+            load = scale * 10.0**exponent
+    raise np.linalg.LinAlgError("Hankel Gram matrix is not positive definite even after regularisation")
+
+
+def lq_factor(z: np.ndarray, block_rows: int, n_inputs: int) -> np.ndarray:
+    """Reference route: the L factor of the LQ decomposition of the explicit Hankel matrix.
+
+    Memory and time grow with ``2i k × N``: for validating :func:`gram_factor` and small data.
+    """
+    n, k = z.shape
+    two_i = 2 * block_rows
+    j = n - two_i + 1
+    windows = sliding_window_view(z, (two_i, k))[:, 0].reshape(j, two_i * k)
+    perm = grouped_order(block_rows, n_inputs, k - n_inputs)
+    r = np.linalg.qr(windows[:, perm] / np.sqrt(j), mode="r")
+    return r.T

@@ -13,7 +13,6 @@ stamp must lie within 1 % of a sample interval of that grid.
 from __future__ import annotations
 
 import csv
-import dataclasses
 import math
 import os
 from collections.abc import Mapping
@@ -234,23 +233,22 @@ def write_signals_csv(
         ``velocities`` maps.
     """
     table: dict[str, np.ndarray] = {}
-    section: dict = {"file": Path(path).name}
+    maps: dict = {}
     if signals is not None:
         if fs is not None and not math.isclose(fs, signals.fs):
             raise InputDataError(f"fs = {fs} disagrees with signals.fs = {signals.fs}; drop the fs argument")
         fs = signals.fs
-        section.update(_signal_columns(signals, table))
+        maps = _signal_columns(signals, table)
     if fs is None or not (math.isfinite(fs) and fs > 0):
         raise InputDataError(f"a positive sampling frequency fs [Hz] is needed to write the time column, got {fs!r}")
-    section = {"file": section.pop("file"), "fs": float(fs), **section}
     for name, values in (columns or {}).items():
         _add_column(table, name, values)
     if not table:
         raise InputDataError("nothing to write: give signals or columns")
-    n_samples = len(next(iter(table.values())))
-    frame = pd.DataFrame({"t": np.arange(n_samples) / fs})
     if "t" in table:
         raise InputDataError("column name 't' is reserved for the time column; rename that column")
+    n_samples = len(next(iter(table.values())))
+    frame = pd.DataFrame({"t": np.arange(n_samples) / fs})
     for name, values in table.items():
         if len(values) != n_samples:
             raise InputDataError(f"column {name!r} has {len(values)} samples, the others {n_samples}")
@@ -264,7 +262,7 @@ def write_signals_csv(
             frame.to_csv(fh, index=False, header=False, float_format=float_format, lineterminator="\n")
         else:
             frame.to_csv(fh, index=False, float_format=float_format, lineterminator="\n")
-    return section
+    return {"file": Path(path).name, "fs": float(fs), **maps}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -298,10 +296,10 @@ class _Record:
                 f"{path}: no sampling frequency - [data] fs is not set and there is no time column {time!r}; "
                 f"set fs in [data], or name the time column with [data] time_column (columns: {', '.join(header)})"
             )
-        needed = [c for c in list(data.accelerations) if c not in header]
-        if needed:
+        missing = [c for c in data.accelerations if c not in header]
+        if missing:
             raise InputDataError(
-                f"{path}: acceleration column(s) {needed} not found; available columns: {', '.join(header)}"
+                f"{path}: acceleration column(s) {missing} not found; available columns: {', '.join(header)}"
             )
         table = read_csv_columns(path, mapped + ([time] if use_time else []))
         fs = _sampling_frequency(table, time, data.fs) if use_time else data.fs
@@ -394,27 +392,27 @@ def _read_frame(path: Path, positions: list[int], skip: int) -> pd.DataFrame:
     try:
         return pd.read_csv(
             path, header=None, skiprows=skip, usecols=positions, index_col=False, skipinitialspace=True,
-            encoding="utf-8-sig", skip_blank_lines=False, keep_default_na=False, na_values=[""],
+            encoding="utf-8-sig",
         )
-    except (ValueError, pd.errors.ParserError) as exc:
+    except (ValueError, pd.errors.ParserError) as exc:  # UnicodeDecodeError is a ValueError
         raise InputDataError(
-            f"{path}: the rows do not match the header ({exc}); every row needs one field per header column"
+            f"{path}: cannot parse the data rows ({exc}); the file must be comma-separated UTF-8 text "
+            "with one field per header column on every row"
         ) from exc
 
 
 def _numeric(series: pd.Series, name: str, path: Path, first_line: int) -> np.ndarray:
     if series.dtype.kind in "fiu":
         return series.to_numpy(dtype=float)
-    text = series.astype("string").str.strip()
-    coerced = pd.to_numeric(text.str.lower().replace({"nan": None}), errors="coerce")
-    bad = coerced.isna() & text.notna() & (text != "") & (text.str.lower() != "nan")
+    coerced = pd.to_numeric(series, errors="coerce")
+    bad = (coerced.isna() & series.notna()).to_numpy()
     if bad.any():
-        row = int(np.argmax(bad.to_numpy()))
+        row = int(np.argmax(bad))
         raise InputDataError(
-            f"{path}: column {name!r}, line {first_line + row} (sample {row}): {text.iloc[row]!r} is not a number; "
+            f"{path}: column {name!r}, line {first_line + row} (sample {row}): {series.iloc[row]!r} is not a number; "
             "fix the cell, or remove the row (and keep the time column uniform)"
         )
-    return coerced.to_numpy(dtype=float, na_value=np.nan)
+    return coerced.to_numpy(dtype=float)
 
 
 def _sampling_frequency(table: CSVColumns, time: str, fs: float | None) -> float:

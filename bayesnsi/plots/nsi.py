@@ -1,0 +1,112 @@
+"""Figures of an identification: singular values, stabilisation, FRFs, λ(ω).
+
+Paper Figs. 3-5, 7-8, 11-12. Each function takes results (and an optional Axes), computes
+nothing new beyond evaluating the result's own methods on a frequency grid, and returns the
+Figure; saving is the caller's job (``bayesnsi.io``).
+"""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+__all__ = ["plot_singular_values", "plot_stabilization", "plot_frf", "plot_coefficient_spectrum"]
+
+
+def _axes(ax, figsize=(6.0, 4.0)):
+    if ax is None:
+        fig, ax = plt.subplots(figsize=figsize, layout="constrained")
+        return fig, ax
+    return ax.figure, ax
+
+
+def plot_singular_values(result, ax=None, max_shown: int = 60):
+    """Singular values of the weighted oblique projection with the chosen order (paper Fig. 3)."""
+    fig, ax = _axes(ax)
+    s = result.singular_values[:max_shown]
+    ax.semilogy(np.arange(1, len(s) + 1), s, "o-", ms=3)
+    ax.axvline(result.order + 0.5, color="C3", ls="--", label=f"order n = {result.order}")
+    ax.set_xlabel("index")
+    ax.set_ylabel("singular value")
+    ax.set_title(f"Singular values - {result.candidate.name}")
+    ax.legend()
+    return fig
+
+
+def plot_stabilization(singular_values, diagram, ax=None, fmax_hz: float | None = None):
+    """Stabilisation diagram: physical poles' frequencies against model order.
+
+    Parameters
+    ----------
+    singular_values : ndarray
+    diagram : list of (order, ndarray (k, 2) of (frequency_hz, damping_ratio), spurious)
+        As returned by :func:`bayesnsi.nsi.stabilization`.
+    """
+    fig, ax = _axes(ax, (7.0, 4.5))
+    for order, modes, _ in diagram:
+        if len(modes):
+            ax.plot(modes[:, 0], np.full(len(modes), order), "k.", ms=4)
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel("model order")
+    if fmax_hz:
+        ax.set_xlim(0, fmax_hz)
+    ax.set_title("Stabilisation diagram (physical poles)")
+    return fig
+
+
+def plot_frf(results, freqs_hz, output_index: int = 0, input_index: int = 0, exact=None, ax=None, labels=None):
+    """Underlying linear FRF of one or more candidates against the exact one (paper Figs. 4, 8, 12).
+
+    Parameters
+    ----------
+    results : NSIResult or sequence of NSIResult
+    freqs_hz : ndarray
+    output_index, input_index : int
+        Which output channel and which force column.
+    exact : ndarray of complex, shape (n_freq,), optional
+        Reference FRF on ``freqs_hz``.
+    """
+    results = results if isinstance(results, (list, tuple)) else [results]
+    fig, ax = _axes(ax)
+    if exact is not None:
+        ax.semilogy(freqs_hz, np.abs(exact), "k-", lw=2.5, alpha=0.5, label="exact")
+    for k, res in enumerate(results):
+        h = res.underlying_frf(freqs_hz)[:, output_index, input_index]
+        label = labels[k] if labels else res.candidate.name
+        ax.semilogy(freqs_hz, np.abs(h), lw=1.2, label=label)
+    out_dof = results[0].output_dofs[output_index]
+    in_dof = results[0].input_dofs[input_index]
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel(f"|H{out_dof},{in_dof}| [m/N]")
+    ax.set_title("Underlying linear FRF")
+    ax.legend()
+    return fig
+
+
+def plot_coefficient_spectrum(result, freqs_hz=None, axes=None):
+    """Real and imaginary parts of λ_i(ω) with the averaging band (paper Fig. 5)."""
+    q = len(result.terms)
+    if q == 0:
+        raise ValueError("a linear candidate has no nonlinear coefficients to plot")
+    if freqs_hz is None:
+        lo, hi = result.band_hz
+        freqs_hz = np.linspace(0.5 * lo, min(1.3 * hi, 0.5 * result.settings.get("fs", 2 * hi)), 400)
+    spectrum = result.coefficient_spectrum(freqs_hz)
+    if axes is None:
+        fig, axes = plt.subplots(q, 1, figsize=(6.0, 2.6 * q), squeeze=False, layout="constrained")
+        axes = axes[:, 0]
+    else:
+        fig = np.atleast_1d(axes)[0].figure
+    for k, ax in enumerate(np.atleast_1d(axes)):
+        coef = result.coefficients[k]
+        ax.plot(freqs_hz, spectrum[:, k].real, label="Re λ(ω)")
+        ax.plot(freqs_hz, spectrum[:, k].imag, label="Im λ(ω)")
+        ax.axvspan(*result.band_hz, color="0.9", zorder=0, label="averaging band")
+        ax.axhline(coef.value, color="C3", ls="--", lw=1, label=f"estimate {coef.value:.4g}")
+        ax.set_title(f"{coef.term.name}  (|Im|/|Re| = {coef.imag_ratio:.3f})")
+        ax.set_xlabel("frequency [Hz]")
+        ax.legend(fontsize=7)
+    return fig

@@ -108,6 +108,15 @@ class Expression:
             out = self._function(x, v)
         return np.broadcast_to(np.asarray(out, dtype=float), np.shape(x)[1:]).copy()
 
+    @property
+    def function(self) -> Callable:
+        """The compiled closure ``f(x, v)`` without error-state handling or copying.
+
+        For hot loops (time-stepping); may return a scalar or a view and may warn on invalid
+        arithmetic. Prefer :meth:`evaluate` elsewhere.
+        """
+        return self._function
+
     def __str__(self) -> str:
         return self.canonical
 

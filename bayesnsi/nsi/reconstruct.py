@@ -152,7 +152,7 @@ def _closed_loop(result, signals: Signals, x0: np.ndarray) -> np.ndarray:
         vs[rows] = c_vel @ x
         drive = b_force @ force[k]
         for idx, term in enumerate(terms):
-            drive -= b_nl[:, idx] * float(term.expr._function(xs, vs))
+            drive -= b_nl[:, idx] * float(term.expr.function(xs, vs))
         x = A @ x + drive
         if not np.all(np.abs(x) < bound):
             raise UnstableModelError(

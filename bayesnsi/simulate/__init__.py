@@ -1,1 +1,47 @@
-"""Reference simulators (SPEC section 8)."""
+"""Reference simulators: structures, band-limited excitation, RK4 and the SPEC 8 cases.
+
+numpy/scipy only. Signals follow the library convention ``(n_samples, n_channels)``; DOFs
+are numbered from 1; forces in N, displacements in m, frequencies in Hz (``*_hz``).
+"""
+
+from .cases import (
+    CASES,
+    ReferenceCase,
+    cantilever_beam_case,
+    negative_stiffness_parameters,
+    negative_stiffness_twin,
+    simulate_case,
+    simulate_cases,
+    two_dof,
+)
+from .excitation import Excitation, band_limited_gaussian, fft_interpolate, from_samples
+from .integrate import Response, add_output_noise, rk4_modal_error, simulate_response
+from .structures import cantilever_beam, chain_system, modal_damping, modal_parameters, state_matrix
+
+__all__ = [
+    # structures
+    "chain_system",
+    "cantilever_beam",
+    "modal_damping",
+    "modal_parameters",
+    "state_matrix",
+    # excitation
+    "Excitation",
+    "band_limited_gaussian",
+    "from_samples",
+    "fft_interpolate",
+    # integration
+    "Response",
+    "simulate_response",
+    "add_output_noise",
+    "rk4_modal_error",
+    # reference cases
+    "ReferenceCase",
+    "two_dof",
+    "cantilever_beam_case",
+    "negative_stiffness_twin",
+    "negative_stiffness_parameters",
+    "CASES",
+    "simulate_case",
+    "simulate_cases",
+]

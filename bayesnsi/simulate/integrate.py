@@ -20,7 +20,8 @@ from ..models.terms import Term, nonlinear_force
 
 __all__ = ["Response", "simulate_response", "add_output_noise", "rk4_modal_error"]
 
-_CHUNK_OUTPUTS = 2048  # output samples per chunk of precomputed force terms
+_CHUNK_OUTPUTS = 2048  # output samples per chunk of precomputed force terms ...
+_CHUNK_FLOATS = 2**22  # ... but at most this many floats (32 MiB) of them
 
 
 @dataclass(frozen=True, eq=False)
@@ -145,7 +146,12 @@ def simulate_response(
     chunks of steps; the loop then costs one matrix product and the q term evaluations per
     stage. The force enters at t, t + h/2 (stages 2 and 3) and t + h exactly as sampled on
     the fine grid. RK4 is stable for |h s| < 2.78 (s a pole) and its relative frequency error
-    is about (ωh)⁴/120 (:func:`rk4_modal_error`).
+    is about (ωh)⁴/120 (:func:`rk4_modal_error`). A non-smooth term such as sign(ẇ) makes
+    the method first-order accurate across its switches.
+
+    Cost (one core, numpy only): about 10 µs per step for the two-DOF case (one term),
+    18 µs for the 16-DOF beam (two terms), 33 µs for the one-DOF twin (four terms); a batch
+    of 20 realisations costs about 1.6 times one. ``Response.time_per_step_s`` reports it.
     """
     M, C, K = (np.atleast_2d(np.asarray(a, dtype=float)) for a in (M, C, K))
     n = M.shape[0]
@@ -217,43 +223,10 @@ def simulate_response(
 
     states = np.empty((n_out, 2 * n, n_batch))
     states[0] = z
-    n_stack = np.zeros((4 * q, n_batch))
-    chunk_steps = _CHUNK_OUTPUTS * steps_per_out
-    rows = 2 * n
+    maps = (omega, r_0, r_h, r_1, H, W)
     t_start = time.perf_counter()
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        step = 0
-        while step < n_steps:
-            stop = min(step + chunk_steps, n_steps)
-            f0 = force[:, 2 * step : 2 * stop : 2]
-            fh = force[:, 2 * step + 1 : 2 * stop : 2]
-            f1 = force[:, 2 * step + 2 : 2 * stop + 1 : 2]
-            # (n_chunk, 10n, n_batch) force contributions to every stage and to the update
-            pre = np.einsum("rm,bkm->krb", r_0, f0) + np.einsum("rm,bkm->krb", r_h, fh)
-            pre += np.einsum("rm,bkm->krb", r_1, f1)
-            if q == 0:
-                final_pre = np.ascontiguousarray(pre[:, :rows])
-                for k in range(stop - step):
-                    z = final_z @ z + final_pre[k]
-                    if (step + k + 1) % steps_per_out == 0:
-                        states[(step + k + 1) // steps_per_out] = z
-            else:
-                for k in range(stop - step):
-                    y = omega @ z
-                    y += pre[k]
-                    zs = y[rows : 2 * rows]
-                    for j, fn in enumerate(functions):
-                        n_stack[j] = fn(zs[:n], zs[n:])
-                    for s in (1, 2, 3):
-                        zs = y[(s + 1) * rows : (s + 2) * rows] + H[s] @ n_stack[: s * q]
-                        x_s, v_s = zs[:n], zs[n:]
-                        for j, fn in enumerate(functions):
-                            n_stack[s * q + j] = fn(x_s, v_s)
-                    z = y[:rows] + W @ n_stack
-                    if (step + k + 1) % steps_per_out == 0:
-                        states[(step + k + 1) // steps_per_out] = z
-            _check_finite(states, step // steps_per_out, stop // steps_per_out, max_abs_state, decimation / fs_fine)
-            step = stop
+        _march(states, force, maps, functions, n, steps_per_out, max_abs_state, decimation / fs_fine)
     elapsed = time.perf_counter() - t_start
 
     # --- outputs ------------------------------------------------------------------------
@@ -266,7 +239,8 @@ def simulate_response(
         nl = np.zeros_like(x)
     f_out = force[:, ::decimation][:, :n_out]  # (n_batch, n_out, m)
     applied = np.einsum("nm,bkm->nbk", F, f_out)
-    acc = np.einsum("ij,jbk->ibk", m_inv, applied - np.einsum("ij,jbk->ibk", C, v) - np.einsum("ij,jbk->ibk", K, x) - nl)
+    balance = applied - np.einsum("ij,jbk->ibk", C, v) - np.einsum("ij,jbk->ibk", K, x) - nl
+    acc = np.einsum("ij,jbk->ibk", m_inv, balance)
 
     def out(arr):  # (n, n_batch, n_out) -> (n_batch, n_out, n)
         res = np.ascontiguousarray(arr.transpose(1, 2, 0))
@@ -285,13 +259,70 @@ def simulate_response(
     )
 
 
+def _march(states, force, maps, functions, n, steps_per_out, limit, dt_out) -> None:
+    """The RK4 time loop; fills ``states[1:]`` (shape (n_out, 2n, n_batch)) in place."""
+    omega, r_0, r_h, r_1, H, W = maps
+    n_out, rows, n_batch = states.shape
+    q = len(functions)
+    # preallocated buffers and views (no allocation inside the loop but the term values)
+    ybuf = np.empty((5 * rows, n_batch))
+    y_final = ybuf[:rows]
+    y_stage = [ybuf[(s + 1) * rows : (s + 2) * rows] for s in range(4)]
+    z_stage = [y_stage[0]] + [np.empty((rows, n_batch)) for _ in range(3)]
+    xv = [(zb[:n], zb[n:]) for zb in z_stage]
+    n_stack = np.zeros((4 * q, n_batch))
+    n_prev = [None] + [n_stack[: s * q] for s in (1, 2, 3)]
+    tmp = np.empty((rows, n_batch))
+    work = (np.empty((rows, n_batch)), np.empty((rows, n_batch)))  # states between outputs
+    final_z = omega[:rows]
+    z = states[0]
+    chunk = int(max(1, min(_CHUNK_OUTPUTS, _CHUNK_FLOATS // (steps_per_out * 5 * rows * n_batch))))
+    out = 1
+    while out < n_out:
+        stop = min(out + chunk, n_out)
+        first, last = (out - 1) * steps_per_out, (stop - 1) * steps_per_out  # steps first..last-1
+        f0 = force[:, 2 * first : 2 * last : 2]
+        fh = force[:, 2 * first + 1 : 2 * last : 2]
+        f1 = force[:, 2 * first + 2 : 2 * last + 1 : 2]
+        # force contributions to the update and every stage, shape (chunk steps, 5 rows, n_batch)
+        pre = np.einsum("rm,bkm->krb", r_0, f0)
+        pre += np.einsum("rm,bkm->krb", r_h, fh)
+        pre += np.einsum("rm,bkm->krb", r_1, f1)
+        k = 0
+        for idx in range(out, stop):
+            for sub in range(steps_per_out):
+                target = states[idx] if sub == steps_per_out - 1 else work[sub % 2]
+                if q == 0:
+                    np.matmul(final_z, z, out=target)
+                    target += pre[k, :rows]
+                else:
+                    np.matmul(omega, z, out=ybuf)
+                    ybuf += pre[k]
+                    x_s, v_s = xv[0]
+                    for j, fn in enumerate(functions):
+                        n_stack[j] = fn(x_s, v_s)
+                    for s in (1, 2, 3):
+                        np.matmul(H[s], n_prev[s], out=tmp)
+                        np.add(y_stage[s], tmp, out=z_stage[s])
+                        x_s, v_s = xv[s]
+                        for j, fn in enumerate(functions):
+                            n_stack[s * q + j] = fn(x_s, v_s)
+                    np.matmul(W, n_stack, out=tmp)
+                    np.add(y_final, tmp, out=target)
+                z = target
+                k += 1
+        _check_finite(states, out, stop - 1, limit, dt_out)
+        out = stop
+
+
 def add_output_noise(signal, percent: float, rng=None) -> np.ndarray:
     """Add Gaussian measurement noise proportional to each channel's standard deviation.
 
     Parameters
     ----------
-    signal : array_like, shape (n_samples,), (n_samples, n_channels) or (n_batch, n_samples, n_channels)
-        Noise-free signal; not modified.
+    signal : array_like
+        Noise-free signal of shape (n_samples,), (n_samples, n_channels) or
+        (n_batch, n_samples, n_channels); not modified.
     percent : float
         Noise level: the noise of each channel has standard deviation ``percent / 100``
         times that channel's standard deviation over time (SPEC 8: "2 % output noise (of
@@ -333,7 +364,7 @@ def rk4_modal_error(frequencies_hz, damping_ratios, step: float):
         equivalent to the RK4 amplification factor R(hs) = 1 + hs + (hs)²/2 + (hs)³/6 +
         (hs)⁴/24, i.e. ``log(R(hs)) / h``. About -(ωh)⁴/120 for light damping.
     damping_ratio_error : ndarray
-        ζ_RK4 - ζ (about +(ωh)⁵/144: RK4 adds numerical damping).
+        ζ_RK4 - ζ, of order (ωh)⁵/144 (positive, i.e. numerical damping, for an undamped mode).
     """
     f = np.asarray(frequencies_hz, dtype=float)
     zeta = np.asarray(damping_ratios, dtype=float)

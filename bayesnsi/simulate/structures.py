@@ -12,7 +12,7 @@ import scipy.linalg
 
 from ..exceptions import InputDataError, ShapeError, UnstableModelError
 
-__all__ = ["chain_system", "cantilever_beam", "modal_damping", "modal_parameters"]
+__all__ = ["chain_system", "cantilever_beam", "modal_damping", "modal_parameters", "state_matrix"]
 
 
 def chain_system(masses, stiffnesses, dampings):

@@ -1,0 +1,79 @@
+"""Orchestration shared by the commands: identify candidates from a config, save figures."""
+
+from __future__ import annotations
+
+import sys
+import time
+import warnings
+from pathlib import Path
+
+from ..exceptions import BayesNSIError
+from ..io import atomic_open
+from ..io.schema import candidate_record, failed_candidate_record
+from ..nsi import identify
+
+__all__ = ["identify_all", "save_figure", "progress"]
+
+
+def progress(message: str, quiet: bool) -> None:
+    """One progress line on stderr (suppressed by --quiet)."""
+    if not quiet:
+        print(message, file=sys.stderr, flush=True)
+
+
+def nsi_options(config) -> dict:
+    """Keyword arguments of :func:`bayesnsi.nsi.identify` from the config's [nsi] table."""
+    s = config.nsi
+    return dict(
+        block_rows=s.block_rows,
+        order=s.order,
+        max_order=s.max_order,
+        band_hz=s.band_hz,
+        velocity_method=s.velocity_method,
+        bd_method=s.bd_method,
+        zero_feedthrough=s.zero_feedthrough,
+    )
+
+
+def identify_all(config, signals, quiet=False):
+    """Identify every candidate; failures are recorded with their reason, never raised.
+
+    Returns
+    -------
+    results : dict name -> NSIResult (successful candidates only)
+    records : list of dict (results.json candidate records, in config order)
+    """
+    results, records = {}, []
+    options = nsi_options(config)
+    for k, candidate in enumerate(config.candidates, 1):
+        start = time.perf_counter()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                result = identify(signals, candidate, **options)
+                reconstruction = result.reconstruct(signals)
+            except BayesNSIError as err:
+                records.append(failed_candidate_record(candidate, err))
+                progress(f"[{k}/{len(config.candidates)}] {candidate.name}: failed - {err}", quiet)
+                continue
+        record = candidate_record(result, reconstruction)
+        record["warnings"] = [str(w.message) for w in caught]
+        record["seconds"] = time.perf_counter() - start
+        results[candidate.name] = result
+        records.append(record)
+        progress(
+            f"[{k}/{len(config.candidates)}] {candidate.name}: order {result.order}, "
+            f"NRMSE {reconstruction.nrmse:.4f} ({record['seconds']:.2f} s)",
+            quiet,
+        )
+    return results, records
+
+
+def save_figure(fig, path: Path) -> Path:
+    """Save a Figure atomically as PNG and close it."""
+    import matplotlib.pyplot as plt
+
+    with atomic_open(path, "wb") as fh:
+        fig.savefig(fh, format="png", dpi=110)
+    plt.close(fig)
+    return path

@@ -1,0 +1,63 @@
+"""``bayesnsi identify CONFIG --out DIR``: NSI of every candidate, results.json and figures."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..io import RESULTS_FILENAME, atomic_write_json, load_config, load_signals, prepare_output_dir, to_jsonable, versions
+from ._common import identify_all, progress, save_figure
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub) -> None:
+    """Register the subcommand."""
+    p = sub.add_parser(
+        "identify",
+        help="identify every candidate of a config by NSI",
+        description="Identify every candidate of CONFIG by nonlinear subspace identification and write "
+        "DIR/results.json (coefficients, modes, NRMSE) with figures.",
+        epilog="example: bayesnsi identify two_dof.toml --out results/two_dof",
+    )
+    p.add_argument("config", help="experiment config (TOML)")
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--force", action="store_true", help="overwrite an existing results.json in DIR")
+    p.add_argument("--quiet", action="store_true", help="no progress messages")
+    p.add_argument("--no-figures", action="store_true", help="skip the figures")
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    """Execute the command."""
+    config = load_config(args.config)
+    out = prepare_output_dir(args.out, force=args.force)
+    signals = load_signals(config)
+    progress(f"{len(config.candidates)} candidates, {signals.n_samples} samples at {signals.fs:g} Hz", args.quiet)
+    results, records = identify_all(config, signals, quiet=args.quiet)
+    if results and not args.no_figures:
+        _figures(results, out)
+    payload = {
+        "command": "identify",
+        "config": str(config.path),
+        "selected": None,
+        "candidates": records,
+        "settings": {"config": config.raw, "seed": config.seed},
+        "versions": versions(),
+    }
+    path = atomic_write_json(out / RESULTS_FILENAME, to_jsonable(payload))
+    progress(f"wrote {path}", args.quiet)
+    return 0
+
+
+def _figures(results, out):
+    from ..plots import plot_coefficient_spectrum, plot_frf, plot_singular_values
+
+    folder = out / "figures"
+    folder.mkdir(exist_ok=True)
+    fmax = 1.3 * max(m.frequency_hz for r in results.values() for m in r.modes)
+    freqs = np.linspace(fmax / 400, fmax, 800)
+    save_figure(plot_frf(list(results.values()), freqs), folder / "frf.png")
+    for k, res in enumerate(results.values(), 1):
+        save_figure(plot_singular_values(res), folder / f"singular_values_{k}.png")
+        if res.terms:
+            save_figure(plot_coefficient_spectrum(res), folder / f"coefficients_{k}.png")

@@ -20,7 +20,7 @@ from ..exceptions import ConfigError
 
 __all__ = ["dumps"]
 
-_BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 
 
 def dumps(config: Mapping[str, Any]) -> str:
@@ -66,7 +66,7 @@ def _toml_table_body(table: Mapping, where: str) -> list[str]:
 def _toml_key(key: Any) -> str:
     if not isinstance(key, str):
         raise ConfigError(f"TOML keys must be strings, got {key!r}; convert the key with str()")
-    return key if _BARE_KEY.match(key) else _toml_string(key)
+    return key if _BARE_KEY.fullmatch(key) else _toml_string(key)
 
 
 def _toml_value(value: Any, where: str) -> str:

@@ -408,12 +408,10 @@ def _rk4_maps(A: np.ndarray, h: float):
 def _evaluator(term: Term):
     """Fast scalar-free evaluator of a term's basis function on DOF-major (x, v) views.
 
-    Uses the compiled closure of the parsed expression directly (the public
-    ``Term.evaluate`` adds an ``errstate`` context and a copy per call, which would dominate
+    Uses :attr:`Expression.function`, the compiled closure (``Term.evaluate`` adds an ``errstate`` context and a copy per call, which would dominate
     the RK4 loop); the loop sets ``errstate`` once.
     """
-    compiled = getattr(term.expr, "_function", None)
-    return compiled if compiled is not None else term.evaluate
+    return term.expr.function
 
 
 def _as_batch_force(force_fine):

@@ -67,7 +67,10 @@ def test_random_systems_both_routes_recover_poles_and_frf(seed):
     sig = Signals(u, y, 1 / model.dt, [1, 2], [1, 2, 3])
     freqs = np.linspace(0.5, 25, 50)
     exact_frf = model.frf(freqs)
-    results = {route: identify(sig, None, block_rows=8, order=6, route=route) for route in ("correlation", "lq")}
+    results = {
+        route: identify(sig, None, block_rows=8, order=6, route=route, input_hold="sample")
+        for route in ("correlation", "lq")
+    }
     for res in results.values():
         assert match_poles(res.model.poles, poles) < TIGHT
         np.testing.assert_allclose(res.frf(freqs), exact_frf, rtol=TIGHT, atol=TIGHT * np.abs(exact_frf).max())
@@ -81,7 +84,7 @@ def test_auto_order_finds_true_order(rng):
     u = rng.standard_normal((3000, 2))
     y = model.simulate(u) * (1 + 0 * u[:, :1])
     sig = Signals(u, y + 1e-6 * rng.standard_normal(y.shape), 1 / model.dt, [1, 2], [1, 2, 3])
-    assert identify(sig, None, block_rows=10).order == 4
+    assert identify(sig, None, block_rows=10, input_hold="sample").order == 4
     assert select_order(np.array([10.0, 9.0, 1.0, 0.9, 1e-3, 1e-3]), 5) == 4
 
 
@@ -119,7 +122,7 @@ def _discrete_feedback_chain(term_expr, at, coefficient, force_dofs, output_dofs
 )
 def test_exact_discrete_feedback_recovers_coefficient(expr, at, coef, forces, outputs):
     sig, poles, term = _discrete_feedback_chain(expr, at, coef, forces, outputs)
-    res = identify(sig, CandidateModel("true", (term,)), block_rows=10, order=4)
+    res = identify(sig, CandidateModel("true", (term,)), block_rows=10, order=4, input_hold="sample")
     assert match_poles(res.model.poles, poles) < TIGHT
     # λ(ω) is exactly constant: real part = λ, imaginary part = 0
     assert res.coefficients[0].value == pytest.approx(coef, rel=TIGHT)

@@ -33,8 +33,37 @@ __all__ = ["NSIResult", "identify", "extended_input", "select_order", "stabiliza
 _BAND_POINTS = 512
 
 
-def extended_input(signals: Signals, terms: Sequence[Term], velocity_method: str = "fourth") -> np.ndarray:
+def extended_input(
+    signals: Signals,
+    terms: Sequence[Term],
+    velocity_method: str = "fourth",
+    input_hold: str = "auto",
+    subsamples: int = 8,
+) -> np.ndarray:
     """Extended input ``u = [f, -n_1, ..., -n_q]`` (paper Eq. 8), shape (n_samples, m + q).
+
+    Parameters
+    ----------
+    signals : Signals
+    terms : sequence of Term
+    velocity_method : str
+        Differentiator when the signals carry no velocities (see :func:`bayesnsi.signals.differentiate`).
+    input_hold : {"auto", "average", "sample"}
+        How a sample of the extended input represents the interval ``[t_k, t_{k+1})`` of the
+        discrete model (SPEC section 2: ZOH is an approximation for inputs that are not
+        piecewise constant). "sample": the point value at ``t_k``. "average": the
+        interval mean, ``(1/Δt)∫ u dt``, which is the zero-order-hold-equivalent input to second
+        order in ``ωΔt``; forces exactly under the band-limited assumption (an anti-aliased
+        measurement; FFT with gain ``e^{jωΔt/2} sinc(ωΔt/2)``), nonlinear terms by the midpoint rule on
+        ``subsamples`` points with displacement interpolated by cubic Hermite polynomials (using
+        the velocities as slopes) and velocity linearly. This matters for discontinuous terms:
+        on the negative-stiffness twin (noise-free, 512 Hz) the sign(ż)-type friction
+        coefficient is biased by -6.7 % with "sample" and -2.2 % with "average". For smooth
+        terms "sample" is better: on the two-DOF case (100 s, 20 seeds) "average" raised the
+        mean damping-ratio error from +0.2/+0.2 % to +1.8/+3.6 %. "auto" (default) takes
+        "average" when a term contains sign(), else "sample".
+    subsamples : int
+        Quadrature points per interval for "average".
 
     Raises
     ------
@@ -43,8 +72,12 @@ def extended_input(signals: Signals, terms: Sequence[Term], velocity_method: str
     InputDataError
         When a term evaluates to NaN/Inf or is identically zero on the data.
     """
+    input_hold = resolve_input_hold(input_hold, terms)
+    force = np.asarray(signals.force)
+    if input_hold == "average":
+        force = _band_limited_interval_mean(force)
     if not terms:
-        return np.array(signals.force)
+        return np.array(force)
     measured = set(signals.output_dofs)
     for term in terms:
         missing = sorted(set(term.expr.dofs) - measured)
@@ -55,9 +88,12 @@ def extended_input(signals: Signals, terms: Sequence[Term], velocity_method: str
             )
     n_dofs = max(signals.n_dofs, *(max(t.dofs) for t in terms))
     x, v = signals.state_arrays(n_dofs, velocity_method)
-    columns = [signals.force]
+    columns = [force]
     for term in terms:
-        value = -term.evaluate(x, v)
+        if input_hold == "average":
+            value = -_interval_mean(term, x, v, signals.dt, subsamples)
+        else:
+            value = -term.evaluate(x, v)
         if not np.all(np.isfinite(value)):
             raise InputDataError(
                 f"term {term.name} gives NaN/Inf on the data (e.g. division by zero); rewrite the expression"
@@ -66,6 +102,44 @@ def extended_input(signals: Signals, terms: Sequence[Term], velocity_method: str
             raise NotIdentifiableError(f"term {term.name} is constant on the data, so its coefficient is not identifiable")
         columns.append(value[:, None])
     return np.hstack(columns)
+
+
+def resolve_input_hold(input_hold: str, terms: Sequence[Term]) -> str:
+    """"auto" -> "average" when any term is discontinuous (contains sign()), else "sample"."""
+    if input_hold not in ("auto", "average", "sample"):
+        raise InputDataError(f"input_hold must be 'auto', 'average' or 'sample', got {input_hold!r}")
+    if input_hold == "auto":
+        return "average" if any("sign(" in t.expr.canonical for t in terms) else "sample"
+    return input_hold
+
+
+def _band_limited_interval_mean(signal: np.ndarray) -> np.ndarray:
+    """Exact interval means of a band-limited signal from its samples (FFT).
+
+    The mean of ``e^{jωt}`` over ``[t_k, t_k + Δt]`` is ``e^{jωt_k} e^{jωΔt/2} sinc(ωΔt/2)``;
+    the record is treated as periodic (edge effects span a few samples).
+    """
+    n = len(signal)
+    spectrum = np.fft.rfft(signal, axis=0)
+    half_phase = np.pi * np.arange(spectrum.shape[0]) / n  # ωΔt/2
+    gain = np.exp(1j * half_phase) * np.sinc(half_phase / np.pi)
+    return np.fft.irfft(spectrum * gain[:, None], n=n, axis=0)
+
+
+def _interval_mean(term: Term, x: np.ndarray, v: np.ndarray, dt: float, subsamples: int) -> np.ndarray:
+    """Mean of n(x(t), v(t)) over each sampling interval (midpoint rule, Hermite interpolation)."""
+    x0, x1 = x, np.concatenate([x[:, 1:], x[:, -1:]], axis=1)
+    v0, v1 = v, np.concatenate([v[:, 1:], v[:, -1:]], axis=1)
+    total = np.zeros(x.shape[1])
+    for s in (np.arange(subsamples) + 0.5) / subsamples:
+        h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
+        h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
+        xs = h00 * x0 + h10 * dt * v0 + h01 * x1 + h11 * dt * v1
+        vs = (1 - s) * v0 + s * v1
+        total += term.evaluate(xs, vs)
+    mean = total / subsamples
+    mean[-1] = term.evaluate(x[:, -1:], v[:, -1:])[0]
+    return mean
 
 
 def select_order(singular_values: np.ndarray, max_order: int, even: bool = True) -> int:
@@ -148,7 +222,12 @@ class NSIResult:
 
     def extended_input(self, signals: Signals) -> np.ndarray:
         """Extended input of this candidate built from ``signals``."""
-        return extended_input(signals, self.terms, self.settings.get("velocity_method", "fourth"))
+        return extended_input(
+            signals,
+            self.terms,
+            self.settings.get("velocity_method", "fourth"),
+            self.settings.get("input_hold", "auto"),
+        )
 
     def reconstruct(self, signals: Signals, closed_loop: bool = False, n_init: int | None = None):
         """Open- or closed-loop reconstruction; see :func:`bayesnsi.nsi.reconstruct`."""
@@ -218,6 +297,7 @@ def identify(
     route: str = "correlation",
     bd_method: str = "robust",
     zero_feedthrough: bool = True,
+    input_hold: str = "auto",
 ) -> NSIResult:
     """Identify one candidate model by nonlinear subspace identification (SPEC sections 2-4).
 
@@ -246,6 +326,8 @@ def identify(
         squares with A, C fixed (SPEC 10: repairs B, D on real data; cost grows with N).
     zero_feedthrough : bool
         Impose D = 0 (displacement outputs, SPEC section 2).
+    input_hold : {"auto", "average", "sample"}
+        Interval-mean or point-sample extended input; see :func:`extended_input`.
 
     Returns
     -------
@@ -270,7 +352,8 @@ def identify(
     if bd_method not in ("robust", "output-error"):
         raise InputDataError(f"bd_method must be 'robust' or 'output-error', got {bd_method!r}")
     identification_routes(cand.terms, signals.input_dofs, signals.output_dofs)
-    u = extended_input(signals, cand.terms, velocity_method)
+    input_hold = resolve_input_hold(input_hold, cand.terms)
+    u = extended_input(signals, cand.terms, velocity_method, input_hold)
     y = np.asarray(signals.displacement)
     n_in, n_out = u.shape[1], y.shape[1]
     check_block_rows(len(u), block_rows, n_in + n_out)
@@ -308,7 +391,7 @@ def identify(
             f"(largest |eigenvalue of A| = {radius:.4f}); try another order or number of block rows, "
             "or reconsider the candidate's terms"
         )
-    modes, spurious = split_poles(model.poles)
+    modes, spurious = split_poles(model.poles, signals.dt)
     if not modes:
         raise UnstableModelError(
             f"candidate {cand.name!r}: no physical mode among the {order} identified poles; "
@@ -344,6 +427,7 @@ def identify(
         route=route,
         bd_method=bd_method,
         zero_feedthrough=bool(zero_feedthrough),
+        input_hold=input_hold,
         n_samples=int(len(u)),
         fs=signals.fs,
     )
@@ -392,6 +476,6 @@ def stabilization(result_or_signals, candidate=None, *, block_rows: int = 40, or
     for n in orders:
         A, _ = _subspace.system_matrices_ac(left, singular_values, n, y.shape[1])
         poles = np.log(np.linalg.eigvals(A).astype(complex)) / signals.dt
-        modes, spurious = split_poles(poles)
+        modes, spurious = split_poles(poles, signals.dt)
         out.append((n, np.array([(m.frequency_hz, m.damping_ratio) for m in modes]).reshape(-1, 2), spurious))
     return singular_values, out

@@ -55,11 +55,12 @@ class CoefficientEstimate:
     spread: float
 
 
-def split_poles(poles: np.ndarray, min_imag_ratio: float = 1e-6):
+def split_poles(poles: np.ndarray, dt: float | None = None, min_imag_ratio: float = 1e-6):
     """Separate physical modes from spurious poles (SPEC section 3).
 
-    Physical: complex pole with positive imaginary part and 0 < ζ < 1. Spurious: real poles
-    (including those of negative real discrete eigenvalues) and ζ ≤ 0 or ζ ≥ 1.
+    Physical: complex pole with positive imaginary part and 0 < ζ < 1. Spurious: real poles,
+    poles of negative real discrete eigenvalues (``Im s = π/dt`` when ``dt`` is given: they sit
+    at the Nyquist frequency and are artefacts of sampling) and ζ ≤ 0 or ζ ≥ 1.
 
     Returns
     -------
@@ -73,7 +74,8 @@ def split_poles(poles: np.ndarray, min_imag_ratio: float = 1e-6):
     seen_conjugate = np.zeros(len(poles), dtype=bool)
     for idx, (s, f, z) in enumerate(zip(poles, freqs, zetas)):
         is_complex = abs(s.imag) > min_imag_ratio * max(abs(s), 1e-300)
-        if is_complex and 0 < z < 1:
+        at_nyquist = dt is not None and abs(abs(s.imag) * dt - np.pi) < 1e-9
+        if is_complex and not at_nyquist and 0 < z < 1:
             if s.imag > 0:
                 modes.append(Mode(float(f), float(z), complex(s)))
             else:

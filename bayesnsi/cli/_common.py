@@ -32,6 +32,7 @@ def nsi_options(config) -> dict:
         velocity_method=s.velocity_method,
         bd_method=s.bd_method,
         zero_feedthrough=s.zero_feedthrough,
+        input_hold=s.input_hold,
     )
 
 

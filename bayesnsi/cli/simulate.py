@@ -39,6 +39,8 @@ def case_config(case, data_table: dict) -> dict:
     nsi = {"block_rows": int(rec.get("block_rows", 40)), "order": rec.get("order", "auto")}
     if rec.get("band_hz") is not None:
         nsi["band_hz"] = [float(b) for b in rec["band_hz"]]
+    if rec.get("bd_method"):
+        nsi["bd_method"] = rec["bd_method"]
     return {
         "seed": int(case.seed or 0),
         "data": data_table,

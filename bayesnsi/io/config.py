@@ -70,6 +70,7 @@ __all__ = [
 VELOCITY_METHODS = ("central", "fourth", "sixth")
 """Finite-difference stencils for velocities derived from displacements."""
 BD_METHODS = ("robust", "output-error")
+INPUT_HOLDS = ("auto", "average", "sample")
 """Ways of estimating B and D (SPEC section 3)."""
 
 _TOP_KEYS = ("seed", "data", "nsi", "candidates", "validation", "evidence", "meta")
@@ -78,6 +79,7 @@ _DATA_KEYS = (
 )
 _NSI_KEYS = (
     "block_rows", "order", "band_hz", "band", "velocity_method", "bd_method", "max_order", "zero_feedthrough",
+    "input_hold",
 )
 _CANDIDATE_KEYS = ("name", "prior", "terms")
 _TERM_KEYS = ("expr", "at", "prior_scale")
@@ -147,6 +149,9 @@ class NSISettings:
         Largest order considered by "auto" and by the stabilisation diagram.
     zero_feedthrough : bool
         Impose D = 0 (displacement outputs).
+    input_hold : {"auto", "average", "sample"}
+        How the extended input represents a sampling interval (see
+        :func:`bayesnsi.nsi.extended_input`).
     """
 
     block_rows: int = 40
@@ -156,6 +161,7 @@ class NSISettings:
     bd_method: str = "robust"
     max_order: int = 40
     zero_feedthrough: bool = True
+    input_hold: str = "auto"
 
 
 @dataclass(frozen=True)
@@ -500,6 +506,7 @@ def _parse_nsi(table: Any, where: _Where, data: DataSpec) -> NSISettings:
         bd_method=_choice(table, "bd_method", where, BD_METHODS, defaults.bd_method),
         max_order=_int(table, "max_order", where, defaults.max_order, minimum=1),
         zero_feedthrough=_bool(table, "zero_feedthrough", where, defaults.zero_feedthrough),
+        input_hold=_choice(table, "input_hold", where, INPUT_HOLDS, defaults.input_hold),
     )
 
 

@@ -188,6 +188,31 @@ class Signals:
             output_names=self.output_names,
         )
 
+    def state_rows(self, displacement_dofs, velocity_dofs, velocity_method: str = "fourth"):
+        """Only the DOFs an expression reads, as mappings ``{k-1: signal}`` (memory-lean).
+
+        Parameters
+        ----------
+        displacement_dofs, velocity_dofs : iterable of int
+            Measured DOFs (1-based) whose displacement / velocity is needed.
+
+        Returns
+        -------
+        x, v : dict of int to ndarray, shape (n_samples,)
+        """
+        column = {dof: c for c, dof in enumerate(self.output_dofs)}
+        x = {d - 1: self.displacement[:, column[d]] for d in displacement_dofs}
+        v = {}
+        velocity_dofs = list(velocity_dofs)
+        if velocity_dofs:
+            cols = [column[d] for d in velocity_dofs]
+            if self.velocity is not None:
+                vel = self.velocity[:, cols]
+            else:
+                vel = differentiate(self.displacement[:, cols], self.fs, velocity_method)
+            v = {d - 1: vel[:, c] for c, d in enumerate(velocity_dofs)}
+        return x, v
+
     def state_arrays(self, n_dofs: int | None = None, velocity_method: str = "fourth"):
         """DOF-major displacement and velocity arrays for term evaluation.
 

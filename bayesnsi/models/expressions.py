@@ -95,9 +95,10 @@ class Expression:
 
         Parameters
         ----------
-        x, v : array_like, shape (n_dofs, ...)
+        x, v : array_like, shape (n_dofs, ...), or mapping {k-1: array}
             DOF-major displacements [m] and velocities [m/s]: ``x[k-1]`` is DOF ``k``. Any
-            trailing shape (samples, batch) is broadcast.
+            trailing shape (samples, batch) is broadcast. A mapping holding only the DOFs the
+            expression reads avoids building full arrays for long records.
 
         Returns
         -------
@@ -106,7 +107,11 @@ class Expression:
         """
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             out = self._function(x, v)
-        return np.broadcast_to(np.asarray(out, dtype=float), np.shape(x)[1:]).copy()
+        if isinstance(x, dict):
+            shape = np.shape(next(iter(x.values()))) if x else np.shape(next(iter(v.values())))
+        else:
+            shape = np.shape(x)[1:]
+        return np.broadcast_to(np.asarray(out, dtype=float), shape).copy()
 
     @property
     def function(self) -> Callable:

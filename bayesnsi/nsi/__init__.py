@@ -2,7 +2,7 @@
 
 from .identify import NSIResult, extended_input, identify, select_order, stabilization
 from .physics import CoefficientEstimate, Mode, coefficient_spectrum, split_poles
-from .reconstruct import Reconstruction, initial_state, nrmse, reconstruct
+from .reconstruct import AffineReconstruction, Reconstruction, affine_reconstruction, initial_state, nrmse, reconstruct
 from .statespace import StateSpaceModel
 
 __all__ = [
@@ -16,6 +16,8 @@ __all__ = [
     "coefficient_spectrum",
     "split_poles",
     "Reconstruction",
+    "AffineReconstruction",
+    "affine_reconstruction",
     "reconstruct",
     "initial_state",
     "nrmse",

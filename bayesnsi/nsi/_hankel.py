@@ -1,8 +1,9 @@
 """Block Hankel products: correlation (Gram) route and LQ reference route (SPEC section 3).
 
-Both routes return a square-root factor ``L`` of the normalised Gram matrix of the stacked block
-Hankel matrix ``H = [U_{0|2i-1}; Y_{0|2i-1}]``, ``L Lᵀ = H Hᵀ / j``, rows grouped as
-``[U_p; U_f; Y_p; Y_f]``. Every quantity of the subspace algorithm is a row-space operation on
+Both routes return the lower-triangular factor ``L`` of the normalised Gram matrix of the
+stacked block Hankel matrix, ``L Lᵀ = H Hᵀ / j``, with rows ordered ``[U_f; U_p; Y_p; Y_f]``
+(Van Overschee & De Moor's ordering: every projection the algorithm needs is then a
+truncation of ``L``). Every quantity of the subspace algorithm is a row-space operation on
 ``H``; such operations are invariant under ``H -> H Q`` with ``Q`` orthonormal, so they can be
 carried out on ``L`` (Van Overschee & De Moor 1996, sec. 6.1: the "R factor" of the LQ).
 """
@@ -21,13 +22,14 @@ def grouped_order(block_rows: int, n_inputs: int, n_outputs: int) -> np.ndarray:
     """Permutation from the interleaved Hankel layout to the grouped one.
 
     Interleaved: block row r holds ``z_r = [u_r; y_r]`` (k = m + l channels). Grouped:
-    ``[U_{0|2i-1}; Y_{0|2i-1}]``. Returns ``perm`` with ``grouped = interleaved[perm]``.
+    ``[U_f; U_p; Y_p; Y_f]`` = ``[U_{i|2i-1}; U_{0|i-1}; Y_{0|2i-1}]``. Returns ``perm`` with
+    ``grouped = interleaved[perm]``.
     """
     k = n_inputs + n_outputs
     blocks = np.arange(2 * block_rows)[:, None] * k
-    u_rows = (blocks + np.arange(n_inputs)).ravel()
+    u_rows = (blocks + np.arange(n_inputs)).reshape(2, -1)
     y_rows = (blocks + n_inputs + np.arange(n_outputs)).ravel()
-    return np.concatenate([u_rows, y_rows])
+    return np.concatenate([u_rows[1], u_rows[0], y_rows])
 
 
 def hankel_gram(z: np.ndarray, block_rows: int) -> np.ndarray:
@@ -49,8 +51,8 @@ def hankel_gram(z: np.ndarray, block_rows: int) -> np.ndarray:
     -----
     One pass over the data in chunks computes ``T_d = Σ_{t<j} z_t z_{t+d}ᵀ`` for all lags
     ``d < 2i`` (O(i k² N) flops, memory independent of N); block ``(r, r+d)`` of the Gram matrix
-    then follows exactly by the recursion
-    ``S_{r,d} = S_{r-1,d} + z_{r-1+j} z_{r-1+j+d}ᵀ - z_{r-1} z_{r-1+d}ᵀ`` (O(i² k²)).
+    then follows exactly from ``S_{r,d} = T_d + Σ_{s<r} (z_{s+j} z_{s+j+d}ᵀ - z_s z_{s+d}ᵀ)``
+    (O(i³ k²), vectorised).
     """
     n, k = z.shape
     two_i = 2 * block_rows
@@ -62,24 +64,26 @@ def hankel_gram(z: np.ndarray, block_rows: int) -> np.ndarray:
         block = windows[start:stop].reshape(stop - start, two_i * k)
         base += z[start:stop].T @ block
     base = base.reshape(k, two_i, k).transpose(1, 0, 2)  # base[d] = T_d, (k, k)
-    gram = np.empty((two_i * k, two_i * k))
-    for d in range(two_i):
-        s = base[d].copy()
-        for r in range(two_i - d):
-            if r > 0:
-                s += np.outer(z[r - 1 + j], z[r - 1 + j + d]) - np.outer(z[r - 1], z[r - 1 + d])
-            rows = slice(r * k, (r + 1) * k)
-            cols = slice((r + d) * k, (r + d + 1) * k)
-            gram[rows, cols] = s
-            if d:
-                gram[cols, rows] = s.T
+    # Edge corrections for every (r, d) at once: S_{r,d} = T_d + Σ_{s<r} (tail_s,d - head_s,d).
+    padded = np.vstack([z, np.zeros((two_i, k))])
+    lagged = sliding_window_view(padded, (two_i, k))[:, 0]  # lagged[s, d] = z_{s+d}
+    head = np.einsum("sa,sdb->sdab", z[: two_i - 1], lagged[: two_i - 1])
+    tail = np.einsum("sa,sdb->sdab", padded[j : j + two_i - 1], lagged[j : j + two_i - 1])
+    corrections = np.concatenate([np.zeros((1, two_i, k, k)), np.cumsum(tail - head, axis=0)])
+    blocks = base[None] + corrections  # blocks[r, d] = S_{r,d}
+    r_idx, s_idx = np.meshgrid(np.arange(two_i), np.arange(two_i), indexing="ij")
+    lower, lag = np.minimum(r_idx, s_idx), np.abs(s_idx - r_idx)
+    full = blocks[lower, lag]  # (2i, 2i, k, k); block (r, s) for r <= s
+    swap = r_idx > s_idx
+    full[swap] = full[swap].transpose(0, 2, 1)
+    gram = full.transpose(0, 2, 1, 3).reshape(two_i * k, two_i * k)
     return gram
 
 
 def gram_factor(z: np.ndarray, block_rows: int, n_inputs: int) -> np.ndarray:
     """Square-root factor of the grouped, normalised Hankel Gram matrix (fast route).
 
-    Returns lower-triangular ``L`` with ``L Lᵀ = H Hᵀ / j``, rows ``[U_p; U_f; Y_p; Y_f]``.
+    Returns lower-triangular ``L`` with ``L Lᵀ = H Hᵀ / j``, rows ``[U_f; U_p; Y_p; Y_f]``.
     A tiny diagonal load (relative 1e-12, raised until Cholesky succeeds) guards against rows
     that are exactly dependent, e.g. an input that is a delayed copy of another.
     """

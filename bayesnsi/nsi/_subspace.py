@@ -12,49 +12,51 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import solve_triangular
 
 __all__ = ["SubspaceData", "oblique_svd", "system_matrices_ac", "input_matrices_robust", "observability"]
 
 
 @dataclass(frozen=True)
 class SubspaceData:
-    """Row blocks of the Hankel factor, grouped ``[U_p; U_f; Y_p; Y_f]``."""
+    """The Hankel factor ``L`` with rows ``[U_f; U_p; Y_p; Y_f]`` and its block sizes.
+
+    With this ordering and ``L`` lower triangular, the row space of the first ``p`` rows is the
+    span of the first ``p`` coordinates, so projections onto ``[U_f]``, ``[U_f; W_p]`` and
+    ``[U_{0|2i-1}; Y_{0|i}]`` are truncations (Van Overschee & De Moor 1996, sec. 6.1).
+    """
 
     factor: np.ndarray
     block_rows: int
     n_inputs: int
     n_outputs: int
 
-    def _rows(self, kind: str, first: int, last: int) -> np.ndarray:
-        """Block rows ``first..last`` (inclusive, 0-based) of U or Y."""
-        i, m, l = self.block_rows, self.n_inputs, self.n_outputs
-        if kind == "u":
-            return self.factor[first * m : (last + 1) * m]
-        offset = 2 * i * m
+    @property
+    def n_future_inputs(self) -> int:
+        """Rows of U_f: i·m."""
+        return self.block_rows * self.n_inputs
+
+    @property
+    def n_past(self) -> int:
+        """Rows of [U_f; U_p; Y_p]: 2i·m + i·l."""
+        return 2 * self.block_rows * self.n_inputs + self.block_rows * self.n_outputs
+
+    def y(self, first: int, last: int) -> np.ndarray:
+        """Output block rows ``first..last`` (inclusive, 0-based) of ``L``."""
+        offset, l = 2 * self.block_rows * self.n_inputs, self.n_outputs
         return self.factor[offset + first * l : offset + (last + 1) * l]
 
-    def u(self, first, last):
-        return self._rows("u", first, last)
 
-    def y(self, first, last):
-        return self._rows("y", first, last)
-
-
-def _regress(target: np.ndarray, basis: np.ndarray) -> np.ndarray:
-    """Coefficients Θ minimising ‖target - Θ basis‖ over rows (min-norm least squares)."""
-    if basis.shape[0] == 0:
-        return np.zeros((target.shape[0], 0))
-    theta, *_ = np.linalg.lstsq(basis.T, target.T, rcond=None)
-    return theta.T
-
-
-def _project(target: np.ndarray, basis: np.ndarray) -> np.ndarray:
-    """Orthogonal projection of the rows of ``target`` onto the row space of ``basis``."""
-    return _regress(target, basis) @ basis
+def _triangular_regress(target: np.ndarray, lower: np.ndarray) -> np.ndarray:
+    """Θ with ``target = Θ L`` for a lower-triangular square ``L`` (least squares on its rows)."""
+    return solve_triangular(lower, target.T, lower=True, trans="T").T
 
 
 def oblique_svd(data: SubspaceData):
     """SVD of the weighted oblique projection ``O_i Π_{U_f⊥}`` (paper Eqs. 22-23).
+
+    In the coordinates of ``L`` this matrix is the block ``L[Y_f, U_p ∪ Y_p]``: the part of
+    the future outputs explained by the past data after removing the future inputs.
 
     Returns
     -------
@@ -63,13 +65,8 @@ def oblique_svd(data: SubspaceData):
     singular_values : ndarray, shape (i·l,)
     """
     i = data.block_rows
-    up, uf = data.u(0, i - 1), data.u(i, 2 * i - 1)
-    yp, yf = data.y(0, i - 1), data.y(i, 2 * i - 1)
-    wp = np.vstack([up, yp])
-    theta = _regress(yf, np.vstack([wp, uf]))
-    theta_w = theta[:, : wp.shape[0]]
-    wp_perp = wp - _project(wp, uf)
-    left, singular_values, _ = np.linalg.svd(theta_w @ wp_perp, full_matrices=False)
+    block = data.y(i, 2 * i - 1)[:, data.n_future_inputs : data.n_past]
+    left, singular_values, _ = np.linalg.svd(block, full_matrices=False)
     return left, singular_values
 
 
@@ -105,22 +102,19 @@ def input_matrices_robust(data: SubspaceData, A: np.ndarray, C: np.ndarray, zero
     """
     i, m, l = data.block_rows, data.n_inputs, data.n_outputs
     n = A.shape[0]
-    up, uf = data.u(0, i - 1), data.u(i, 2 * i - 1)
-    yp, yf = data.y(0, i - 1), data.y(i, 2 * i - 1)
-    wp = np.vstack([up, yp])
-    z_i = _project(yf, np.vstack([wp, uf]))
-    wp_plus = np.vstack([data.u(0, i), data.y(0, i)])
-    uf_minus = data.u(i + 1, 2 * i - 1)
-    yf_minus = data.y(i + 1, 2 * i - 1)
-    z_next = _project(yf_minus, np.vstack([wp_plus, uf_minus]))
-    y_ii = data.y(i, i)
+    n_uf = data.n_future_inputs
+    # Projections onto [W_p; U_f] and [W_p⁺; U_f⁻] are truncations of L; only the U_f
+    # coordinates (the first i·m columns) enter the regression on U_f.
+    z_i = data.y(i, 2 * i - 1)[:, :n_uf]
+    z_next = data.y(i + 1, 2 * i - 1)[:, :n_uf]
+    y_ii = data.y(i, i)[:, :n_uf]
 
     gamma = observability(A, C, i)
     gamma_pinv = np.linalg.pinv(gamma)
     gamma_short_pinv = np.linalg.pinv(gamma[:-l])
     ac = np.vstack([A, C])
     lhs = np.vstack([gamma_short_pinv @ z_next, y_ii]) - ac @ (gamma_pinv @ z_i)
-    kappa = _regress(lhs, uf)  # (n + l, i·m)
+    kappa = _triangular_regress(lhs, data.factor[:n_uf, :n_uf])  # (n + l, i·m), U_f = L[:i·m]
 
     # Linear map (B, D) -> 𝒦: block k of 𝒦 is N_B(k) B + N_D(k) D.
     rows_b, rows_d = [], []

@@ -86,8 +86,11 @@ def extended_input(
                 f"term {term.name} reads DOF(s) {missing}, which are not measured "
                 f"(responses at {list(signals.output_dofs)}); add those channels to [data] outputs"
             )
-    n_dofs = max(signals.n_dofs, *(max(t.dofs) for t in terms))
-    x, v = signals.state_arrays(n_dofs, velocity_method)
+    x_dofs = sorted({d for t in terms for d in t.expr.displacement_dofs})
+    v_dofs = sorted({d for t in terms for d in t.expr.velocity_dofs})
+    if input_hold == "average":
+        v_dofs = sorted(set(v_dofs) | set(x_dofs))  # Hermite interpolation uses the slopes
+    x, v = signals.state_rows(x_dofs, v_dofs, velocity_method)
     columns = [force]
     for term in terms:
         if input_hold == "average":
@@ -126,19 +129,20 @@ def _band_limited_interval_mean(signal: np.ndarray) -> np.ndarray:
     return np.fft.irfft(spectrum * gain[:, None], n=n, axis=0)
 
 
-def _interval_mean(term: Term, x: np.ndarray, v: np.ndarray, dt: float, subsamples: int) -> np.ndarray:
+def _interval_mean(term: Term, x: dict, v: dict, dt: float, subsamples: int) -> np.ndarray:
     """Mean of n(x(t), v(t)) over each sampling interval (midpoint rule, Hermite interpolation)."""
-    x0, x1 = x, np.concatenate([x[:, 1:], x[:, -1:]], axis=1)
-    v0, v1 = v, np.concatenate([v[:, 1:], v[:, -1:]], axis=1)
-    total = np.zeros(x.shape[1])
+    shift = {k: np.concatenate([a[1:], a[-1:]]) for k, a in x.items()}
+    vshift = {k: np.concatenate([a[1:], a[-1:]]) for k, a in v.items()}
+    total = None
     for s in (np.arange(subsamples) + 0.5) / subsamples:
         h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
         h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
-        xs = h00 * x0 + h10 * dt * v0 + h01 * x1 + h11 * dt * v1
-        vs = (1 - s) * v0 + s * v1
-        total += term.evaluate(xs, vs)
+        xs = {k: h00 * x[k] + h10 * dt * v[k] + h01 * shift[k] + h11 * dt * vshift[k] for k in x}
+        vs = {k: (1 - s) * v[k] + s * vshift[k] for k in v}
+        value = term.evaluate(xs, vs)
+        total = value if total is None else total + value
     mean = total / subsamples
-    mean[-1] = term.evaluate(x[:, -1:], v[:, -1:])[0]
+    mean[-1] = term.evaluate({k: a[-1:] for k, a in x.items()}, {k: a[-1:] for k, a in v.items()})[0]
     return mean
 
 
@@ -374,6 +378,13 @@ def identify(
         )
     order = int(order)
     A, C_s = _subspace.system_matrices_ac(left, singular_values, order, n_out)
+    radius = np.max(np.abs(np.linalg.eigvals(A)))
+    if radius >= 1.0:
+        raise UnstableModelError(
+            f"candidate {cand.name!r}: the identified underlying linear model is unstable "
+            f"(largest |eigenvalue of A| = {radius:.4f}); try another order or number of block rows, "
+            "or reconsider the candidate's terms"
+        )
     if bd_method == "robust":
         B_s, D_s = _subspace.input_matrices_robust(data, A, C_s, zero_feedthrough)
         B = B_s / u_scale
@@ -384,13 +395,6 @@ def identify(
         B_s, D_s, _ = refine_output_error(A, C_s, u / u_scale, y / y_scale, signals.dt, zero_feedthrough)
         B, D = B_s / u_scale, D_s * y_scale[:, None] / u_scale
     model = StateSpaceModel(A=A, B=B, C=C, D=D, dt=signals.dt)
-    if not model.is_stable:
-        radius = np.max(np.abs(model.poles_discrete))
-        raise UnstableModelError(
-            f"candidate {cand.name!r}: the identified underlying linear model is unstable "
-            f"(largest |eigenvalue of A| = {radius:.4f}); try another order or number of block rows, "
-            "or reconsider the candidate's terms"
-        )
     modes, spurious = split_poles(model.poles, signals.dt)
     if not modes:
         raise UnstableModelError(

@@ -10,7 +10,7 @@ from ..exceptions import UnstableModelError
 from ..signals import Signals
 from .statespace import StateSpaceModel
 
-__all__ = ["Reconstruction", "reconstruct", "nrmse", "initial_state"]
+__all__ = ["Reconstruction", "reconstruct", "nrmse", "initial_state", "AffineReconstruction", "affine_reconstruction"]
 
 
 def nrmse(measured: np.ndarray, predicted: np.ndarray):
@@ -160,3 +160,73 @@ def _closed_loop(result, signals: Signals, x0: np.ndarray) -> np.ndarray:
                 f"(t = {k / signals.fs:.3g} s): the model is unstable in feedback"
             )
     return out
+
+
+@dataclass(frozen=True)
+class AffineReconstruction:
+    """Open-loop reconstruction as an affine function of the coefficients (SPEC section 6).
+
+    For the fixed underlying linear model of an NSI result, ``ŷ(λ) = ŷ₀ + Σ_i g_i λ_i`` where
+    ``ŷ₀`` is the response to the measured forces (with the least-squares initial state) and
+    ``g_i`` the response to the input ``-n_i`` through the per-unit column
+    ``b_i = B[:, m+i] / λ̂_i``. At ``λ = λ̂`` it reproduces the NSI open-loop reconstruction.
+
+    Attributes
+    ----------
+    measured : ndarray, shape (n_samples, l)
+    baseline : ndarray, shape (n_samples, l)
+        ``ŷ₀``.
+    signatures : ndarray, shape (n_samples, l, q)
+        ``g_i`` per unit coefficient.
+    estimate : ndarray, shape (q,)
+        λ̂ from NSI.
+    names : tuple of str
+        Term names.
+    """
+
+    measured: np.ndarray
+    baseline: np.ndarray
+    signatures: np.ndarray
+    estimate: np.ndarray
+    names: tuple[str, ...]
+
+    @property
+    def base_residual(self) -> np.ndarray:
+        """``y - ŷ₀``, shape (n_samples, l)."""
+        return self.measured - self.baseline
+
+    def predict(self, coefficients) -> np.ndarray:
+        """``ŷ(λ)``, shape (n_samples, l)."""
+        return self.baseline + self.signatures @ np.asarray(coefficients, dtype=float)
+
+
+def affine_reconstruction(result, signals: Signals) -> AffineReconstruction:
+    """Affine decomposition of the open-loop reconstruction of ``result`` on ``signals``.
+
+    Raises
+    ------
+    NotIdentifiableError
+        When an estimated coefficient is exactly zero (the per-unit column is undefined).
+    """
+    from ..exceptions import NotIdentifiableError
+
+    model = result.model
+    m = len(result.input_dofs)
+    estimate = result.coefficient_values
+    if np.any(estimate == 0):
+        raise NotIdentifiableError("a coefficient estimate is exactly zero; its per-unit signature is undefined")
+    u = result.extended_input(signals)
+    y = np.asarray(signals.displacement)
+    x0 = initial_state(model, u, y)
+    unit_b = model.B[:, m:] / estimate
+    force_model = StateSpaceModel(model.A, model.B[:, :m], model.C, model.D[:, :m], model.dt)
+    baseline = force_model.simulate(u[:, :m], x0)
+    term_model = StateSpaceModel(model.A, unit_b, model.C, model.D[:, m:] / estimate, model.dt)
+    q = u.shape[1] - m
+    signatures = np.empty(y.shape + (q,))
+    for i in range(q):
+        single = StateSpaceModel(model.A, unit_b[:, i : i + 1], model.C, term_model.D[:, i : i + 1], model.dt)
+        signatures[:, :, i] = single.simulate(u[:, m + i : m + i + 1])
+    return AffineReconstruction(
+        measured=y, baseline=baseline, signatures=signatures, estimate=estimate, names=tuple(t.name for t in result.terms)
+    )

@@ -1,0 +1,350 @@
+"""Posterior sampling of a candidate's coefficients and noise parameters with emcee (SPEC 6).
+
+The unnormalised posterior ``π(θ) L(θ)`` of ``θ = (λ, log σ_1..log σ_l[, φ])`` is evaluated
+from :class:`~bayesnsi.evidence.likelihood.SufficientStatistics` for all walkers at once
+(``emcee.EnsembleSampler(..., vectorize=True)``), so a step costs microseconds whatever the
+record length. The walkers start from the Gaussian (Laplace) approximation at the posterior
+mode, which Newton's method reaches from the NSI estimate.
+
+Array convention: posterior draws are ``(chain, draw, ...)`` with one chain per walker.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..exceptions import InputDataError
+from ._target import Target
+from .likelihood import SufficientStatistics
+from .priors import Priors
+
+__all__ = ["PosteriorSamples", "sample_posterior"]
+
+
+@dataclass(frozen=True)
+class PosteriorSamples:
+    """emcee draws after burn-in, with what is needed to read them.
+
+    Attributes
+    ----------
+    samples : ndarray, shape (chain, draw, n_params)
+        ``θ = (λ_1..λ_q, log σ_1..log σ_l, φ_{1,1}..φ_{l,p})``; one chain per walker.
+    log_posterior : ndarray, shape (chain, draw)
+        Unnormalised log posterior of each draw.
+    param_names : tuple of str
+        Names of the ``n_params`` columns.
+    coefficient_names : tuple of str
+        Length ``q``.
+    channel_names : tuple of str
+        Length ``l``.
+    likelihood : str
+        ``"white"``, ``"ar1"`` (exact stationary AR(1)) or ``"arP"`` (conditional AR(P)).
+    ar_order : int
+        ``p`` (0 for white noise).
+    acceptance_fraction : ndarray, shape (chain,)
+        emcee acceptance fraction per walker.
+    autocorr_time : ndarray, shape (n_params,)
+        emcee's integrated autocorrelation time estimate [steps].
+    autocorr_reliable : bool
+        False when the run is shorter than 50 autocorrelation times (emcee's criterion); the
+        estimate is then a lower bound.
+    mode : ndarray, shape (n_params,)
+        Posterior mode found by Newton's method (where the walkers were started).
+    mode_covariance : ndarray, shape (n_params, n_params)
+        Inverse negative Hessian at the mode (Laplace covariance).
+    settings : mapping
+        ``n_walkers``, ``n_steps``, ``n_burn``, ``seed`` (of emcee's generator), versions.
+    """
+
+    samples: np.ndarray
+    log_posterior: np.ndarray
+    param_names: tuple[str, ...]
+    coefficient_names: tuple[str, ...]
+    channel_names: tuple[str, ...]
+    likelihood: str
+    ar_order: int
+    acceptance_fraction: np.ndarray
+    autocorr_time: np.ndarray
+    autocorr_reliable: bool
+    mode: np.ndarray
+    mode_covariance: np.ndarray
+    settings: Mapping = field(default_factory=dict)
+
+    @property
+    def n_coefficients(self) -> int:
+        """``q``."""
+        return len(self.coefficient_names)
+
+    @property
+    def n_channels(self) -> int:
+        """``l``."""
+        return len(self.channel_names)
+
+    @property
+    def coefficients(self) -> np.ndarray:
+        """``λ`` draws, shape (chain, draw, q)."""
+        return self.samples[..., : self.n_coefficients]
+
+    @property
+    def sigma(self) -> np.ndarray:
+        """``σ`` draws, shape (chain, draw, l), in the output's units."""
+        q, l = self.n_coefficients, self.n_channels
+        return np.exp(self.samples[..., q : q + l])
+
+    @property
+    def rho(self) -> np.ndarray | None:
+        """AR coefficient draws, shape (chain, draw, l, p), or None for white noise."""
+        if not self.ar_order:
+            return None
+        q, l = self.n_coefficients, self.n_channels
+        return self.samples[..., q + l :].reshape(self.samples.shape[:2] + (l, self.ar_order))
+
+    def to_datatree(self):
+        """The draws as an arviz ``DataTree`` (arviz_base), dims ``(chain, draw, ...)``.
+
+        Returns
+        -------
+        xarray.DataTree
+            Group ``posterior`` with ``coefficient`` (chain, draw, term), ``sigma`` (chain,
+            draw, channel) and, for AR likelihoods, ``rho`` (chain, draw, channel[, lag]);
+            group ``sample_stats`` with ``lp`` (chain, draw).
+
+        Notes
+        -----
+        Built with ``arviz_base.from_dict`` and explicit ``sample_dims=["chain", "draw"]`` rather
+        than ``from_emcee``, whose dimension order differs between arviz versions
+        (EVIDENCE.md); the order is checked after conversion.
+        """
+        from arviz_base import from_dict
+
+        posterior = {"coefficient": self.coefficients, "sigma": self.sigma}
+        dims = {"coefficient": ["term"], "sigma": ["channel"]}
+        coords = {"term": list(self.coefficient_names), "channel": list(self.channel_names)}
+        if self.ar_order == 1:
+            posterior["rho"] = self.rho[..., 0]
+            dims["rho"] = ["channel"]
+        elif self.ar_order > 1:
+            posterior["rho"] = self.rho
+            dims["rho"] = ["channel", "lag"]
+            coords["lag"] = list(range(1, self.ar_order + 1))
+        attrs = {
+            "posterior": {
+                "likelihood": self.likelihood,
+                "sampler": f"emcee {self.settings.get('emcee_version', '')}".strip(),
+                "n_burn": int(self.settings.get("n_burn", 0)),
+            }
+        }
+        tree = from_dict(
+            {"posterior": posterior, "sample_stats": {"lp": self.log_posterior}},
+            sample_dims=["chain", "draw"],
+            coords=coords,
+            dims=dims,
+            attrs=attrs,
+        )
+        for name, var in tree["posterior"].data_vars.items():
+            if tuple(var.dims[:2]) != ("chain", "draw"):  # pragma: no cover - guards an API change
+                raise RuntimeError(f"arviz stored {name} with dims {var.dims}; expected (chain, draw, ...)")
+        return tree
+
+
+def sample_posterior(
+    stats: SufficientStatistics,
+    priors: Priors,
+    likelihood: str = "white",
+    rng=None,
+    n_walkers: int = 32,
+    n_steps: int = 1500,
+    n_burn: int = 300,
+    start=None,
+    moves: str = "mixed",
+) -> PosteriorSamples:
+    """Sample the posterior of ``(λ, log σ[, φ])`` with emcee (SPEC 6).
+
+    Parameters
+    ----------
+    stats : SufficientStatistics
+        From :func:`~bayesnsi.evidence.sufficient_statistics` (``ar_order`` at least the AR
+        order of ``likelihood``).
+    priors : Priors
+        Proper priors fixed before the fit.
+    likelihood : {"white", "ar1", "arP"}
+        Residual model: white Gaussian; exact stationary AR(1); conditional AR(P).
+    rng : int or numpy.random.Generator, optional
+        Source of every random choice (walker start, emcee's moves via a seeded
+        ``RandomState`` passed in ``emcee.State(random_state=...)``).
+    n_walkers : int, default 32
+        Number of walkers (= chains); at least ``2 n_params``.
+    n_steps : int, default 1500
+        Steps per walker, including burn-in.
+    n_burn : int, default 300
+        Steps discarded at the start.
+    start : array_like, shape (q,), optional
+        Coefficients from which the mode search starts (default: the NSI estimate,
+        ``stats.center``).
+    moves : {"mixed", "stretch", "de"}
+        emcee moves. ``"mixed"`` (default): per step, with probabilities 0.5/0.4/0.1, an
+        independence Metropolis-Hastings move with a fixed multivariate-t proposal (5 degrees of
+        freedom, scale 1.2 x the Laplace covariance at the mode), emcee's ``DEMove`` and
+        ``DESnookerMove``. ``"stretch"``: emcee's default ``StretchMove``; ``"de"``: DE moves
+        only (0.8/0.2).
+
+    Returns
+    -------
+    PosteriorSamples
+
+    Notes
+    -----
+    ``log p(θ|y) = log N(λ; 0, diag s²) + Σ_j log U(log σ_j) [+ log U(φ)] + log L(θ) + const``;
+    ``log L`` as in :func:`~bayesnsi.evidence.log_likelihood_white` /
+    :func:`~bayesnsi.evidence.log_likelihood_ar` (paper Eq. 3 generalised to AR residuals).
+    The walkers start from ``N(θ*, (-H)⁻¹)`` at the mode ``θ*`` restricted to the prior support,
+    so little burn-in is needed.
+
+    Efficiency (measured, q = 3, l = 2, N = 1e4, 32 walkers): integrated autocorrelation time
+    ≈ 4.5 steps with ``"mixed"``, ≈ 20 with ``"de"``, ≈ 40-50 with ``"stretch"``. Because
+    ``r_hat`` is computed with one chain per walker, reaching ``r_hat <= 1.01`` needs about
+    100 autocorrelation times per walker, which the stretch move alone gets only after ≈ 5000
+    steps. The independence move's proposal is fixed before sampling (from the mode), so every
+    move is a valid Metropolis-Hastings kernel and their mixture leaves the posterior invariant.
+    """
+    target = Target.build(stats, priors, likelihood)
+    return _sample(target, rng, n_walkers, n_steps, n_burn, start, moves)
+
+
+def _sample(
+    target: Target, rng, n_walkers: int, n_steps: int, n_burn: int, start, moves: str = "mixed"
+) -> PosteriorSamples:
+    """emcee run on a prepared target."""
+    import emcee
+
+    rng = np.random.default_rng(rng)
+    ndim = target.ndim
+    n_walkers, n_steps, n_burn = int(n_walkers), int(n_steps), int(n_burn)
+    if n_walkers < 2 * ndim or n_walkers % 2:
+        raise InputDataError(f"n_walkers must be even and >= 2 x {ndim} parameters = {2 * ndim}, got {n_walkers}")
+    if not 0 <= n_burn < n_steps:
+        raise InputDataError(f"need 0 <= n_burn < n_steps, got n_burn = {n_burn}, n_steps = {n_steps}")
+
+    mode, _, hess, _ = target.find_mode(target.initial_theta(start))
+    cov = _laplace_covariance(hess, target, mode)
+    p0 = _initial_walkers(target, mode, cov, n_walkers, rng)
+    seed = int(rng.integers(0, 2**32 - 1))
+    random_state = np.random.RandomState(seed).get_state()
+
+    sampler = emcee.EnsembleSampler(
+        n_walkers, ndim, target.log_posterior, vectorize=True, moves=_moves(moves, mode, cov)
+    )
+    sampler.run_mcmc(
+        emcee.State(p0, random_state=random_state), n_steps, progress=False, skip_initial_state_check=True
+    )
+    chain = sampler.get_chain(discard=n_burn)  # (draw, walker, param)
+    log_post = sampler.get_log_prob(discard=n_burn)  # (draw, walker)
+    tau, reliable = _autocorr(chain)
+    return PosteriorSamples(
+        samples=np.ascontiguousarray(np.swapaxes(chain, 0, 1)),
+        log_posterior=np.ascontiguousarray(log_post.T),
+        param_names=target.param_names,
+        coefficient_names=tuple(target.stats.names),
+        channel_names=tuple(target.priors.noise.channel_names),
+        likelihood=target.likelihood,
+        ar_order=target.order,
+        acceptance_fraction=np.asarray(sampler.acceptance_fraction, dtype=float),
+        autocorr_time=tau,
+        autocorr_reliable=reliable,
+        mode=mode,
+        mode_covariance=cov,
+        settings={
+            "n_walkers": n_walkers,
+            "n_steps": n_steps,
+            "n_burn": n_burn,
+            "seed": seed,
+            "emcee_version": emcee.__version__,
+            "moves": moves,
+        },
+    )
+
+
+def _moves(kind: str, mode: np.ndarray, cov: np.ndarray):
+    """emcee move list for ``kind``."""
+    import emcee
+
+    if kind == "stretch":
+        return None
+    if kind == "de":
+        return [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
+    if kind == "mixed":
+        return [
+            (emcee.moves.MHMove(_IndependenceProposal(mode, cov)), 0.5),
+            (emcee.moves.DEMove(), 0.4),
+            (emcee.moves.DESnookerMove(), 0.1),
+        ]
+    raise InputDataError(f"moves must be 'mixed', 'stretch' or 'de', got {kind!r}")
+
+
+class _IndependenceProposal:
+    """Fixed multivariate-t proposal for :class:`emcee.moves.MHMove` (independence sampler).
+
+    Returns the proposal and ``log g(x) - log g(x')``, the Hastings correction emcee expects.
+    """
+
+    def __init__(self, mode, cov, df: float = 5.0, inflate: float = 1.2):
+        self.mode = np.asarray(mode, dtype=float)
+        self.chol = inflate * np.linalg.cholesky(cov)
+        self.df = float(df)
+
+    def _log_g(self, x):
+        y = np.linalg.solve(self.chol, (x - self.mode).T).T
+        return -0.5 * (self.df + self.mode.size) * np.log1p(np.sum(y**2, axis=-1) / self.df)
+
+    def __call__(self, coords, random):
+        n, d = coords.shape
+        z = random.randn(n, d) / np.sqrt(random.chisquare(self.df, size=(n, 1)) / self.df)
+        new = self.mode + z @ self.chol.T
+        return new, self._log_g(coords) - self._log_g(new)
+
+
+def _laplace_covariance(hess: np.ndarray, target: Target, mode: np.ndarray) -> np.ndarray:
+    """``(-H)⁻¹``, or a diagonal fallback when ``-H`` is not positive definite."""
+    neg = -0.5 * (hess + hess.T)
+    try:
+        np.linalg.cholesky(neg)
+        cov = np.linalg.inv(neg)
+        return 0.5 * (cov + cov.T)
+    except np.linalg.LinAlgError:
+        diag = np.abs(np.diag(neg))
+        fallback = np.concatenate([target.priors.coefficients.scale**2, np.full(target.ndim - target.q, 1e-2)])
+        return np.diag(np.where(diag > 0, 1.0 / np.where(diag > 0, diag, 1.0), fallback))
+
+
+def _initial_walkers(target: Target, mode, cov, n_walkers: int, rng) -> np.ndarray:
+    """Draws from ``N(mode, cov)`` inside the prior support (redrawn, else shrunk towards the mode)."""
+    ndim = target.ndim
+    chol = np.linalg.cholesky(cov)
+    p0 = mode + rng.standard_normal((n_walkers, ndim)) @ chol.T
+    for _ in range(20):
+        bad = ~np.isfinite(target.log_posterior(p0))
+        if not np.any(bad):
+            break
+        p0[bad] = mode + rng.standard_normal((int(bad.sum()), ndim)) @ chol.T
+    bad = ~np.isfinite(target.log_posterior(p0))
+    if np.any(bad):  # mode at the edge of the support: stay close to it
+        p0[bad] = mode + 1e-3 * (rng.standard_normal((int(bad.sum()), ndim)) @ chol.T)
+    if not np.all(np.isfinite(target.log_posterior(p0))):
+        raise InputDataError(
+            "could not place the walkers inside the prior support near the posterior mode; "
+            "check the noise and AR prior ranges against the residual"
+        )
+    return p0
+
+
+def _autocorr(chain: np.ndarray):
+    """emcee's integrated autocorrelation time of a (draw, walker, param) chain."""
+    from emcee.autocorr import AutocorrError, integrated_time
+
+    try:
+        return np.asarray(integrated_time(chain), dtype=float), True
+    except AutocorrError as err:
+        return np.asarray(err.tau, dtype=float), False

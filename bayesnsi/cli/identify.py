@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from ..io import RESULTS_FILENAME, atomic_write_json, load_config, load_signals, prepare_output_dir, to_jsonable, versions
-from ._common import identify_all, progress, save_figure
+from ._common import identify_all, progress
+from ._report import identification_report
 
 __all__ = ["add_parser", "run"]
 
@@ -34,8 +33,6 @@ def run(args) -> int:
     signals = load_signals(config)
     progress(f"{len(config.candidates)} candidates, {signals.n_samples} samples at {signals.fs:g} Hz", args.quiet)
     results, records = identify_all(config, signals, quiet=args.quiet)
-    if results and not args.no_figures:
-        _figures(results, out)
     payload = {
         "command": "identify",
         "config": str(config.path),
@@ -45,19 +42,8 @@ def run(args) -> int:
         "versions": versions(),
     }
     path = atomic_write_json(out / RESULTS_FILENAME, to_jsonable(payload))
+    if not args.no_figures:
+        report = identification_report(config, signals, results, records, f"bayesnsi identify - {config.path.name}")
+        progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
     progress(f"wrote {path}", args.quiet)
     return 0
-
-
-def _figures(results, out):
-    from ..plots import plot_coefficient_spectrum, plot_frf, plot_singular_values
-
-    folder = out / "figures"
-    folder.mkdir(exist_ok=True)
-    fmax = 1.3 * max(m.frequency_hz for r in results.values() for m in r.modes)
-    freqs = np.linspace(fmax / 400, fmax, 800)
-    save_figure(plot_frf(list(results.values()), freqs), folder / "frf.png")
-    for k, res in enumerate(results.values(), 1):
-        save_figure(plot_singular_values(res), folder / f"singular_values_{k}.png")
-        if res.terms:
-            save_figure(plot_coefficient_spectrum(res), folder / f"coefficients_{k}.png")

@@ -4,6 +4,7 @@ from .identify import NSIResult, extended_input, identify, select_order, stabili
 from .physics import CoefficientEstimate, Mode, coefficient_spectrum, split_poles
 from .reconstruct import AffineReconstruction, Reconstruction, affine_reconstruction, initial_state, nrmse, reconstruct
 from .statespace import StateSpaceModel
+from .tables import coefficients_table, modes_table
 
 __all__ = [
     "identify",
@@ -22,4 +23,6 @@ __all__ = [
     "initial_state",
     "nrmse",
     "StateSpaceModel",
+    "modes_table",
+    "coefficients_table",
 ]

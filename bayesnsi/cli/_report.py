@@ -1,0 +1,71 @@
+"""Report content shared by the commands (figures and tables of an identification)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..io.report import Report
+from ..nsi import coefficients_table, modes_table, stabilization
+
+__all__ = ["identification_report"]
+
+
+def _exact(config):
+    meta = config.meta or {}
+    if "exact_frequencies_hz" not in meta:
+        return None, None, None
+    coefs = None
+    if meta.get("true_model"):
+        cand = next((c for c in config.candidates if c.name == meta["true_model"]), None)
+        if cand is not None and len(cand.terms) == len(meta.get("true_coefficients", [])):
+            coefs = {t.name: v for t, v in zip(cand.terms, meta["true_coefficients"])}
+    return meta["exact_frequencies_hz"], meta.get("exact_damping_ratios"), coefs
+
+
+def identification_report(config, signals, results, records, title, report=None) -> Report:
+    """Sections: settings, modes and coefficients tables, FRFs, λ(ω), singular values, stabilisation."""
+    from ..plots import plot_coefficient_spectrum, plot_frf, plot_singular_values, plot_stabilization
+
+    report = report or Report(title)
+    intro = report.section("Data and settings")
+    intro.append(
+        f"{signals.n_samples} samples at {signals.fs:g} Hz; forces at DOFs {list(signals.input_dofs)}, "
+        f"displacements at DOFs {list(signals.output_dofs)}; config {config.path}."
+    )
+    intro.append(("pre", "\n".join(f"{k} = {v!r}" for k, v in vars(config.nsi).items())))
+    failed = [r for r in records if r.get("status") == "failed"]
+    if failed:
+        intro.append("Failed candidates: " + "; ".join(f"{r['name']}: {r['error']}" for r in failed))
+    if not results:
+        return report
+    exact_f, exact_z, exact_coefs = _exact(config)
+    tables = report.section("Identified modes and coefficients (paper Tables 3-4, 6-7, 9-10)")
+    tables.append(modes_table(results, exact_f, exact_z))
+    if any(r.terms for r in results.values()):
+        tables.append(coefficients_table({k: r for k, r in results.items() if r.terms}, exact_coefs))
+    nrmse = {r["name"]: r.get("nrmse") for r in records}
+    import pandas as pd
+
+    tables.append(pd.DataFrame({"open-loop NRMSE": nrmse}))
+    figs = report.section("Figures")
+    fmax = 1.3 * max(m.frequency_hz for r in results.values() for m in r.modes)
+    freqs = np.linspace(fmax / 400, fmax, 800)
+    fig = plot_frf(list(results.values()), freqs)
+    fig.set_label("Underlying linear FRF of each candidate (paper Figs. 4, 8, 12)")
+    figs.append(fig)
+    for name, res in results.items():
+        fig = plot_singular_values(res)
+        fig.set_label(f"Singular values, {name} (paper Figs. 3, 7, 11)")
+        figs.append(fig)
+        if res.terms:
+            fig = plot_coefficient_spectrum(res)
+            fig.set_label(f"Re and Im of λ(ω), {name} (paper Fig. 5)")
+            figs.append(fig)
+    first_name, first = next(iter(results.items()))
+    sv, diagram = stabilization(
+        signals, first.candidate, block_rows=first.block_rows, velocity_method=first.settings["velocity_method"]
+    )
+    fig = plot_stabilization(sv, diagram, fmax_hz=fmax)
+    fig.set_label(f"Stabilisation diagram, {first_name}")
+    figs.append(fig)
+    return report

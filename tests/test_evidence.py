@@ -162,7 +162,9 @@ def test_plain_log_likelihood_is_paper_eq4():
 def test_statistics_validate_shapes():
     rng = np.random.default_rng(0)
     affine = make_affine(100, 2, 2, rng)
-    bad = AffineReconstruction(affine.measured, affine.baseline[:, :1], affine.signatures, affine.estimate, affine.names)
+    bad = AffineReconstruction(
+        affine.measured, affine.baseline[:, :1], affine.signatures, affine.estimate, affine.names
+    )
     with pytest.raises(ShapeError, match="baseline"):
         sufficient_statistics(bad)
     st = sufficient_statistics(affine)
@@ -217,16 +219,19 @@ def test_closed_form_equals_brute_force_quadrature():
     g = affine.signatures[:, 0, 0]
     lo, hi = np.log(pri.noise.lower[0]), np.log(pri.noise.upper[0])
 
-    def integrand(lam, u):  # direct likelihood x prior density, scaled by exp(-exact)
-        r = r0 - g * lam
-        loglik = np.sum(stats.norm(0, np.exp(u)).logpdf(r))
-        return np.exp(loglik + stats.norm(0, 2.0).logpdf(lam) - np.log(hi - lo) - exact)
-
+    # brute force: the direct likelihood on a 2-D Gauss-Legendre grid over (λ, log σ)
     u_hat = np.log(np.sqrt(np.mean((r0 - g * affine.estimate[0]) ** 2)))
     lam_sd = 0.8 / np.sqrt(g @ g)
-    val = integrate.dblquad(integrand, u_hat - 1.0, u_hat + 1.0, affine.estimate[0] - 12 * lam_sd,
-                            affine.estimate[0] + 12 * lam_sd, epsabs=0, epsrel=1e-10)[0]
-    assert np.log(val) == pytest.approx(0.0, abs=1e-6)
+    x, w = np.polynomial.legendre.leggauss(200)
+    lam = affine.estimate[0] + 12 * lam_sd * x
+    u = u_hat + 1.0 * x  # ±1 in log σ is more than ±10 posterior sd at N = 60
+    r = r0[None, :] - lam[:, None] * g[None, :]  # (λ, sample)
+    rss = np.sum(r**2, axis=1)
+    loglik = -0.5 * len(r0) * (np.log(2 * np.pi) + 2 * u[None, :]) - 0.5 * rss[:, None] * np.exp(-2 * u[None, :])
+    logpost = loglik + stats.norm(0, 2.0).logpdf(lam)[:, None] - np.log(hi - lo)
+    logw = np.log(12 * lam_sd * w)[:, None] + np.log(1.0 * w)[None, :]
+    brute = np.logaddexp.reduce((logpost + logw).ravel())
+    assert brute == pytest.approx(exact, abs=1e-8)
 
 
 @pytest.mark.parametrize("n_samples", [1000, 100_000])

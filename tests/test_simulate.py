@@ -386,7 +386,7 @@ def test_two_dof_case_contents():
     assert case.true_model == "model 1" and case.candidate("model 1").terms == case.true_terms
     np.testing.assert_array_equal(case.true_coefficients, [20.0])
     np.testing.assert_array_equal(np.round(case.exact_frequencies_hz, 2), [2.46, 7.51])
-    assert case.recommended["block_rows"] == 40 and case.recommended["order"] == 4
+    assert case.recommended["block_rows"] == 60 and case.recommended["order"] == 4
     assert "two-dof" in case.describe()
 
 

@@ -17,12 +17,14 @@ __all__ = ["main", "build_parser"]
 _EPILOG = """examples:
   bayesnsi simulate two-dof --seed 1 --out data/two_dof.csv
   bayesnsi identify data/two_dof.toml --out results/two_dof
+  bayesnsi select data/two_dof.toml --out results/two_dof_selection
+  bayesnsi demo --out demo-report
 """
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand."""
-    from . import identify, simulate
+    from . import demo, identify, select, simulate
 
     parser = argparse.ArgumentParser(
         prog="bayesnsi",
@@ -32,7 +34,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for module in (simulate, identify):
+    for module in (simulate, identify, select, demo):
         module.add_parser(sub)
     return parser
 

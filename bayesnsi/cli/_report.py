@@ -69,3 +69,40 @@ def identification_report(config, signals, results, records, title, report=None)
     fig.set_label(f"Stabilisation diagram, {first_name}")
     figs.append(fig)
     return report
+
+
+def selection_sections(report, signals, results, evidences, table, opts, selected):
+    """Sections of a selection: probabilities side by side, posteriors, reconstruction errors."""
+    from ..plots import plot_model_probabilities, plot_posterior_pairs, plot_reconstruction_errors, plot_traces
+
+    head = report.section("Model selection (paper Eqs. 1-4 and marginal evidence)")
+    head.append(
+        f"Selected: {selected} (posterior under the marginal evidence with {opts['likelihood']} residuals). "
+        "The plain ranking is the paper's Gaussian likelihood with σ̂² = mean squared residual; the evidence "
+        "integrates the coefficients and the noise scale over stated proper priors (emcee + bridge sampling)."
+    )
+    head.append(table)
+    fig = plot_model_probabilities(table)
+    fig.set_label("Posterior model probabilities under each ranking (error bars: Monte-Carlo sd)")
+    head.append(fig)
+    if not results:
+        return report
+    recs = {name: res.reconstruct(signals) for name, res in results.items()}
+    fig = plot_reconstruction_errors(recs, signals.fs)
+    fig.set_label("Open-loop reconstruction error of each candidate, first output (paper Figs. 9, 13)")
+    head.append(fig)
+    post = report.section("Coefficient posteriors (arviz summaries)")
+    for name, by_lik in evidences.items():
+        ev = by_lik[opts["likelihood"]]
+        post.append(f"{name} - priors: {ev.priors_text.replace(chr(10), '; ')}")
+        post.append(ev.summary)
+        for message in ev.warnings:
+            post.append(f"warning: {message}")
+        if ev.posterior.coefficients.shape[-1]:
+            fig = plot_posterior_pairs(ev.posterior)
+            fig.set_label(f"Posterior of the coefficients, {name}")
+            post.append(fig)
+            fig = plot_traces(ev.posterior)
+            fig.set_label(f"Traces of six walkers, {name}")
+            post.append(fig)
+    return report

@@ -200,7 +200,9 @@ def sufficient_statistics(
     if baseline.shape != (n, l):
         raise ShapeError(f"affine.baseline must have the shape of measured {(n, l)}, found {baseline.shape}")
     if signatures.ndim != 3 or signatures.shape[:2] != (n, l):
-        raise ShapeError(f"affine.signatures must be (n_samples, n_channels, q) = ({n}, {l}, q), found {signatures.shape}")
+        raise ShapeError(
+            f"affine.signatures must be (n_samples, n_channels, q) = ({n}, {l}, q), found {signatures.shape}"
+        )
     q = signatures.shape[2]
     names = tuple(str(s) for s in affine.names)
     if len(names) != q:
@@ -222,8 +224,6 @@ def sufficient_statistics(
     lagged = np.zeros((l, p + 1, q + 1, q + 1))
     head = np.empty((l, p, q + 1))
     tail = np.empty((l, p, q + 1))
-    total = np.zeros(l)
-    total_sq = np.zeros(l)
 
     def block(start: int, stop: int) -> np.ndarray:
         """``Z`` for samples ``start..stop-1``, laid out (l, samples, q+1)."""
@@ -240,9 +240,6 @@ def sufficient_statistics(
         if not np.all(np.isfinite(z)):
             raise InputDataError(f"the affine reconstruction holds NaN or Inf between samples {lo} and {stop}")
         off = start - lo
-        y = measured[start:stop]
-        total += y.sum(axis=0)
-        total_sq += np.einsum("tj,tj->j", y, y)
         for k in range(p + 1):
             s0 = max(off, k)
             cur = z[:, s0:]
@@ -252,8 +249,7 @@ def sufficient_statistics(
             head[:] = z[:, :p]
     if p:
         tail[:] = block(n - p, n)
-    mean = total / n
-    measured_std = np.sqrt(np.maximum(total_sq / n - mean**2, 0.0))
+    measured_std = measured.std(axis=0)
     return SufficientStatistics(
         lagged=lagged,
         head=head,

@@ -261,9 +261,10 @@ class Priors:
             out = out + np.sum(self.ar.log_pdf(rho), axis=(-2, -1))
         return out
 
-    def describe(self) -> str:
-        """Readable statement of all priors, for reports."""
-        return "\n".join([self.coefficients.describe(), self.noise.describe(), self.ar.describe()])
+    def describe(self, include_ar: bool = True) -> str:
+        """Readable statement of all priors, for reports (``include_ar=False`` for white noise)."""
+        parts = [self.coefficients.describe(), self.noise.describe()]
+        return "\n".join(parts + [self.ar.describe()] if include_ar else parts)
 
 
 def default_coefficient_scales(term_rms, reference_force_rms) -> np.ndarray:

@@ -208,7 +208,9 @@ def compare_evidence(results: Mapping[str, object], priors=None, rng=None, n_dra
     pandas.DataFrame
     """
     names = list(results)
-    per = {name: ([] if r is None else (list(r) if isinstance(r, (list, tuple)) else [r])) for name, r in results.items()}
+    per = {
+        name: ([] if r is None else (list(r) if isinstance(r, (list, tuple)) else [r])) for name, r in results.items()
+    }
     labels: list[str] = []
     for rs in per.values():
         for r in rs:

@@ -108,8 +108,8 @@ class PosteriorSamples:
         Returns
         -------
         xarray.DataTree
-            Group ``posterior`` with ``coefficient`` (chain, draw, term), ``sigma`` (chain,
-            draw, channel) and, for AR likelihoods, ``rho`` (chain, draw, channel[, lag]);
+            Group ``posterior`` with ``coefficient`` (chain, draw, term; absent when q = 0),
+            ``sigma`` (chain, draw, channel) and, for AR likelihoods, ``rho`` (chain, draw, channel[, lag]);
             group ``sample_stats`` with ``lp`` (chain, draw).
 
         Notes
@@ -120,9 +120,13 @@ class PosteriorSamples:
         """
         from arviz_base import from_dict
 
-        posterior = {"coefficient": self.coefficients, "sigma": self.sigma}
-        dims = {"coefficient": ["term"], "sigma": ["channel"]}
-        coords = {"term": list(self.coefficient_names), "channel": list(self.channel_names)}
+        posterior = {"sigma": self.sigma}
+        dims = {"sigma": ["channel"]}
+        coords = {"channel": list(self.channel_names)}
+        if self.n_coefficients:  # a linear-only candidate has no coefficient variable
+            posterior = {"coefficient": self.coefficients, **posterior}
+            dims["coefficient"] = ["term"]
+            coords["term"] = list(self.coefficient_names)
         if self.ar_order == 1:
             posterior["rho"] = self.rho[..., 0]
             dims["rho"] = ["channel"]

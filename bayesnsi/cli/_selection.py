@@ -1,0 +1,149 @@
+"""Selection pipeline shared by ``select``, ``demo`` and ``diagnose``: NSI + evidence + ranking."""
+
+from __future__ import annotations
+
+import time
+import warnings
+
+import numpy as np
+
+from ..exceptions import BayesNSIError, InputDataError
+from ..nsi import affine_reconstruction
+from ._common import identify_all, progress
+
+__all__ = ["EVIDENCE_DEFAULTS", "evidence_options", "select_all", "evaluate_evidence"]
+
+EVIDENCE_DEFAULTS = {
+    "likelihood": "ar1",
+    "compare": ["white"],
+    "n_walkers": 32,
+    "n_steps": 1500,
+    "n_burn": 300,
+    "reference_force_rms": None,
+}
+
+
+def evidence_options(config) -> dict:
+    """The ``[evidence]`` table merged over :data:`EVIDENCE_DEFAULTS` (unknown keys refused)."""
+    raw = dict(config.evidence_settings or {})
+    unknown = sorted(set(raw) - set(EVIDENCE_DEFAULTS))
+    if unknown:
+        raise InputDataError(
+            f"{config.path}: [evidence] has unknown key(s) {unknown}; allowed: {sorted(EVIDENCE_DEFAULTS)}"
+        )
+    opts = {**EVIDENCE_DEFAULTS, **raw}
+    compare = opts["compare"]
+    opts["compare"] = [compare] if isinstance(compare, str) else list(compare)
+    for lik in [opts["likelihood"], *opts["compare"]]:
+        if lik not in ("white", "ar1") and not (lik.startswith("ar") and lik[2:].isdigit()):
+            raise InputDataError(f"[evidence] likelihood {lik!r} unknown; use 'white', 'ar1' or 'arP' (P an integer)")
+    return opts
+
+
+def evaluate_evidence(result, signals, opts, seed_sequence, candidate=None):
+    """Evidence of one identified candidate under each requested likelihood.
+
+    Returns
+    -------
+    dict likelihood -> EvidenceResult
+    """
+    from ..evidence import default_priors, marginal_evidence
+
+    candidate = candidate or result.candidate
+    affine = affine_reconstruction(result, signals)
+    u = result.extended_input(signals)
+    m = len(result.input_dofs)
+    term_rms = np.sqrt(np.mean(u[:, m:] ** 2, axis=0))
+    force_ref = opts["reference_force_rms"] or float(np.sqrt(np.sum(np.mean(np.asarray(signals.force) ** 2, axis=0))))
+    overrides = {t.name: s for t, s in zip(candidate.terms, candidate.coefficient_prior_scales) if s is not None}
+    priors = default_priors(affine, term_rms, force_ref, overrides=overrides, channel_names=signals.output_names)
+    out = {}
+    likelihoods = [opts["likelihood"]] + [lik for lik in opts["compare"] if lik != opts["likelihood"]]
+    for lik, child in zip(likelihoods, seed_sequence.spawn(len(likelihoods))):
+        out[lik] = marginal_evidence(
+            affine,
+            priors,
+            likelihood=lik,
+            rng=np.random.default_rng(child),
+            n_walkers=int(opts["n_walkers"]),
+            n_steps=int(opts["n_steps"]),
+            n_burn=int(opts["n_burn"]),
+        )
+    return out
+
+
+def select_all(config, signals, quiet=False):
+    """Identify every candidate, compute evidences and rank (SPEC 6).
+
+    Returns
+    -------
+    results : dict name -> NSIResult
+    records : list of dict (results.json candidate records with evidence fields)
+    evidences : dict name -> dict likelihood -> EvidenceResult
+    table : pandas.DataFrame (plain ranking and posterior probabilities side by side)
+    opts : dict (evidence settings used)
+    """
+    from ..evidence import compare_evidence
+
+    opts = evidence_options(config)
+    results, records = identify_all(config, signals, quiet=quiet)
+    seeds = np.random.SeedSequence(config.seed).spawn(len(config.candidates))
+    evidences = {}
+    for record, candidate, seed in zip(records, config.candidates, seeds):
+        if record["status"] != "ok":
+            continue
+        start = time.perf_counter()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                evidences[candidate.name] = evaluate_evidence(results[candidate.name], signals, opts, seed, candidate)
+            except BayesNSIError as err:
+                record.update(status="failed", error=f"evidence: {type(err).__name__}: {err}")
+                results.pop(candidate.name)
+                progress(f"{candidate.name}: evidence failed - {err}", quiet)
+                continue
+        record.setdefault("warnings", []).extend(str(w.message) for w in caught)
+        primary = evidences[candidate.name][opts["likelihood"]]
+        progress(
+            f"{candidate.name}: log Z ({opts['likelihood']}) = {primary.log_evidence:.2f} ± {primary.log_evidence_se:.2f}"
+            f" ({time.perf_counter() - start:.1f} s)",
+            quiet,
+        )
+    table = compare_evidence(
+        {c.name: list(evidences[c.name].values()) if c.name in evidences else None for c in config.candidates},
+        priors=[c.prior for c in config.candidates],
+        rng=np.random.default_rng(np.random.SeedSequence(config.seed).spawn(len(config.candidates) + 1)[-1]),
+    )
+    lik = opts["likelihood"]
+    for record in records:
+        name = record["name"]
+        row = table.loc[name]
+        record["log_likelihood_gaussian"] = _finite(row["log_likelihood_plain"])
+        record["posterior_gaussian"] = float(row["p_plain"])
+        if name in evidences:
+            ev = evidences[name][lik]
+            record.update(
+                log_evidence=ev.log_evidence,
+                log_evidence_se=ev.log_evidence_se,
+                log_evidence_laplace=ev.laplace_log_evidence,
+                log_evidence_closed_form=ev.closed_form_log_evidence,
+                posterior=float(row[f"p_{lik}"]),
+                posterior_sd=float(row[f"p_{lik}_sd"]),
+                rhat_max=ev.rhat_max,
+                ess_min=ev.ess_min,
+                likelihood=lik,
+                evidence_by_likelihood={
+                    k: {"log_evidence": e.log_evidence, "log_evidence_se": e.log_evidence_se, "posterior": float(row[f"p_{k}"])}
+                    for k, e in evidences[name].items()
+                },
+            )
+            for coef, ci in zip(record["coefficients"], ev.ci95):
+                coef["ci95"] = [float(ci[0]), float(ci[1])]
+        else:
+            record.update(log_evidence=None, log_evidence_se=None, posterior=0.0, rhat_max=None, ess_min=None)
+    return results, records, evidences, table, opts
+
+
+def _finite(value):
+    value = float(value)
+    return value if np.isfinite(value) else None

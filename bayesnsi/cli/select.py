@@ -1,0 +1,58 @@
+"""``bayesnsi select CONFIG --out DIR``: NSI of every candidate, evidence, ranking, report."""
+
+from __future__ import annotations
+
+from ..io import RESULTS_FILENAME, atomic_write_json, load_config, load_signals, prepare_output_dir, to_jsonable, versions
+from ._common import progress
+from ._report import identification_report, selection_sections
+from ._selection import select_all
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub) -> None:
+    """Register the subcommand."""
+    p = sub.add_parser(
+        "select",
+        help="identify every candidate and rank them by Bayesian evidence",
+        description="Identify every candidate of CONFIG by NSI, compute the paper's plain Gaussian ranking "
+        "and the marginal evidence (emcee + bridge sampling) under the chosen residual model, and write "
+        "DIR/results.json and DIR/report.html.",
+        epilog="example: bayesnsi select two_dof.toml --out results/two_dof",
+    )
+    p.add_argument("config", help="experiment config (TOML)")
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--force", action="store_true", help="overwrite an existing results.json in DIR")
+    p.add_argument("--quiet", action="store_true", help="no progress messages")
+    p.add_argument("--no-figures", action="store_true", help="skip the report")
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    """Execute the command."""
+    config = load_config(args.config)
+    out = prepare_output_dir(args.out, force=args.force)
+    signals = load_signals(config)
+    progress(f"{len(config.candidates)} candidates, {signals.n_samples} samples at {signals.fs:g} Hz", args.quiet)
+    results, records, evidences, table, opts = select_all(config, signals, quiet=args.quiet)
+    ranked = [r for r in records if r.get("posterior") is not None and r["status"] == "ok"]
+    selected = max(ranked, key=lambda r: r["posterior"])["name"] if ranked else None
+    payload = {
+        "command": "select",
+        "config": str(config.path),
+        "selected": selected,
+        "selected_gaussian": max(records, key=lambda r: r.get("posterior_gaussian") or 0.0)["name"] if ranked else None,
+        "likelihood": opts["likelihood"],
+        "candidates": records,
+        "ranking": to_jsonable(table.reset_index().to_dict(orient="records")),
+        "settings": {"config": config.raw, "seed": config.seed, "evidence": opts},
+        "versions": versions(),
+    }
+    path = atomic_write_json(out / RESULTS_FILENAME, to_jsonable(payload))
+    progress(f"selected: {selected}", args.quiet)
+    if not args.no_figures:
+        report = identification_report(config, signals, results, records, f"bayesnsi select - {config.path.name}")
+        selection_sections(report, signals, results, evidences, table, opts, selected)
+        progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
+    progress(f"wrote {path}", args.quiet)
+    return 0

@@ -1,0 +1,103 @@
+"""Figures of a model selection: probabilities, reconstruction errors, posteriors."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+__all__ = ["plot_model_probabilities", "plot_reconstruction_errors", "plot_posterior_pairs", "plot_traces"]
+
+
+def plot_model_probabilities(table, ax=None):
+    """Posterior model probabilities per ranking (plain Eq. 4 and evidence per likelihood).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        From :func:`bayesnsi.evidence.ranking_table` (columns ``p_plain``, ``p_<likelihood>``
+        and ``p_<likelihood>_sd``).
+    """
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(6.5, 3.8), layout="constrained")
+    else:
+        fig = ax.figure
+    columns = [c for c in table.columns if c.startswith("p_") and not c.endswith("_sd")]
+    width = 0.8 / len(columns)
+    x = np.arange(len(table))
+    for k, col in enumerate(columns):
+        sd = table[f"{col}_sd"] if f"{col}_sd" in table else None
+        label = "plain (paper Eq. 4)" if col == "p_plain" else f"evidence, {col[2:]} residuals"
+        ax.bar(x + k * width, table[col], width, yerr=sd, label=label, capsize=3)
+    ax.set_xticks(x + width * (len(columns) - 1) / 2, table.index, rotation=15)
+    ax.set_ylabel("P(model | data)")
+    ax.set_ylim(0, 1.05)
+    ax.legend(fontsize=8)
+    ax.set_title("Posterior model probabilities")
+    return fig
+
+
+def plot_reconstruction_errors(reconstructions, fs: float, channel: int = 0, max_seconds: float | None = None):
+    """Reconstruction error time histories per candidate (paper Figs. 9, 13).
+
+    Parameters
+    ----------
+    reconstructions : mapping name -> Reconstruction
+    fs : float
+        Sampling frequency [Hz].
+    channel : int
+        Output channel shown.
+    max_seconds : float, optional
+        Show only the first seconds.
+    """
+    n = len(reconstructions)
+    fig, axes = plt.subplots(n, 1, figsize=(7.0, 1.8 * n + 0.6), sharex=True, sharey=True, squeeze=False, layout="constrained")
+    for ax, (name, rec) in zip(axes[:, 0], reconstructions.items()):
+        err = rec.residual[:, channel]
+        t = np.arange(len(err)) / fs
+        if max_seconds:
+            keep = t <= max_seconds
+            t, err = t[keep], err[keep]
+        ax.plot(t, err, lw=0.6)
+        ax.set_ylabel("error")
+        ax.set_title(f"{name}: NRMSE {rec.nrmse_per_channel[channel]:.4f}", fontsize=9)
+    axes[-1, 0].set_xlabel("time [s]")
+    return fig
+
+
+def plot_posterior_pairs(posterior, max_params: int = 4):
+    """Corner plot of the coefficient posterior (emcee draws, all walkers pooled)."""
+    draws = posterior.coefficients.reshape(-1, posterior.coefficients.shape[-1])[:, :max_params]
+    names = list(posterior.coefficient_names)[:max_params]
+    q = draws.shape[1]
+    fig, axes = plt.subplots(q, q, figsize=(2.4 * q + 0.6, 2.4 * q + 0.4), squeeze=False, layout="constrained")
+    for i in range(q):
+        for j in range(q):
+            ax = axes[i, j]
+            if j > i:
+                ax.set_visible(False)
+            elif i == j:
+                ax.hist(draws[:, i], bins=40, color="C0", alpha=0.8)
+            else:
+                ax.plot(draws[::5, j], draws[::5, i], ",", alpha=0.3)
+            if i == q - 1:
+                ax.set_xlabel(names[j], fontsize=8)
+            if j == 0 and i > 0:
+                ax.set_ylabel(names[i], fontsize=8)
+            ax.tick_params(labelsize=7)
+    return fig
+
+
+def plot_traces(posterior, max_params: int = 4):
+    """Trace of each coefficient for a few walkers (chains)."""
+    coefs = posterior.coefficients[..., :max_params]
+    names = list(posterior.coefficient_names)[:max_params]
+    fig, axes = plt.subplots(len(names), 1, figsize=(7.0, 1.6 * len(names) + 0.5), squeeze=False, layout="constrained")
+    for k, ax in enumerate(axes[:, 0]):
+        for chain in range(min(6, coefs.shape[0])):
+            ax.plot(coefs[chain, :, k], lw=0.5)
+        ax.set_ylabel(names[k], fontsize=8)
+    axes[-1, 0].set_xlabel("draw (after burn-in)")
+    return fig

@@ -158,7 +158,7 @@ class NSISettings:
     order: int | str = "auto"
     band_hz: tuple[float, float] | None = None
     velocity_method: str = "fourth"
-    bd_method: str = "robust"
+    bd_method: str = "output-error"
     max_order: int = 40
     zero_feedthrough: bool = True
     input_hold: str = "auto"

@@ -1,9 +1,12 @@
 """Output-error refinement of B, D and x₀ with A, C fixed (SPEC sections 3 and 10).
 
-``y_k = C A^k x₀ + Σ_{τ<k} C A^{k-1-τ} B u_τ + D u_k`` is linear in (x₀, B, D). The regressors
-are built in modal coordinates (``A = V Λ V⁻¹``): each input drives n first-order filters
-(``scipy.signal.lfilter``), so the cost is O(N n (n + m)) per output channel and the normal
-equations are accumulated channel by channel (memory O(N n m), independent of l).
+``y_k = C A^k x₀ + Σ_{τ<k} C A^{k-1-τ} B u_τ + D u_k`` is linear in (x₀, B, D). In modal
+coordinates (``A = V Λ V⁻¹``) every regressor of every output channel is a fixed real linear
+combination of a few basis signals: the real and imaginary parts of each input filtered by each
+mode (``z_{k+1} = λ z_k + u_k``), of the free responses ``λ^k``, and the inputs themselves.
+So one Gram matrix of those basis signals, accumulated in chunks (the recursive filters carry
+their state across chunks), gives the normal equations of all outputs: time O(N (nm)²), memory
+independent of N.
 """
 
 from __future__ import annotations
@@ -12,6 +15,37 @@ import numpy as np
 from scipy import signal as _signal
 
 __all__ = ["refine_output_error"]
+
+_CHUNK = 8192
+
+
+def _basis_gram(lam: np.ndarray, u: np.ndarray, y: np.ndarray):
+    """Gram of the basis signals ``S = [Re F, Im F, Re P, Im P, u]`` and ``Sᵀ y``.
+
+    ``F[:, c·n + p]`` is input c filtered by mode p (zero initial state), ``P[:, p] = λ_p^k``.
+    """
+    n, m = len(lam), u.shape[1]  # n: modes kept
+    width = 2 * n * m + 2 * n + m
+    gram = np.zeros((width, width))
+    cross = np.zeros((width, y.shape[1]))
+    state = np.zeros((m, n), dtype=complex)
+    log_lam = np.log(lam.astype(complex))
+    a = np.array([1.0, 0.0], dtype=complex)
+    for start in range(0, len(u), _CHUNK):
+        stop = min(start + _CHUNK, len(u))
+        uc = u[start:stop]
+        filtered = np.empty((stop - start, m, n), dtype=complex)
+        for c in range(m):
+            for p, lp in enumerate(lam):
+                a[1] = -lp
+                filtered[:, c, p], zf = _signal.lfilter([0.0, 1.0], a, uc[:, c], zi=state[c, p : p + 1])
+                state[c, p] = zf[0]
+        filtered = filtered.reshape(stop - start, n * m)
+        powers = np.exp(np.arange(start, stop)[:, None] * log_lam[None, :])
+        basis = np.hstack([filtered.real, filtered.imag, powers.real, powers.imag, uc])
+        gram += basis.T @ basis
+        cross += basis.T @ y[start:stop]
+    return gram, cross
 
 
 def refine_output_error(A, C, u, y, dt, zero_feedthrough=True):
@@ -24,6 +58,7 @@ def refine_output_error(A, C, u, y, dt, zero_feedthrough=True):
     u : ndarray, shape (N, m)
     y : ndarray, shape (N, l)
     dt : float
+        Sampling interval [s] (unused by the algebra; kept for a uniform signature).
     zero_feedthrough : bool
         Impose D = 0 (displacement outputs).
 
@@ -34,30 +69,39 @@ def refine_output_error(A, C, u, y, dt, zero_feedthrough=True):
     x0 : ndarray, shape (n,)
     """
     n, m, l = A.shape[0], u.shape[1], y.shape[1]
-    lam, vec = np.linalg.eig(A)
-    vinv = np.linalg.inv(vec)
-    cm = C @ vec
-    filtered = np.empty((m, len(u), n), dtype=complex)
-    for c in range(m):
-        for p, lp in enumerate(lam):
-            filtered[c, :, p] = _signal.lfilter([0.0, 1.0], [1.0, -lp], u[:, c])
-    powers = np.exp(np.arange(len(u))[:, None] * np.log(lam.astype(complex))[None, :])
+    lam_all, vec = np.linalg.eig(A)
+    vinv_all = np.linalg.inv(vec)
+    cm_all = C @ vec
+    # A real system's complex modes come in conjugate pairs whose contributions are complex
+    # conjugates: keep one of each pair with weight 2 (halves the basis).
+    keep = lam_all.imag > 0
+    real = np.abs(lam_all.imag) <= 1e-12 * np.abs(lam_all)
+    keep |= real
+    factor = np.where(real[keep], 1.0, 2.0)
+    lam, vinv, cm = lam_all[keep], vinv_all[keep] * factor[:, None], cm_all[:, keep]
+    gram, cross = _basis_gram(lam, np.asarray(u, dtype=float), np.asarray(y, dtype=float))
+    n_modes = len(lam)
     n_b, n_d = n * m, (0 if zero_feedthrough else l * m)
     size = n_b + n_d + n
+    width = gram.shape[0]
     normal = np.zeros((size, size))
     rhs = np.zeros(size)
     for o in range(l):
-        blocks = [((filtered[c] * cm[o]) @ vinv).real for c in range(m)]  # each (N, n): d y_o / d B[:, c]
-        phi_b = np.stack(blocks, axis=2).reshape(len(u), n_b)  # column r*m + c <-> B[r, c]
-        parts = [phi_b]
+        # Regressor of output o = basis @ weights: Re(F_c w) = Re(F_c) Re(w) - Im(F_c) Im(w).
+        weights = np.zeros((width, size))
+        modal = cm[o][:, None] * vinv  # (modes, n states): d y_o / d B[r, c] per mode p
+        k = n_modes
+        for c in range(m):
+            cols = np.arange(n) * m + c  # parameter index r*m + c <-> B[r, c]
+            weights[c * k : (c + 1) * k, cols] = modal.real
+            weights[k * m + c * k : k * m + (c + 1) * k, cols] = -modal.imag
+        free = 2 * k * m
+        weights[free : free + k, n_b + n_d :] = modal.real
+        weights[free + k : free + 2 * k, n_b + n_d :] = -modal.imag
         if n_d:
-            phi_d = np.zeros((len(u), n_d))
-            phi_d[:, o * m : (o + 1) * m] = u
-            parts.append(phi_d)
-        parts.append(((powers * cm[o]) @ vinv).real)
-        phi = np.hstack(parts)
-        normal += phi.T @ phi
-        rhs += phi.T @ y[:, o]
+            weights[free + 2 * k + np.arange(m), n_b + o * m + np.arange(m)] = 1.0
+        normal += weights.T @ gram @ weights
+        rhs += weights.T @ cross[:, o]
     scale = np.sqrt(np.diag(normal))
     scale[scale == 0] = 1.0
     theta = np.linalg.lstsq(normal / np.outer(scale, scale), rhs / scale, rcond=None)[0] / scale

@@ -299,7 +299,7 @@ def identify(
     band_hz: tuple[float, float] | None = None,
     velocity_method: str = "fourth",
     route: str = "correlation",
-    bd_method: str = "robust",
+    bd_method: str = "output-error",
     zero_feedthrough: bool = True,
     input_hold: str = "auto",
 ) -> NSIResult:

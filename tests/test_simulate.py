@@ -411,7 +411,7 @@ def test_cases_are_reproducible_and_batched_runs_equal_single_runs():
 
 
 def test_registry_and_noise_override():
-    assert set(CASES) == {"two-dof", "beam", "negative-stiffness"}
+    assert set(CASES) == {"two-dof", "beam", "negative-stiffness", "three-dof"}
     quiet = simulate_case("two-dof", SEED, noise_percent=0.0, duration=2.0)
     np.testing.assert_array_equal(quiet.signals.displacement, quiet.clean.displacement)
     assert quiet.signals.n_samples == 200
@@ -486,3 +486,39 @@ def test_negative_stiffness_case_contents():
     z = case.clean.displacement[:, 0]
     assert z.max() < -p["w_lower"]  # the default seed stays in the lower well ...
     assert z.max() > 0.3 * -p["w_lower"]  # ... with large excursions
+
+
+def test_three_dof_case_contents():
+    from scipy.linalg import eig
+
+    from bayesnsi.simulate.cases import three_dof
+
+    case = three_dof(SEED, duration=2.0)
+    assert case.name == "three-dof" and CASES["three-dof"] is three_dof
+    sig = case.signals
+    assert sig.input_dofs == (3,) and sig.output_dofs == (1, 2, 3) and sig.fs == 100.0
+    assert sig.displacement.shape == sig.velocity.shape == (200, 3)
+    # exact modes against the generalised eigenproblem of the pencil [[0, I], [-K, -C]] - s [[I, 0], [0, M]]
+    m, k, c = np.array([1.0, 1.5, 1.2]), np.array([800.0, 1000.0, 900.0]), np.ones(3)
+    K = np.diag(k + np.append(k[1:], 0.0)) - np.diag(k[1:], 1) - np.diag(k[1:], -1)
+    C = np.diag(c + np.append(c[1:], 0.0)) - np.diag(c[1:], 1) - np.diag(c[1:], -1)
+    np.testing.assert_array_equal(case.K, K)
+    np.testing.assert_array_equal(case.C, C)
+    eye, zero = np.eye(3), np.zeros((3, 3))
+    s = eig(np.block([[zero, eye], [-K, -C]]), np.block([[eye, zero], [zero, np.diag(m)]]), right=False)
+    s = np.sort_complex(s[s.imag > 0])
+    s = s[np.argsort(np.abs(s))]
+    np.testing.assert_allclose(case.exact_frequencies_hz, np.abs(s) / (2 * np.pi), rtol=1e-10)
+    np.testing.assert_allclose(case.exact_damping_ratios, -s.real / np.abs(s), rtol=1e-8)
+    np.testing.assert_array_equal(np.round(case.exact_frequencies_hz, 3), [1.848, 5.493, 7.943])
+    assert [c.name for c in case.candidates] == ["model 1", "model 2", "model 3", "model 4"]
+    terms = [[(t.expr.canonical, t.at) for t in cand.terms] for cand in case.candidates]
+    assert terms == [
+        [("(x1-x2)**3", (1, 2))],
+        [("x1**3", (1,))],
+        [("v1*abs(v1)", (1,))],
+        [("(x1-x2)**3", (1, 2)), ("x1**3", (1,))],
+    ]
+    assert case.true_model == "model 1" and case.candidate("model 1").terms == case.true_terms
+    np.testing.assert_array_equal(case.true_coefficients, [2.0e5])
+    assert case.recommended == {"block_rows": 40, "order": 6}

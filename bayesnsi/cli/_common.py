@@ -1,18 +1,18 @@
-"""Orchestration shared by the commands: identify candidates from a config, save figures."""
+"""Orchestration shared by the commands: identify the candidates of a config, progress lines."""
 
 from __future__ import annotations
 
 import sys
 import time
 import warnings
-from pathlib import Path
+
+import numpy as np
 
 from ..exceptions import BayesNSIError
-from ..io import atomic_open
 from ..io.schema import candidate_record, failed_candidate_record
 from ..nsi import identify
 
-__all__ = ["identify_all", "save_figure", "progress"]
+__all__ = ["identify_all", "nsi_options", "progress"]
 
 
 def progress(message: str, quiet: bool) -> None:
@@ -53,7 +53,7 @@ def identify_all(config, signals, quiet=False):
             try:
                 result = identify(signals, candidate, **options)
                 reconstruction = result.reconstruct(signals)
-            except BayesNSIError as err:
+            except (BayesNSIError, np.linalg.LinAlgError) as err:
                 records.append(failed_candidate_record(candidate, err))
                 progress(f"[{k}/{len(config.candidates)}] {candidate.name}: failed - {err}", quiet)
                 continue
@@ -68,13 +68,3 @@ def identify_all(config, signals, quiet=False):
             quiet,
         )
     return results, records
-
-
-def save_figure(fig, path: Path) -> Path:
-    """Save a Figure atomically as PNG and close it."""
-    import matplotlib.pyplot as plt
-
-    with atomic_open(path, "wb") as fh:
-        fig.savefig(fh, format="png", dpi=110)
-    plt.close(fig)
-    return path

@@ -101,8 +101,12 @@ def extended_input(
             raise InputDataError(
                 f"term {term.name} gives NaN/Inf on the data (e.g. division by zero); rewrite the expression"
             )
-        if np.ptp(value) == 0:
-            raise NotIdentifiableError(f"term {term.name} is constant on the data, so its coefficient is not identifiable")
+        spread = np.std(value)
+        if not spread > 1e-150 * max(1.0, float(np.max(np.abs(value)))) or not np.isfinite(1.0 / spread):
+            raise NotIdentifiableError(
+                f"term {term.name} is constant (or numerically zero) on the data, so its coefficient is not "
+                "identifiable; remove it or check the expression"
+            )
         columns.append(value[:, None])
     return np.hstack(columns)
 

@@ -12,6 +12,7 @@ name                        function                          paper
 ``"two-dof"``               :func:`two_dof`                   III.A, Tables 1-4
 ``"beam"``                  :func:`cantilever_beam_case`      III.B, Tables 5-7
 ``"negative-stiffness"``    :func:`negative_stiffness_twin`   IV, Eqs. 34-38, Tables 8-10
+``"three-dof"``             :func:`three_dof`                 (none: added, paper-style)
 ==========================  ================================  ===========================
 """
 
@@ -35,6 +36,7 @@ __all__ = [
     "cantilever_beam_case",
     "negative_stiffness_twin",
     "negative_stiffness_parameters",
+    "three_dof",
     "CASES",
     "simulate_case",
     "simulate_cases",
@@ -48,6 +50,7 @@ _F_TWIN_HZ = 11.4  # Hz, natural frequency about the lower well
 _ALPHA1 = 1.16  # N, friction amplitude (multiplies sign(ż)·g)
 _ALPHA2 = 4.61  # N s²/m², quadratic damping
 _TWIN_TABLE_RMS = 35.0  # m/s², default rms of the white table acceleration (tuned, see docstring)
+_K3_THREE_DOF = 2.0e5  # N/m³, cubic spring between DOFs 1 and 2 of the three-DOF case (see three_dof)
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,7 +60,7 @@ class ReferenceCase:
     Attributes
     ----------
     name : str
-        Registry name (``"two-dof"``, ``"beam"``, ``"negative-stiffness"``).
+        Registry name (``"two-dof"``, ``"beam"``, ``"negative-stiffness"``, ``"three-dof"``).
     signals : Signals
         Measured data: force [N] at ``input_dofs``, noisy displacement [m] and noisy velocity
         [m/s] at ``output_dofs`` (noise std = ``noise_percent`` % of each channel's std,
@@ -349,6 +352,59 @@ def negative_stiffness_twin(
     )[0]
 
 
+def three_dof(
+    seed=0,
+    noise_percent: float = 2.0,
+    duration: float = 20.0,
+    fs: float = 100.0,
+    oversample: int = 8,
+    force_rms: float = 10.0,
+) -> ReferenceCase:
+    """Three-DOF chain with a cubic spring between DOFs 1 and 2 (not in the paper; paper-style).
+
+    Parameters
+    ----------
+    seed : int or numpy.random.Generator
+        Seed of the force and the noise.
+    noise_percent : float
+        Output noise std as a percentage of each channel's std.
+    duration : float
+        Record length [s].
+    fs : float
+        Sampling frequency [Hz].
+    oversample : int
+        Fine-grid factor (even); RK4 step ``2 / (fs * oversample)`` (2.5 ms by default, as
+        for :func:`two_dof`; highest mode 7.94 Hz).
+    force_rms : float
+        Rms of the white Gaussian force at DOF 3 [N].
+
+    Returns
+    -------
+    ReferenceCase
+
+    Notes
+    -----
+    Ground–k1–m1–k2–m2–k3–m3 with m = (1, 1.5, 1.2) kg, k = (800, 1000, 900) N/m and
+    c = (1, 1, 1) N s/m (dampers in parallel with the springs), plus the cubic spring
+    k_nl·(x1 - x2)³ acting between DOFs 1 and 2 (term ``(x1-x2)**3`` at ``[1, 2]``) with
+    k_nl = 2e5 N/m³. Exact linear modes 1.848 Hz / 0.67 %, 5.493 Hz / 1.97 %,
+    7.943 Hz / 2.66 %. Gaussian white force of rms 10 N at DOF 3; all three DOFs measured
+    (displacement and velocity).
+
+    Size of the nonlinearity (measured over seeds 0-15 with the defaults): the relative
+    displacement x1 - x2 has an std of ≈ 15 mm (peaks ≈ 40 mm), so the rms of the cubic force
+    is ≈ 14 % of the rms of the linear spring force k2·(x1 - x2) (6-31 % between seeds: the
+    lightly damped 1.85 Hz mode makes the amplitude vary from record to record);
+    k_nl·std² / k2 ≈ 5 %.
+
+    Candidates: model 1 {(x1-x2)³ at [1, 2]} (true), model 2 {x1³ at 1}, model 3
+    {v1|v1| at 1}, model 4 {(x1-x2)³ at [1, 2], x1³ at 1} (a superset of the true model).
+    """
+    return simulate_cases(
+        "three-dof", [seed], noise_percent, duration=duration, fs=fs, oversample=oversample, force_rms=force_rms
+    )[0]
+
+
 def negative_stiffness_parameters(damping_ratio: float = 0.05) -> dict:
     """Physical parameters of the negative-stiffness twin (SPEC 8.3).
 
@@ -388,7 +444,7 @@ def simulate_case(name: str, seed=0, noise_percent: float | None = None, **kwarg
 
     Parameters
     ----------
-    name : {"two-dof", "beam", "negative-stiffness"}
+    name : {"two-dof", "beam", "negative-stiffness", "three-dof"}
     seed : int or numpy.random.Generator
     noise_percent : float, optional
         Output noise [%]; the case's default when None.
@@ -408,7 +464,7 @@ def simulate_cases(
 
     Parameters
     ----------
-    name : {"two-dof", "beam", "negative-stiffness"}
+    name : {"two-dof", "beam", "negative-stiffness", "three-dof"}
     seeds : sequence of int or numpy.random.Generator
         One realisation per seed; each is identical (to rounding) to ``simulate_case(name,
         seed)``.
@@ -555,17 +611,49 @@ def _twin_setup(
     )
 
 
+def _three_dof_setup(duration=20.0, fs=100.0, oversample=8, force_rms=10.0):
+    M, C, K = chain_system([1.0, 1.5, 1.2], [800.0, 1000.0, 900.0], [1.0, 1.0, 1.0])
+    n_samples = _n_samples(duration, fs)
+    cands = (
+        CandidateModel.from_terms("model 1", [("(x1-x2)**3", [1, 2])]),
+        CandidateModel.from_terms("model 2", [("x1**3", 1)]),
+        CandidateModel.from_terms("model 3", [("v1*abs(v1)", 1)]),
+        CandidateModel.from_terms("model 4", [("(x1-x2)**3", [1, 2]), ("x1**3", 1)]),
+    )
+    return _Setup(
+        name="three-dof",
+        title="Three-DOF chain with a cubic spring between DOFs 1 and 2 (paper-style, not in the paper)",
+        M=M,
+        C=C,
+        K=K,
+        terms=cands[0].terms,
+        coefficients=np.array([_K3_THREE_DOF]),
+        true_model="model 1",
+        force_dofs=(3,),
+        output_dofs=(1, 2, 3),
+        candidates=cands,
+        recommended={"block_rows": 40, "order": 6},
+        make_excitation=lambda rng: band_limited_gaussian(n_samples, fs, force_rms, rng, oversample=oversample),
+        force_factor=1.0,
+        fs=fs,
+        oversample=oversample,
+        settings={"force_rms_N": force_rms, "c1 = c2 = c3 [N s/m]": 1.0},
+    )
+
+
 _SETUPS: dict[str, Callable[..., _Setup]] = {
     "two-dof": _two_dof_setup,
     "beam": _beam_setup,
     "negative-stiffness": _twin_setup,
+    "three-dof": _three_dof_setup,
 }
-_DEFAULT_NOISE = {"two-dof": 2.0, "beam": 1.0, "negative-stiffness": 1.0}
+_DEFAULT_NOISE = {"two-dof": 2.0, "beam": 1.0, "negative-stiffness": 1.0, "three-dof": 2.0}
 
 CASES: dict[str, Callable[..., ReferenceCase]] = {
     "two-dof": two_dof,
     "beam": cantilever_beam_case,
     "negative-stiffness": negative_stiffness_twin,
+    "three-dof": three_dof,
 }
 """Registry of the reference cases: name -> case function."""
 

@@ -1,0 +1,93 @@
+"""Command line, in-process: simulate -> identify/select, results.json (SPEC 9), report, errors."""
+
+import json
+
+import pytest
+
+from bayesnsi.cli import main
+
+SPEC9_CANDIDATE_FIELDS = {
+    "name", "terms", "coefficients", "modes", "nrmse", "log_likelihood_gaussian", "posterior_gaussian",
+    "log_evidence", "log_evidence_se", "posterior", "rhat_max", "ess_min",
+}
+
+
+@pytest.fixture(scope="module")
+def two_dof_config(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("cli")
+    assert main(["simulate", "two-dof", "--seed", "3", "--out", str(folder / "two_dof.csv"), "--quiet"]) == 0
+    return folder / "two_dof.toml"
+
+
+def test_select_writes_spec9_results_and_report(two_dof_config, tmp_path):
+    out = tmp_path / "sel"
+    assert main(["select", str(two_dof_config), "--out", str(out), "--quiet"]) == 0
+    results = json.loads((out / "results.json").read_text())
+    assert results["selected"] == "model 1"
+    assert {"selected", "candidates", "settings", "versions"} <= set(results)
+    for cand in results["candidates"]:
+        assert SPEC9_CANDIDATE_FIELDS <= set(cand), SPEC9_CANDIDATE_FIELDS - set(cand)
+        for coef in cand["coefficients"]:
+            assert {"expr", "at", "value", "imag_ratio", "ci95"} <= set(coef)
+            assert coef["ci95"][0] <= coef["value"] <= coef["ci95"][1] or cand["name"] != "model 1"
+        for mode in cand["modes"]:
+            assert set(mode) == {"frequency_hz", "damping_ratio"}
+    probabilities = [c["posterior"] for c in results["candidates"]]
+    assert sum(probabilities) == pytest.approx(1.0)
+    assert results["candidates"][0]["posterior"] > 0.95
+    assert results["versions"]["numpy"]
+    html = (out / "report.html").read_text()
+    assert html.count("<table") >= 4 and html.count("<img") >= 8
+    assert "Posterior model probabilities" in html
+
+
+def test_identify_and_existing_output(two_dof_config, tmp_path, capsys):
+    out = tmp_path / "id"
+    assert main(["identify", str(two_dof_config), "--out", str(out), "--quiet", "--no-figures"]) == 0
+    first = (out / "results.json").read_bytes()
+    # a second run without --force refuses and keeps the earlier results
+    assert main(["identify", str(two_dof_config), "--out", str(out), "--quiet"]) == 2
+    assert "--force" in capsys.readouterr().err
+    assert (out / "results.json").read_bytes() == first
+
+
+def test_failed_candidate_is_reported_and_others_complete(two_dof_config, tmp_path):
+    text = two_dof_config.read_text()
+    text += '\n[[candidates]]\nname = "constant"\nterms = [{ expr = "x1 - x1 + 1e-300*x1", at = 1 }]\n'
+    config = tmp_path / "cfg.toml"
+    config.write_text(text.replace('file = "two_dof.csv"', f'file = "{two_dof_config.with_suffix(".csv")}"'))
+    out = tmp_path / "out"
+    assert main(["identify", str(config), "--out", str(out), "--quiet", "--no-figures"]) == 0
+    records = {c["name"]: c for c in json.loads((out / "results.json").read_text())["candidates"]}
+    assert records["constant"]["status"] == "failed" and "identifiable" in records["constant"]["error"]
+    assert records["model 1"]["status"] == "ok"
+
+
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (("block_rows = 60", "block_rows = 600"), "too few"),
+        (('expr = "v1*abs(v1)"', 'expr = "__import__(1)"'), "unknown name"),
+        (("[nsi]", "[nsi]\nbogus = 1"), "bogus"),
+    ],
+)
+def test_bad_input_exits_2_with_one_line(two_dof_config, tmp_path, capsys, edit, message):
+    config = tmp_path / "bad.toml"
+    text = two_dof_config.read_text().replace(*edit)
+    config.write_text(text.replace('file = "two_dof.csv"', f'file = "{two_dof_config.with_suffix(".csv")}"'))
+    code = main(["select", str(config), "--out", str(tmp_path / "o"), "--quiet"])
+    err = capsys.readouterr().err
+    if message == "too few":  # every candidate fails; the run itself completes and says so
+        assert code == 0
+        return
+    assert code == 2
+    assert message in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
+def test_help_lists_commands(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--help"])
+    assert exit_info.value.code == 0
+    out = capsys.readouterr().out
+    for command in ("simulate", "identify", "select", "demo"):
+        assert command in out

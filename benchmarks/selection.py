@@ -119,7 +119,7 @@ def stage_table(name, case):
             row = dict(t) if lik == LIKELIHOODS[0] else {}
             try:
                 ev, te = evidence(affine, priors, lik, child)
-                note = f"{ev.log_evidence:.2f} ± {ev.log_evidence_se:.2f} ({ev.rhat_max:.3f})"
+                note = f"{ev.log_evidence:.2f} ± {ev.log_evidence_se:.3f} ({ev.rhat_max:.3f})"
             except BayesNSIError as err:
                 te, note = {}, f"evidence FAILED: {type(err).__name__}: {str(err)[:60]}"
             row.update(te)

@@ -12,7 +12,16 @@ from ..exceptions import BayesNSIError
 from ..io.schema import candidate_record, failed_candidate_record
 from ..nsi import identify
 
-__all__ = ["identify_all", "nsi_options", "progress"]
+__all__ = ["add_run_arguments", "identify_all", "nsi_options", "progress"]
+
+
+def add_run_arguments(parser) -> None:
+    """Arguments shared by the commands that run a config: CONFIG, --out, --force, --quiet."""
+    parser.add_argument("config", help="experiment config (TOML)")
+    parser.add_argument("--out", required=True, help="output directory")
+    parser.add_argument("--force", action="store_true", help="overwrite an existing results.json in DIR")
+    parser.add_argument("--quiet", action="store_true", help="no progress messages")
+    parser.add_argument("--no-figures", action="store_true", help="skip the report and its figures")
 
 
 def progress(message: str, quiet: bool) -> None:

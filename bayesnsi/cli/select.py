@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..io import RESULTS_FILENAME, atomic_write_json, load_config, load_signals, prepare_output_dir, to_jsonable, versions
-from ._common import progress
+from ._common import add_run_arguments, progress
 from ._report import identification_report, selection_sections
 from ._selection import select_all
 
@@ -20,11 +20,7 @@ def add_parser(sub) -> None:
         "DIR/results.json and DIR/report.html.",
         epilog="example: bayesnsi select two_dof.toml --out results/two_dof",
     )
-    p.add_argument("config", help="experiment config (TOML)")
-    p.add_argument("--out", required=True, help="output directory")
-    p.add_argument("--force", action="store_true", help="overwrite an existing results.json in DIR")
-    p.add_argument("--quiet", action="store_true", help="no progress messages")
-    p.add_argument("--no-figures", action="store_true", help="skip the report")
+    add_run_arguments(p)
     p.set_defaults(run=run)
 
 

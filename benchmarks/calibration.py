@@ -43,7 +43,7 @@ AR(1)) and from the identification step; this study measures the end-to-end beha
 
 Run::
 
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/calibration.py            # 100 datasets per case
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/calibration.py            # 60 datasets per case
     .venv/bin/python benchmarks/calibration.py --quick                      # 8 per case (smoke run)
     .venv/bin/python benchmarks/calibration.py --seeds 60 --n-steps 800 --json out.json
 
@@ -251,7 +251,7 @@ def main(argv=None) -> int:
     from bayesnsi.cli._selection import EVIDENCE_DEFAULTS
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--seeds", type=int, default=100, help="datasets per case (default 100)")
+    ap.add_argument("--seeds", type=int, default=60, help="datasets per case (default 60: 15 per noise level)")
     ap.add_argument("--quick", action="store_true", help="smoke run: 8 datasets per case")
     ap.add_argument("--seed0", type=int, default=1000, help="first simulation seed (default 1000)")
     ap.add_argument("--cases", nargs="+", default=list(CASE_NAMES), choices=CASE_NAMES)

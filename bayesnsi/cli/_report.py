@@ -22,6 +22,24 @@ def _exact(config):
     return meta["exact_frequencies_hz"], meta.get("exact_damping_ratios"), coefs
 
 
+def first_result(results):
+    """The first successful result."""
+    return next(iter(results.values()))
+
+
+def _exact_frf(config, result, freqs):
+    """Exact H[out0, in0](ω) = [K - ω²M + jωC]⁻¹ from the simulated case's matrices, if known."""
+    meta = config.meta or {}
+    if not all(k in meta for k in ("M", "C", "K")):
+        return None
+    M, C, K = (np.asarray(meta[k], dtype=float) for k in ("M", "C", "K"))
+    if M.shape[0] < max(result.output_dofs[0], result.input_dofs[0]):
+        return None
+    omega = 2 * np.pi * np.asarray(freqs)
+    out, inp = result.output_dofs[0] - 1, result.input_dofs[0] - 1
+    return np.array([np.linalg.solve(K - w**2 * M + 1j * w * C, np.eye(len(M))[:, inp])[out] for w in omega])
+
+
 def identification_report(config, signals, results, records, title, report=None) -> Report:
     """Sections: settings, modes and coefficients tables, FRFs, λ(ω), singular values, stabilisation."""
     from ..plots import plot_coefficient_spectrum, plot_frf, plot_singular_values, plot_stabilization
@@ -50,7 +68,7 @@ def identification_report(config, signals, results, records, title, report=None)
     figs = report.section("Figures")
     fmax = 1.3 * max(m.frequency_hz for r in results.values() for m in r.modes)
     freqs = np.linspace(fmax / 400, fmax, 800)
-    fig = plot_frf(list(results.values()), freqs)
+    fig = plot_frf(list(results.values()), freqs, exact=_exact_frf(config, first_result(results), freqs))
     fig.set_label("Underlying linear FRF of each candidate (paper Figs. 4, 8, 12)")
     figs.append(fig)
     for name, res in results.items():

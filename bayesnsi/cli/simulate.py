@@ -57,6 +57,9 @@ def case_config(case, data_table: dict) -> dict:
             "exact_frequencies_hz": [float(f) for f in case.exact_frequencies_hz],
             "exact_damping_ratios": [float(z) for z in case.exact_damping_ratios],
             "noise_percent": float(case.noise_percent),
+            "M": case.M.tolist(),
+            "C": case.C.tolist(),
+            "K": case.K.tolist(),
         },
     }
 

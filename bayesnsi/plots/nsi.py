@@ -46,9 +46,24 @@ def plot_stabilization(singular_values, diagram, ax=None, fmax_hz: float | None 
         As returned by :func:`bayesnsi.nsi.stabilization`.
     """
     fig, ax = _axes(ax, (7.0, 4.5))
+    previous = np.empty((0, 2))
     for order, modes, _ in diagram:
         if len(modes):
-            ax.plot(modes[:, 0], np.full(len(modes), order), "k.", ms=4)
+            stable = np.array(
+                [
+                    len(previous) > 0
+                    and np.any(
+                        (np.abs(previous[:, 0] / f - 1) < 0.01) & (np.abs(previous[:, 1] / max(z, 1e-12) - 1) < 0.05)
+                    )
+                    for f, z in modes
+                ]
+            )
+            ax.plot(modes[stable, 0], np.full(stable.sum(), order), "k.", ms=5)
+            ax.plot(modes[~stable, 0], np.full((~stable).sum(), order), "o", mfc="none", mec="0.6", ms=4)
+        previous = modes
+    ax.plot([], [], "k.", label="stable (Δf < 1 %, Δζ < 5 %)")
+    ax.plot([], [], "o", mfc="none", mec="0.6", label="new or unstable")
+    ax.legend(fontsize=8, loc="lower right", framealpha=0.9)
     ax.set_xlabel("frequency [Hz]")
     ax.set_ylabel("model order")
     if fmax_hz:

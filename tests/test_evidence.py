@@ -196,13 +196,13 @@ def test_priors_are_proper_and_stated():
     assert mass == pytest.approx(1.0 / np.log(1e5), rel=1e-6)
     draws = noise.sample(1000, rng=1)
     assert np.all((draws >= noise.lower) & (draws <= noise.upper))
-    assert np.all(np.abs(ARPrior().sample(100, rng=1)) < 0.99)
+    assert np.all(np.abs(ARPrior().sample(100, rng=1)) < 0.9999)
     with pytest.raises(InputDataError):
         CoefficientPrior(("a",), [-1.0])
     rng = np.random.default_rng(0)
     affine = make_affine(200, 2, 2, rng)
     text = default_priors(affine, [1.0, 1.0], 3.0).describe()
-    assert "log-uniform" in text and "uniform(-0.99, 0.99)" in text
+    assert "log-uniform" in text and "uniform(-0.9999, 0.9999)" in text
 
 
 # ---------------------------------------------------------------------------------------------

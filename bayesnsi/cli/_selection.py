@@ -60,12 +60,15 @@ def evaluate_evidence(result, signals, opts, seed_sequence, candidate=None):
     out = {}
     likelihoods = [opts["likelihood"]] + [lik for lik in opts["compare"] if lik != opts["likelihood"]]
     for lik, child in zip(likelihoods, seed_sequence.spawn(len(likelihoods))):
+        ar_order = 0 if lik == "white" else int(lik[2:])
+        n_params = len(affine.names) + affine.measured.shape[1] * (1 + ar_order)
+        n_walkers = max(int(opts["n_walkers"]), 2 * n_params + 2)  # emcee needs >= 2 x parameters
         out[lik] = marginal_evidence(
             affine,
             priors,
             likelihood=lik,
             rng=np.random.default_rng(child),
-            n_walkers=int(opts["n_walkers"]),
+            n_walkers=n_walkers + n_walkers % 2,
             n_steps=int(opts["n_steps"]),
             n_burn=int(opts["n_burn"]),
         )

@@ -383,7 +383,7 @@ def bridge_sampling(
     df : float
         Degrees of freedom of the t proposal.
     tol : float
-        Convergence tolerance on ``log Z`` of the fixed-point iteration.
+        Relative convergence tolerance on ``log Z`` of the fixed-point iteration (absolute below 1).
     max_iter : int
         Iteration limit.
 
@@ -456,7 +456,7 @@ def bridge_sampling(
         num = logsumexp(l2 - np.logaddexp(log_s1 + l2, log_s2 + log_z)) - log_n2
         den = logsumexp(-np.logaddexp(log_s1 + l1, log_s2 + log_z)) - log_n1
         new = float(num - den)
-        if abs(new - log_z) < tol:
+        if abs(new - log_z) < tol * max(1.0, abs(log_z)) + 1e-12:
             log_z = new
             converged = True
             break

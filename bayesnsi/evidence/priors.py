@@ -9,7 +9,7 @@ factor, and a superset model could then never lose; therefore:
   (:func:`default_coefficient_scales`), overridable per term;
 * noise level ``σ_j`` log-uniform on ``[lo_j, hi_j]`` per channel (default
   ``[1e-4, 10] × std(y_j)``), i.e. ``log σ_j`` uniform;
-* AR coefficients ``φ`` uniform on ``(-0.99, 0.99)`` each.
+* AR coefficients ``φ`` uniform on ``(-0.9999, 0.9999)`` each.
 
 The evidence depends on the coefficient scale as ``log s`` per extra term (Lindley); report the
 sensitivity (EVIDENCE.md: about ``log 10`` nat per decade per truly-zero coefficient).
@@ -199,11 +199,11 @@ class ARPrior:
     Attributes
     ----------
     lower, upper : float
-        Bounds of each ``φ`` (default ``(-0.99, 0.99)``).
+        Bounds of each ``φ`` (default ``(-0.9999, 0.9999)``).
     """
 
-    lower: float = -0.99
-    upper: float = 0.99
+    lower: float = -0.9999
+    upper: float = 0.9999
 
     def __post_init__(self):
         if not (-1.0 <= self.lower < self.upper <= 1.0):
@@ -331,7 +331,7 @@ def default_priors(
     overrides: Mapping[str, float] | None = None,
     channel_names: Sequence[str] = (),
     noise_factors: tuple[float, float] = (1e-4, 10.0),
-    ar_bounds: tuple[float, float] = (-0.99, 0.99),
+    ar_bounds: tuple[float, float] = (-0.9999, 0.9999),
 ) -> Priors:
     """The default priors of SPEC 6 for an affine reconstruction.
 

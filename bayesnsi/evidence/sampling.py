@@ -232,7 +232,9 @@ def _sample(
     if not 0 <= n_burn < n_steps:
         raise InputDataError(f"need 0 <= n_burn < n_steps, got n_burn = {n_burn}, n_steps = {n_steps}")
 
-    mode, _, hess, _ = target.find_mode(target.initial_theta(start))
+    theta0 = target.initial_theta(start)
+    mode, _, hess, _ = target.find_mode(theta0)
+    mode = _inside_support(target, mode, theta0)
     cov = _laplace_covariance(hess, target, mode)
     p0 = _initial_walkers(target, mode, cov, n_walkers, rng)
     seed = int(rng.integers(0, 2**32 - 1))
@@ -321,6 +323,15 @@ def _laplace_covariance(hess: np.ndarray, target: Target, mode: np.ndarray) -> n
         diag = np.abs(np.diag(neg))
         fallback = np.concatenate([target.priors.coefficients.scale**2, np.full(target.ndim - target.q, 1e-2)])
         return np.diag(np.where(diag > 0, 1.0 / np.where(diag > 0, diag, 1.0), fallback))
+
+
+def _inside_support(target: Target, mode: np.ndarray, theta0: np.ndarray) -> np.ndarray:
+    """Pull a mode that sits on the edge of the prior support (e.g. ρ at its bound) inside it."""
+    for _ in range(60):
+        if np.isfinite(target.log_posterior(mode[None])[0]):
+            return mode
+        mode = theta0 + 0.9 * (mode - theta0)
+    return mode
 
 
 def _initial_walkers(target: Target, mode, cov, n_walkers: int, rng) -> np.ndarray:

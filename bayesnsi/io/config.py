@@ -5,14 +5,20 @@ Layout (everything but ``[data]`` inputs/outputs and ``[[candidates]]`` has a de
     seed = 0                                  # optional; or in [evidence]
 
     [data]
-    file = "two_dof.csv"                      # relative to this config file's folder
+    file = "two_dof.csv"                      # relative to this config file's folder; .csv (or any
+                                              # other text), .mat (v5 or v7.3), .h5/.hdf5, .uff/.unv
     fs = 100.0                                # Hz; omit to derive it from the time column "t"
     inputs = { f2 = 2 }                       # force column -> DOF (numbered from 1)
     outputs = { x1 = 1, x2 = 2 }              # displacement column -> DOF
     velocities = { v1 = 1, v2 = 2 }           # optional, same DOFs as outputs
-    accelerations = { a1 = 1 }                # optional, stored only
-    estimation = [0, 800]                     # optional sample window [start, stop)
+    accelerations = { a1 = 1 }                # optional; stored only, unless integrate is given
+    estimation = [0, 800]                     # optional sample window [start, stop) of the file
     remove_mean = false                       # optional
+    decimate = 1                              # optional integer factor (anti-aliased)
+
+    # accelerations only: instead of outputs/velocities
+    # accelerations = { a1 = 1, a2 = 2 }
+    # integrate = { band_hz = [1.0, 40.0] }   # + method, taper, filter_inputs, ... (DataSpec)
 
     [nsi]                                     # all optional
     block_rows = 40
@@ -58,6 +64,7 @@ from . import _toml
 
 __all__ = [
     "DataSpec",
+    "IntegrationSpec",
     "NSISettings",
     "ValidationSegment",
     "ExperimentConfig",
@@ -76,7 +83,9 @@ INPUT_HOLDS = ("auto", "average", "sample")
 _TOP_KEYS = ("seed", "data", "nsi", "candidates", "validation", "evidence", "meta")
 _DATA_KEYS = (
     "file", "fs", "time_column", "inputs", "outputs", "velocities", "accelerations", "estimation", "remove_mean",
+    "integrate", "decimate",
 )
+_INTEGRATE_KEYS = ("band_hz", "method", "taper", "filter_inputs", "filter_order", "detrend_order")
 _NSI_KEYS = (
     "block_rows", "order", "band_hz", "band", "velocity_method", "bd_method", "max_order", "zero_feedthrough",
     "input_hold",
@@ -88,29 +97,95 @@ _MISSING = object()
 
 
 @dataclass(frozen=True)
+class IntegrationSpec:
+    """How displacements and velocities are derived from accelerations (``[data] integrate``).
+
+    Written as an inline table, e.g. ``integrate = { band_hz = [1.0, 40.0] }``; only
+    ``band_hz`` is required. The arguments are those of
+    :func:`bayesnsi.preprocess.integrate_acceleration`, whose docstring states the gain and
+    phase of each method and its limits.
+
+    Parameters
+    ----------
+    band_hz : (float, float)
+        ``[f_lo, f_hi]`` [Hz], ``0 < f_lo < f_hi``: everything below ``f_lo`` is removed (drift
+        and true motion alike); ``f_hi`` is a low-pass, none when ``f_hi >= fs/2``. Put ``f_lo``
+        below the lowest mode (a factor 2 or more) and ``[nsi] band_hz`` inside this band.
+    method : {"frequency", "time"}
+        Frequency-domain division by jω, (jω)² with a zero-phase raised-cosine band window
+        (default), or trapezoid rule + polynomial detrend + zero-phase Butterworth high-pass.
+    taper : float
+        Relative width of the raised-cosine transitions (frequency method), in [0, 1).
+    filter_inputs : bool
+        Filter the forces with the same band weighting (:func:`bayesnsi.preprocess.band_filter`),
+        so that input and output carry one filter (default true). Without it the outputs miss
+        the content below ``f_lo`` that the forces still have: on the two-DOF case this made
+        the identification fail.
+    filter_order : int
+        Butterworth order (time method).
+    detrend_order : int
+        Polynomial order removed after each integration (time method).
+    """
+
+    band_hz: tuple[float, float]
+    method: str = "frequency"
+    taper: float = 0.5
+    filter_inputs: bool = True
+    filter_order: int = 4
+    detrend_order: int = 2
+
+
+@dataclass(frozen=True)
 class DataSpec:
     """Where the measurements are and which column is what (``[data]``).
+
+    The file format follows the extension of ``file``: ``.mat`` (MATLAB v5 via scipy, v7.3
+    via h5py), ``.h5``/``.hdf5``, ``.uff``/``.unv`` (Universal File Format dataset 58, via
+    pyuff); anything else is read as CSV text. "Column" means a CSV column, a MAT/HDF5
+    variable (a vector, 1×N or N×1), or a UFF58 time record, found by its ``id1`` text or,
+    failing that, by a key ``"node:dir"`` such as ``"2:+Z"`` (response node and direction;
+    directions X, Y, Z, RX, RY, RZ with an optional sign, or the numeric UFF code). See
+    :mod:`bayesnsi.io.measurements` for each format's rules.
+
+    Processing order on load (:func:`bayesnsi.io.load_signals`): each window (the estimation
+    window, each validation segment) is cut from the file first - so no sample outside it
+    influences it - then integrated (``integrate``), then decimated (``decimate``), then the
+    means are removed (``remove_mean``). Sample indices (``estimation``, validation ``start``/
+    ``stop``) always count samples *of the file*; a decimated window ``[start, stop)`` holds
+    the file samples ``start, start + q, ...`` below ``stop``.
+
+    Accelerations only: give ``accelerations`` and ``integrate`` and leave out ``outputs`` and
+    ``velocities``; displacements and velocities are then derived on load, named ``x<dof>``
+    (``outputs`` holds that map, so the rest of the package sees displacement channels).
 
     Parameters
     ----------
     file : Path
-        CSV file, absolute (resolved relative to the config file's folder).
+        Measurement file, absolute (resolved relative to the config file's folder).
     fs : float or None
-        Sampling frequency [Hz]; None means: derive it from the time column.
+        Sampling frequency of the file [Hz]; None means: take it from the file (time column or
+        variable, ``fs`` variable of a MAT/HDF5 file, ``abscissa_inc`` of UFF records). When
+        both are present they must agree (see :mod:`bayesnsi.io.measurements`).
     inputs : dict of str to int
         Force column -> DOF (1-based), in the order written in the config.
     outputs : dict of str to int
-        Displacement column -> DOF, in the order written in the config.
+        Displacement column -> DOF, in the order written in the config (with ``integrate``: the
+        derived channels ``x<dof>`` in the order of ``accelerations``).
     velocities : dict of str to int or None
         Measured velocity column -> DOF; the same DOFs as ``outputs``.
     accelerations : dict of str to int
-        Acceleration column -> DOF; recorded, not used by the identification.
+        Acceleration column -> DOF; recorded only, unless ``integrate`` is given.
     estimation : (int, int) or None
         Half-open sample window ``[start, stop)`` used for estimation; None: the whole record.
     remove_mean : bool
         Subtract each channel's mean over the estimation window (also from validation data).
     time_column : str
         Name of the time column [s], read when ``fs`` is None (and checked when present).
+    integrate : IntegrationSpec or None
+        Derive displacements and velocities from ``accelerations`` (``[data] integrate``).
+    decimate : int
+        Anti-aliased down-sampling factor q >= 1 (:func:`bayesnsi.preprocess.decimate`, zero-phase
+        FIR): the signals have ``fs / q``. Keep the modes below ~0.75 of the new Nyquist frequency.
     """
 
     file: Path
@@ -122,6 +197,13 @@ class DataSpec:
     estimation: tuple[int, int] | None = None
     remove_mean: bool = False
     time_column: str = "t"
+    integrate: IntegrationSpec | None = None
+    decimate: int = 1
+
+    @property
+    def signal_fs(self) -> float | None:
+        """Sampling frequency of the loaded signals [Hz]: ``fs / decimate`` (None if fs is)."""
+        return None if self.fs is None else self.fs / self.decimate
 
     @property
     def dofs(self) -> tuple[int, ...]:
@@ -417,22 +499,83 @@ def _parse_data(table: Any, where: _Where, check_files: bool) -> DataSpec:
     fs = _number(table, "fs", where, None, positive=True)
     time_column = _text(table, "time_column", where, "t")
     inputs = _dof_map(table, "inputs", where, required=True)
-    outputs = _dof_map(table, "outputs", where, required=True)
-    velocities = _dof_map(table, "velocities", where, required=False)
     accelerations = _dof_map(table, "accelerations", where, required=False) or {}
+    integrate = _parse_integrate(table, where, fs, accelerations)
+    if integrate is not None:
+        for key in ("outputs", "velocities"):
+            if key in table:
+                raise where.problem(
+                    key, "with integrate, displacements and velocities are derived from accelerations; remove "
+                    f"{key} (or remove integrate to use measured displacements)"
+                )
+        outputs = velocities = None
+    else:
+        if "outputs" not in table and accelerations:
+            raise where.error(
+                "outputs", "a table mapping displacement columns to DOFs",
+                fix="add outputs = { column_name = 1 }, or derive displacements from the accelerations with "
+                "integrate = { band_hz = [f_lo, f_hi] }",
+            )
+        outputs = _dof_map(table, "outputs", where, required=True)
+        velocities = _dof_map(table, "velocities", where, required=False)
     if velocities is not None and sorted(velocities.values()) != sorted(outputs.values()):
         raise where.error(
             "velocities", f"the same DOFs as outputs {sorted(outputs.values())}", velocities,
             "give one velocity column per displacement column, or drop velocities to derive them",
         )
     _check_columns_unique(where, time_column if fs is None else None, inputs, outputs, velocities, accelerations)
+    if integrate is not None:
+        outputs = {f"x{dof}": dof for dof in accelerations.values()}
     estimation = table.get("estimation")
     if estimation is not None:
         estimation = _window(estimation, where, "estimation")
+    decimate = _int(table, "decimate", where, 1, minimum=1)
     return DataSpec(
         file=file, fs=fs, inputs=inputs, outputs=outputs, velocities=velocities,
         accelerations=accelerations, estimation=estimation,
         remove_mean=_bool(table, "remove_mean", where, False), time_column=time_column,
+        integrate=integrate, decimate=decimate,
+    )
+
+
+def _parse_integrate(table: Mapping, where: _Where, fs: float | None, accelerations) -> IntegrationSpec | None:
+    value = table.get("integrate")
+    if value is None:
+        return None
+    key = "integrate"
+    example = "integrate = { band_hz = [f_lo, f_hi] }"
+    if not isinstance(value, dict):
+        raise where.error(key, "an inline table", value, f"write {example}")
+    if not accelerations:
+        raise where.problem(
+            key, "integrate derives displacements from accelerations, but no accelerations are given; add "
+            "accelerations = { column_name = 1 }"
+        )
+    here = _Where(where.path, f"{where.section} integrate")
+    _check_keys(value, _INTEGRATE_KEYS, here)
+    band = value.get("band_hz", _MISSING)
+    ok = (isinstance(band, list) and len(band) == 2
+          and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in band))
+    if not ok or not 0 < band[0] < band[1]:
+        raise here.error(
+            "band_hz", "[f_lo, f_hi] in Hz with 0 < f_lo < f_hi (content below f_lo is removed; f_hi >= fs/2: "
+            "no low-pass)", band,
+        )
+    if fs is not None and band[0] >= fs / 2:
+        raise here.error("band_hz", f"f_lo below the Nyquist frequency {fs / 2:g} Hz", band)
+    defaults = IntegrationSpec(band_hz=(1.0, 2.0))
+    taper = _number(value, "taper", here, defaults.taper)
+    if not 0 <= taper < 1:
+        raise here.error("taper", "a number in [0, 1)", taper)
+    from ..preprocess import INTEGRATION_METHODS
+
+    return IntegrationSpec(
+        band_hz=(float(band[0]), float(band[1])),
+        method=_choice(value, "method", here, INTEGRATION_METHODS, defaults.method),
+        taper=taper,
+        filter_inputs=_bool(value, "filter_inputs", here, defaults.filter_inputs),
+        filter_order=_int(value, "filter_order", here, defaults.filter_order, minimum=1),
+        detrend_order=_int(value, "detrend_order", here, defaults.detrend_order, minimum=0),
     )
 
 
@@ -501,7 +644,7 @@ def _parse_nsi(table: Any, where: _Where, data: DataSpec) -> NSISettings:
     return NSISettings(
         block_rows=block_rows,
         order=order,
-        band_hz=_band(table, where, data.fs),
+        band_hz=_band(table, where, data.signal_fs),
         velocity_method=_choice(table, "velocity_method", where, VELOCITY_METHODS, defaults.velocity_method),
         bd_method=_choice(table, "bd_method", where, BD_METHODS, defaults.bd_method),
         max_order=_int(table, "max_order", where, defaults.max_order, minimum=1),

@@ -2,7 +2,19 @@
 
 from __future__ import annotations
 
-from ..io import RESULTS_FILENAME, atomic_write_json, load_config, load_signals, prepare_output_dir, to_jsonable, versions
+import numpy as np
+
+from ..exceptions import BayesNSIError
+from ..io import (
+    RESULTS_FILENAME,
+    atomic_write_json,
+    load_config,
+    load_signals,
+    load_validation,
+    prepare_output_dir,
+    to_jsonable,
+    versions,
+)
 from ._common import add_run_arguments, progress
 from ._report import identification_report, selection_sections
 from ._selection import select_all
@@ -33,6 +45,10 @@ def run(args) -> int:
     results, records, evidences, table, opts = select_all(config, signals, quiet=args.quiet)
     ranked = [r for r in records if r.get("posterior") is not None and r["status"] == "ok"]
     selected = max(ranked, key=lambda r: r["posterior"])["name"] if ranked else None
+    validation = load_validation(config)
+    for record in records:
+        if record["name"] in results:
+            record["validation"] = validate(results[record["name"]], validation)
     payload = {
         "command": "select",
         "config": str(config.path),
@@ -40,6 +56,7 @@ def run(args) -> int:
         "selected_gaussian": max(records, key=lambda r: r.get("posterior_gaussian") or 0.0)["name"] if ranked else None,
         "likelihood": opts["likelihood"],
         "candidates": records,
+        "validation": next((r["validation"] for r in records if r["name"] == selected), []),
         "ranking": to_jsonable(table.reset_index().to_dict(orient="records")),
         "settings": {"config": config.raw, "seed": config.seed, "evidence": opts},
         "versions": versions(),
@@ -52,3 +69,34 @@ def run(args) -> int:
         progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
     progress(f"wrote {path}", args.quiet)
     return 0
+
+
+VALIDATION_INIT_SAMPLES = 50
+"""Samples at the start of each validation segment used only to estimate the initial state."""
+
+
+def validate(result, segments) -> list[dict]:
+    """Closed-loop simulation of ``result`` on each validation segment (SPEC 9 ``validation``).
+
+    The first :data:`VALIDATION_INIT_SAMPLES` samples fix the initial state; the errors are
+    computed on the rest (rmse in the output's units, nrmse = rms(e)/rms(y)).
+    """
+    out = []
+    for name, signals in segments:
+        try:
+            rec = result.reconstruct(signals, closed_loop=True, n_init=VALIDATION_INIT_SAMPLES)
+        except BayesNSIError as err:
+            out.append({"name": name, "rmse": None, "nrmse": None, "error": str(err)})
+            continue
+        err = rec.residual[VALIDATION_INIT_SAMPLES:]
+        meas = rec.measured[VALIDATION_INIT_SAMPLES:]
+        rmse = np.sqrt(np.mean(err**2, axis=0))
+        out.append(
+            {
+                "name": name,
+                "rmse": float(np.sqrt(np.mean(rmse**2))),
+                "nrmse": float(np.sqrt(np.mean(np.mean(err**2, axis=0) / np.mean(meas**2, axis=0)))),
+                "rmse_per_channel": rmse.tolist(),
+            }
+        )
+    return out

@@ -1,7 +1,8 @@
 """File input/output: the only layer that touches files.
 
 - :mod:`~bayesnsi.io.config`: TOML experiment configuration -> :class:`ExperimentConfig`.
-- :mod:`~bayesnsi.io.measurements`: CSV measurements -> :class:`~bayesnsi.signals.Signals`.
+- :mod:`~bayesnsi.io.measurements`: measurements (CSV, MATLAB .mat, HDF5, UFF58) ->
+  :class:`~bayesnsi.signals.Signals`; Signals -> CSV.
 - :mod:`~bayesnsi.io.results`: atomic writes, JSON conversion, versions, output folders.
 """
 
@@ -10,18 +11,26 @@ from .config import (
     VELOCITY_METHODS,
     DataSpec,
     ExperimentConfig,
+    IntegrationSpec,
     NSISettings,
     ValidationSegment,
     dump_config,
     load_config,
 )
 from .measurements import (
+    FORMATS,
+    FS_TOLERANCE,
     TIME_TOLERANCE,
     CSVColumns,
+    MeasurementColumns,
+    file_format,
     load_signals,
     load_validation,
+    read_columns,
     read_csv_columns,
     read_csv_signals,
+    read_signals,
+    uff_channel_key,
     write_signals_csv,
 )
 from .results import (
@@ -36,6 +45,7 @@ from .results import (
 
 __all__ = [
     "DataSpec",
+    "IntegrationSpec",
     "NSISettings",
     "ValidationSegment",
     "ExperimentConfig",
@@ -46,6 +56,13 @@ __all__ = [
     "CSVColumns",
     "read_csv_columns",
     "read_csv_signals",
+    "read_signals",
+    "read_columns",
+    "MeasurementColumns",
+    "file_format",
+    "uff_channel_key",
+    "FORMATS",
+    "FS_TOLERANCE",
     "load_signals",
     "load_validation",
     "write_signals_csv",

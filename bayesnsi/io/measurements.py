@@ -1,13 +1,50 @@
-"""Measurements: CSV files -> :class:`~bayesnsi.signals.Signals`, and back (SPEC section 9).
+"""Measurements: files -> :class:`~bayesnsi.signals.Signals`, and Signals -> CSV (SPEC section 9).
 
-CSV layout: a header line naming the columns; optionally a units row right below it (every
+The format follows the extension of the file (:data:`FORMATS`): ``.mat`` (MATLAB; v4/v5/v7 via
+:func:`scipy.io.loadmat`, v7.3 = HDF5 via h5py), ``.h5``/``.hdf5`` (HDF5 via h5py),
+``.uff``/``.unv`` (Universal File Format dataset 58 via pyuff); any other extension is read
+as CSV text. Input files are opened read-only and never modified. Only the channels named
+in the config are converted. Channels of one response kind (displacements, velocities,
+accelerations) must share a unit where the file states units (CSV units row, UFF ordinate
+units label); units are reported, never converted.
+
+**CSV**: a header line naming the columns; optionally a units row right below it (every
 cell non-numeric, e.g. ``"s","N","m"``), then one row per sample. Trailing empty columns (the
-Silverbox files end every line with a comma: ``"V1","V2",``) are ignored. Only the columns
-named in the config are parsed. Input files are opened read-only and never modified.
+Silverbox files end every line with a comma: ``"V1","V2",``) are ignored.
 
-Sampling: ``[data] fs`` [Hz], or, when it is absent, a time column (default ``t``, in
-seconds) that must be uniformly sampled: fs = (n - 1) / (t[n-1] - t[0]), and every time
-stamp must lie within 1 % of a sample interval of that grid.
+**MAT / HDF5**: one variable per channel, named like a CSV column (case-sensitive); each a
+real numeric vector, 1×N or N×1 (MATLAB classes double, single and the integer types; a
+struct, cell, char, logical, complex or sparse variable is an error). In HDF5 files a name may
+be a path (``"group/x1"``). Optional sampling information in the file: a time vector named
+``[data] time_column`` (default ``t``) and/or a scalar ``fs`` [Hz]. Other variables (e.g. the
+Silverbox overload flags ``Ovld1``) are ignored.
+
+**UFF58**: one time record (function type 1, or 0 "general"; real values; time abscissa)
+per channel. A config key names a record by its ``id1`` text (the first ID line, surrounding
+blanks ignored), or, when no record has that id1, by ``"node:dir"``: response node and
+direction, the direction as X, Y, Z, RX, RY, RZ with an optional sign (``"2:+Z"``, ``"2:Z"``,
+``"7:-X"``) or as the numeric UFF code (``"2:3"``). Keys that match several records are an
+error. Sampling interval from ``abscissa_inc`` (even spacing) or from the abscissa values
+(uneven spacing, checked to be uniform); all records must share interval, start time and
+length. A record whose specific data type contradicts its role (e.g. an acceleration record
+mapped as a displacement output) is an error; inputs are not checked (a base acceleration
+may be the input). The ordinate units label is reported in :attr:`MeasurementColumns.units`.
+Note that pyuff writes ``abscissa_inc`` with 6 significant digits (E13.5) and ASCII data
+with 12, so give ``[data] fs`` for an exact rate and prefer binary UFF58 for full precision.
+
+**Sampling**: ``[data] fs`` [Hz], or, when it is absent, the file's: a time column/vector
+(default ``t``, in seconds) that must be uniformly sampled - fs = (n - 1) / (t[n-1] - t[0]),
+every time stamp within 1 % of a sample interval of that grid -, a scalar ``fs`` variable,
+or the UFF sampling interval. When both are given they must agree: within 1e-3 (relative)
+for a rate derived from time stamps, within :data:`FS_TOLERANCE` for a stored number (a
+scalar ``fs`` or ``abscissa_inc``); ``[data] fs`` is then used.
+
+**Processing** (:func:`load_signals`, :func:`load_validation`, :func:`read_signals`): each
+window is cut from the file, then integrated when ``[data] integrate`` is given
+(:func:`bayesnsi.preprocess.integrate_acceleration`; the forces are filtered with the same
+band unless ``filter_inputs = false``), then decimated when ``[data] decimate > 1``
+(:func:`bayesnsi.preprocess.decimate`), then mean-removed when ``remove_mean``. See
+:class:`~bayesnsi.io.config.DataSpec`.
 """
 
 from __future__ import annotations
@@ -15,6 +52,7 @@ from __future__ import annotations
 import csv
 import math
 import os
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,6 +60,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .. import preprocess
 from ..exceptions import ConfigError, InputDataError
 from ..signals import Signals
 from .config import DataSpec, ExperimentConfig
@@ -29,16 +68,36 @@ from .results import atomic_open
 
 __all__ = [
     "CSVColumns",
+    "MeasurementColumns",
     "read_csv_columns",
+    "read_columns",
+    "read_signals",
     "read_csv_signals",
     "load_signals",
     "load_validation",
     "write_signals_csv",
+    "file_format",
+    "uff_channel_key",
+    "FORMATS",
+    "FS_TOLERANCE",
     "TIME_TOLERANCE",
+    "UFF_DIRECTIONS",
 ]
 
 TIME_TOLERANCE = 0.01
 """Largest allowed deviation of a time stamp from the uniform grid, as a fraction of 1/fs."""
+
+FS_TOLERANCE = 1e-4
+"""Largest relative difference between ``[data] fs`` and a rate stored in the file as a number
+(a scalar ``fs`` variable, UFF ``abscissa_inc``, which pyuff writes with 6 significant digits)."""
+
+FORMATS = {".mat": "mat", ".h5": "hdf5", ".hdf5": "hdf5", ".uff": "uff", ".unv": "uff"}
+"""File extension (lower case) -> format; every other extension is read as CSV text."""
+
+
+def file_format(path: str | os.PathLike) -> str:
+    """The format a file is read as: "csv", "mat", "hdf5" or "uff" (from its extension)."""
+    return FORMATS.get(Path(path).suffix.lower(), "csv")
 
 
 @dataclass(frozen=True)
@@ -69,6 +128,89 @@ class CSVColumns:
     def n_samples(self) -> int:
         """Number of data rows."""
         return len(next(iter(self.values.values()))) if self.values else 0
+
+    def locate(self, sample: int) -> str:
+        """Where sample ``sample`` is in the file, for messages: ``" (line 12)"``."""
+        return f" (line {self.first_line + sample})"
+
+
+@dataclass(frozen=True)
+class MeasurementColumns:
+    """Some channels of a measurement file of any supported format, as read.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    format : {"csv", "mat", "hdf5", "uff"}
+    names : tuple of str
+        Every channel the file offers: CSV header names, MAT/HDF5 variable names, or UFF58
+        records as ``"'id1' (node:dir)"``.
+    values : dict of str to ndarray, shape (n_samples,)
+        The channels asked for, as float arrays, under the names used to ask for them.
+    units : dict of str to str
+        Units stated in the file (CSV units row, UFF ordinate units label); may be empty.
+    fs : float or None
+        Sampling frequency stored in the file [Hz] (time column/vector, scalar ``fs``,
+        UFF ``abscissa_inc``); None when the file has none.
+    fs_source : str
+        Where ``fs`` came from, for messages.
+    fs_tolerance : float
+        Relative tolerance when ``fs`` is compared with ``[data] fs``.
+    first_line : int or None
+        CSV only: line number (1-based) of the first sample.
+    hint : str
+        What to do when the file has no sampling information.
+    """
+
+    path: Path
+    format: str
+    names: tuple[str, ...]
+    values: dict[str, np.ndarray]
+    units: dict[str, str]
+    fs: float | None
+    fs_source: str = ""
+    fs_tolerance: float = FS_TOLERANCE
+    first_line: int | None = None
+    hint: str = "set fs in [data]"
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples."""
+        return len(next(iter(self.values.values()))) if self.values else 0
+
+    def locate(self, sample: int) -> str:
+        """Where sample ``sample`` is in the file, for messages (a CSV line number, else empty)."""
+        return f" (line {self.first_line + sample})" if self.first_line is not None else ""
+
+
+def read_columns(path: str | os.PathLike, columns, time_column: str = "t") -> MeasurementColumns:
+    """Read named channels of a measurement file of any supported format (see :data:`FORMATS`).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file; the format follows its extension.
+    columns : iterable of str
+        CSV column names, MAT/HDF5 variable names, or UFF58 record keys (id1 text or
+        ``"node:dir"``).
+    time_column : str
+        Name of a time column/variable [s] used, when present and not asked for, to give
+        :attr:`MeasurementColumns.fs`.
+
+    Returns
+    -------
+    MeasurementColumns
+
+    Raises
+    ------
+    InputDataError
+        For a missing or unreadable file, missing channels (the message lists the available
+        ones), channels that are not real numeric vectors, channels of different lengths,
+        sampling intervals or start times, or non-uniform time stamps.
+    """
+    wanted = list(dict.fromkeys(columns))
+    return _read_any(Path(path), wanted, {}, time_column, {})
 
 
 def read_csv_columns(path: str | os.PathLike, columns) -> CSVColumns:
@@ -109,31 +251,38 @@ def read_csv_columns(path: str | os.PathLike, columns) -> CSVColumns:
     return CSVColumns(path=path, names=tuple(header), values=values, units=units, first_line=skip + 1)
 
 
-def read_csv_signals(path: str | os.PathLike, data: DataSpec) -> Signals:
-    """Read a whole CSV file into Signals, with the column mapping of ``data``.
+def read_signals(path: str | os.PathLike, data: DataSpec) -> Signals:
+    """Read a whole measurement file (any supported format) into Signals, mapped by ``data``.
 
     Parameters
     ----------
     path : str or path-like
-        The CSV file (``data.file`` is not used, so validation files can share the mapping).
+        The file (``data.file`` is not used, so validation files can share the mapping); the
+        format follows its extension (:data:`FORMATS`).
     data : DataSpec
-        Column -> DOF maps and sampling. ``estimation`` and ``remove_mean`` are not applied
-        here; see :func:`load_signals`.
+        Column -> DOF maps and sampling; ``integrate`` and ``decimate`` are applied to the
+        whole record. ``estimation`` and ``remove_mean`` are not applied here; see
+        :func:`load_signals`.
 
     Returns
     -------
     Signals
         Forces in the order of ``data.inputs``, displacements in the order of ``data.outputs``,
-        velocities (if mapped) in the order of the displacement DOFs.
+        velocities (if mapped, or integrated) in the order of the displacement DOFs.
 
     Raises
     ------
     InputDataError
-        For unreadable files, unknown columns, non-numeric or missing cells, or a time column
-        that is not uniformly sampled or disagrees with ``data.fs``.
+        For unreadable files, unknown channels, non-numeric or missing values, channels of
+        different lengths or sampling intervals, or a sampling rate in the file that
+        disagrees with ``data.fs``.
     """
     record = _Record.read(Path(path), data)
     return record.signals(0, record.n_samples, None)
+
+
+read_csv_signals = read_signals
+"""Alias of :func:`read_signals` (its former name, when only CSV was read)."""
 
 
 def load_signals(config: ExperimentConfig) -> Signals:
@@ -146,15 +295,16 @@ def load_signals(config: ExperimentConfig) -> Signals:
     Returns
     -------
     Signals
-        Samples ``estimation[0]:estimation[1]`` (the whole record by default); with
-        ``remove_mean`` each channel's mean over that window is subtracted.
+        Samples ``estimation[0]:estimation[1]`` of the file (the whole record by default),
+        integrated and decimated as ``[data]`` asks; with ``remove_mean`` each channel's mean
+        over that window is subtracted.
 
     Raises
     ------
     ConfigError
         If the estimation window reaches past the end of the record.
     InputDataError
-        As :func:`read_csv_signals`, for the samples inside the window.
+        As :func:`read_signals`, for the samples inside the window.
     """
     record = _Record.read(config.data.file, config.data)
     start, stop = record.window(config.data.estimation, "[data] estimation", config.path)
@@ -179,7 +329,7 @@ def load_validation(config: ExperimentConfig) -> list[tuple[str, Signals]]:
     ConfigError
         If a segment reaches past the end of its record.
     InputDataError
-        As :func:`read_csv_signals`.
+        As :func:`read_signals`.
     """
     if not config.validation:
         return []
@@ -269,48 +419,45 @@ def write_signals_csv(
 # reading
 
 
-@dataclass(frozen=True)
 class _Record:
-    """The mapped columns of one file, before windowing (may hold NaN until checked)."""
+    """The mapped channels of one file (raw, may hold NaN until a window is checked), and the
+    processing of a window into Signals: cut -> integrate -> decimate -> remove means."""
 
-    path: Path
-    force: np.ndarray
-    displacement: np.ndarray
-    velocity: np.ndarray | None
-    fs: float
-    data: DataSpec
-    first_line: int
+    def __init__(self, path: Path, data: DataSpec):
+        self.path = Path(path)
+        self.data = data
+        self.integrate = data.integrate
+        if self.integrate is not None:
+            responses = {c: "acceleration" for c in data.accelerations}
+        else:
+            responses = {c: "displacement" for c in data.outputs}
+            responses.update({c: "velocity" for c in data.velocities or {}})
+        roles = {c: "input" for c in data.inputs} | responses
+        present = {} if self.integrate is not None else {c: "acceleration" for c in data.accelerations}
+        table = _read_any(self.path, list(roles), roles, data.time_column, present)
+        self.table = table
+        self.fs = _resolve_fs(table, data)
+        _check_units(table, roles)
+        self.force = _stack(table, data.inputs)
+        self.velocity = None
+        self.acceleration = None
+        self.displacement = None
+        if self.integrate is not None:
+            self.acceleration = _stack(table, data.accelerations)
+        else:
+            self.displacement = _stack(table, data.outputs)
+            if data.velocities:
+                by_dof = {dof: column for column, dof in data.velocities.items()}
+                self.velocity = _stack(table, [by_dof[dof] for dof in data.outputs.values()])
+        self._cache: dict[tuple[int, int], dict[str, np.ndarray | None]] = {}
+
+    @classmethod
+    def read(cls, path: Path, data: DataSpec) -> "_Record":
+        return cls(path, data)
 
     @property
     def n_samples(self) -> int:
         return self.force.shape[0]
-
-    @classmethod
-    def read(cls, path: Path, data: DataSpec) -> "_Record":
-        header = _read_head(path)[0]
-        mapped = list(data.inputs) + list(data.outputs) + list(data.velocities or {})
-        time = data.time_column
-        use_time = time in header and time not in mapped and time not in data.accelerations
-        if data.fs is None and not use_time:
-            raise InputDataError(
-                f"{path}: no sampling frequency - [data] fs is not set and there is no time column {time!r}; "
-                f"set fs in [data], or name the time column with [data] time_column (columns: {', '.join(header)})"
-            )
-        missing = [c for c in data.accelerations if c not in header]
-        if missing:
-            raise InputDataError(
-                f"{path}: acceleration column(s) {missing} not found; available columns: {', '.join(header)}"
-            )
-        table = read_csv_columns(path, mapped + ([time] if use_time else []))
-        fs = _sampling_frequency(table, time, data.fs) if use_time else data.fs
-        velocity = None
-        if data.velocities:
-            by_dof = {dof: column for column, dof in data.velocities.items()}
-            velocity = _stack(table, [by_dof[dof] for dof in data.outputs.values()])
-        return cls(
-            path=path, force=_stack(table, data.inputs), displacement=_stack(table, data.outputs),
-            velocity=velocity, fs=fs, data=data, first_line=table.first_line,
-        )
 
     def window(self, bounds, key: str, config_path: Path) -> tuple[int, int]:
         start, stop = bounds if bounds is not None else (None, None)
@@ -324,34 +471,481 @@ class _Record:
         return start, stop
 
     def means(self, start: int, stop: int) -> dict[str, np.ndarray]:
-        self._check_finite(start, stop)
-        parts = {"force": self.force, "displacement": self.displacement, "velocity": self.velocity}
-        return {k: v[start:stop].mean(axis=0) for k, v in parts.items() if v is not None}
+        parts = self._processed(start, stop)
+        return {k: v.mean(axis=0) for k, v in parts.items() if v is not None}
 
     def signals(self, start: int, stop: int, means: dict | None) -> Signals:
-        self._check_finite(start, stop)
-        parts = {"force": self.force, "displacement": self.displacement, "velocity": self.velocity}
-        cut = {k: (None if v is None else v[start:stop] - (means[k] if means else 0.0)) for k, v in parts.items()}
+        parts = self._processed(start, stop)
+        cut = {k: (None if v is None else v - (means[k] if means else 0.0)) for k, v in parts.items()}
         return Signals(
-            force=cut["force"], displacement=cut["displacement"], velocity=cut["velocity"], fs=self.fs,
+            force=cut["force"], displacement=cut["displacement"], velocity=cut["velocity"],
+            fs=self.fs / self.data.decimate,
             input_dofs=tuple(self.data.inputs.values()), output_dofs=tuple(self.data.outputs.values()),
             input_names=tuple(self.data.inputs), output_names=tuple(self.data.outputs),
         )
 
+    def _processed(self, start: int, stop: int) -> dict[str, np.ndarray | None]:
+        """Window [start, stop) of the file, integrated and decimated as [data] asks (cached)."""
+        key = (start, stop)
+        if key in self._cache:
+            return self._cache[key]
+        self._check_finite(start, stop)
+        force = self.force[start:stop]
+        spec = self.integrate
+        try:
+            if spec is not None:
+                options = {"taper": spec.taper, "filter_order": spec.filter_order}
+                velocity, displacement = preprocess.integrate_acceleration(
+                    self.acceleration[start:stop], self.fs, spec.band_hz, spec.method,
+                    detrend_order=spec.detrend_order, **options,
+                )
+                if spec.filter_inputs:
+                    force = preprocess.band_filter(force, self.fs, spec.band_hz, spec.method, **options)
+            else:
+                displacement = self.displacement[start:stop]
+                velocity = None if self.velocity is None else self.velocity[start:stop]
+            parts = {"force": force, "displacement": displacement, "velocity": velocity}
+            if self.data.decimate > 1:
+                parts = {k: None if v is None else preprocess.decimate(v, self.data.decimate) for k, v in parts.items()}
+        except InputDataError as exc:
+            raise InputDataError(f"{self.path}: samples [{start}, {stop}): {exc}") from exc
+        self._cache[key] = parts
+        return parts
+
     def _check_finite(self, start: int, stop: int) -> None:
-        groups = [(self.data.inputs, self.force), (self.data.outputs, self.displacement)]
-        if self.velocity is not None:
-            by_dof = {dof: column for column, dof in self.data.velocities.items()}
-            groups.append(({by_dof[d]: d for d in self.data.outputs.values()}, self.velocity))
+        groups = [(self.data.inputs, self.force)]
+        if self.integrate is not None:
+            groups.append((self.data.accelerations, self.acceleration))
+        else:
+            groups.append((self.data.outputs, self.displacement))
+            if self.velocity is not None:
+                by_dof = {dof: column for column, dof in self.data.velocities.items()}
+                groups.append(({by_dof[d]: d for d in self.data.outputs.values()}, self.velocity))
         for names, values in groups:
             bad = ~np.isfinite(values[start:stop])
             if bad.any():
                 row, col = np.argwhere(bad)[0]
                 raise InputDataError(
                     f"{self.path}: column {list(names)[col]!r} has {int(bad.sum())} missing or non-finite value(s) "
-                    f"in samples [{start}, {stop}), the first at sample {start + row} (line "
-                    f"{self.first_line + start + row}); fill or remove them, or choose a window that excludes them"
+                    f"in samples [{start}, {stop}), the first at sample {start + row}"
+                    f"{self.table.locate(start + row)}; fill or remove them, or choose a window that excludes them"
                 )
+
+
+def _read_any(path: Path, columns: list[str], roles: Mapping[str, str], time_column: str,
+              present: Mapping[str, str]) -> MeasurementColumns:
+    """Read ``columns`` of any supported file; check that the ``present`` ones exist."""
+    kind = file_format(path)
+    if not path.is_file():
+        raise InputDataError(f"data file {path} not found; check the name and folder")
+    if kind == "csv":
+        return _read_csv_any(path, columns, time_column, present)
+    if kind == "uff":
+        return _read_uff(path, columns, roles, present)
+    return _read_matlike(path, columns, time_column, present)
+
+
+def _read_csv_any(path: Path, columns: list[str], time: str, present: Mapping[str, str]) -> MeasurementColumns:
+    header = _read_head(path)[0]
+    use_time = time in header and time not in columns and time not in present
+    missing = [c for c in present if c not in header]
+    if missing:
+        raise InputDataError(
+            f"{path}: acceleration column(s) {missing} not found; available columns: {', '.join(header)}"
+        )
+    table = read_csv_columns(path, list(columns) + ([time] if use_time else []))
+    fs = _sampling_frequency(table.values[time], f"{path}: time column {time!r}", table.locate, None) if use_time else None
+    values = {c: table.values[c] for c in columns}
+    return MeasurementColumns(
+        path=path, format="csv", names=table.names, values=values, units=table.units, fs=fs,
+        fs_source=f"time column {time!r}" if use_time else "", fs_tolerance=1e-3, first_line=table.first_line,
+        hint=f"set fs in [data], or name the time column with [data] time_column (columns: {', '.join(header)})",
+    )
+
+
+def _resolve_fs(table: MeasurementColumns, data: DataSpec) -> float:
+    if table.fs is None:
+        if data.fs is None:
+            raise InputDataError(f"{table.path}: no sampling frequency - [data] fs is not set and {table.hint}")
+        return data.fs
+    if data.fs is not None and abs(table.fs - data.fs) > table.fs_tolerance * data.fs:
+        fix = "correct fs, or drop it to use the " + ("time column" if table.format == "csv" else table.fs_source)
+        raise InputDataError(
+            f"{table.path}: {table.fs_source} gives fs = {table.fs:.9g} Hz but [data] fs = {data.fs:g} Hz; {fix}"
+        )
+    return data.fs if data.fs is not None else table.fs
+
+
+def _check_units(table: MeasurementColumns, roles: Mapping[str, str]) -> None:
+    """Channels of one response kind must share a unit where the file states units."""
+    by_role: dict[str, dict[str, str]] = {}
+    for name, role in roles.items():
+        unit = table.units.get(name, "").strip()
+        if unit and role != "input":
+            by_role.setdefault(role, {})[name] = unit
+    for role, units in by_role.items():
+        if len(set(units.values())) > 1:
+            raise InputDataError(
+                f"{table.path}: the {role} channels are in different units ({units}); one model needs one unit "
+                "per quantity - convert them to a common unit before loading"
+            )
+
+
+def _sampling_frequency(t: np.ndarray, where: str, locate, fs: float | None, slack: float = 0.0) -> float:
+    """fs from uniformly spaced time stamps [s] (``slack``: extra absolute tolerance [s])."""
+    if not np.all(np.isfinite(t)):
+        row = int(np.argmax(~np.isfinite(t)))
+        raise InputDataError(f"{where} has a missing value at sample {row}{locate(row)}; fill it or set [data] fs")
+    if len(t) < 2:
+        raise InputDataError(f"{where}: need at least two samples to derive fs")
+    dt = (t[-1] - t[0]) / (len(t) - 1)
+    deviation = np.abs(t - (t[0] + dt * np.arange(len(t))))
+    tolerance = TIME_TOLERANCE * abs(dt) + slack
+    if not dt > 0 or np.any(np.diff(t) <= 0) or deviation.max() > tolerance:
+        row = int(np.argmax(deviation)) if dt > 0 else 0
+        raise InputDataError(
+            f"{where} is not uniformly sampled: expected increasing time stamps within {TIME_TOLERANCE:g} of a "
+            f"sample interval ({dt:.6g} s) of a uniform grid, found a deviation of {deviation.max():.3g} s at sample "
+            f"{row}{locate(row)}; resample the record to a uniform rate"
+        )
+    derived = 1.0 / dt
+    if fs is not None and abs(derived - fs) > 1e-3 * fs:
+        raise InputDataError(
+            f"{where} gives fs = {derived:.9g} Hz but [data] fs = {fs:g} Hz; correct fs, or drop it to use the time column"
+        )
+    return fs if fs is not None else derived
+
+
+def _stack(table, columns) -> np.ndarray:
+    return np.column_stack([table.values[c] for c in columns])
+
+
+def _missing_message(path: Path, what: str, missing, available, hint: str) -> InputDataError:
+    shown = ", ".join(map(repr, available)) if available else "none"
+    return InputDataError(f"{path}: {what} {missing} not found; available: {shown}. {hint}")
+
+
+def _check_lengths(path: Path, values: Mapping[str, np.ndarray], what: str) -> None:
+    lengths = {name: len(v) for name, v in values.items()}
+    if len(set(lengths.values())) > 1:
+        raise InputDataError(
+            f"{path}: the {what} have different lengths {lengths}; all channels must be sampled together - "
+            "store them with the same number of samples"
+        )
+
+
+# ---------------------------------------------------------------------------------------------
+# MATLAB (.mat v4/v5/v7 via scipy.io, v7.3 via h5py) and HDF5
+
+
+_HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+_MAT_NUMERIC = {"double", "single", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64"}
+
+
+def _is_hdf5(path: Path) -> bool:
+    """HDF5 signature at offset 0, 512, 1024, ... (a MAT v7.3 file has a 512-byte user block)."""
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        offset = 0
+        while offset + 8 <= size:
+            fh.seek(offset)
+            if fh.read(8) == _HDF5_SIGNATURE:
+                return True
+            offset = 512 if offset == 0 else offset * 2
+    return False
+
+
+def _read_matlike(path: Path, columns: list[str], time: str, present: Mapping[str, str]) -> MeasurementColumns:
+    if _is_hdf5(path):
+        return _read_hdf5(path, columns, time, present)
+    if file_format(path) == "hdf5":
+        raise InputDataError(f"{path}: not an HDF5 file (no HDF5 signature); check the file or its extension")
+    import scipy.io
+
+    try:
+        info = scipy.io.whosmat(str(path))
+    except Exception as exc:  # scipy raises ValueError, MatReadError, TypeError... on non-MAT content
+        raise InputDataError(f"{path}: cannot read it as a MATLAB .mat file ({exc}); save it with MATLAB's save") from exc
+    classes = {name: cls for name, _, cls in info}
+    names = tuple(classes)
+    missing = [c for c in columns if c not in classes]
+    if missing:
+        raise _missing_message(path, "variable(s)", missing, names,
+                               "Variable names are case-sensitive: fix [data] in the config or the file")
+    absent = [c for c in present if c not in classes]
+    if absent:
+        raise _missing_message(path, "acceleration variable(s)", absent, names, "fix [data] accelerations")
+    for name in columns:
+        if classes[name] not in _MAT_NUMERIC:
+            raise InputDataError(
+                f"{path}: variable {name!r} is a MATLAB {classes[name]}, not a real numeric vector; "
+                "store each channel as a numeric vector (double) of its own"
+            )
+    extra = [v for v in (time, "fs") if v in classes and v not in columns and v not in present]
+    try:
+        loaded = scipy.io.loadmat(str(path), variable_names=list(columns) + extra, squeeze_me=False)
+    except Exception as exc:
+        raise InputDataError(f"{path}: cannot read the MATLAB variables ({exc})") from exc
+    values = {c: _vector(loaded[c], f"{path}: variable {c!r}", f"MATLAB {classes[c]}") for c in columns}
+    _check_lengths(path, values, "variables")
+    return _with_file_fs(path, "mat", names, values, {}, time, {v: loaded[v] for v in extra})
+
+
+def _read_hdf5(path: Path, columns: list[str], time: str, present: Mapping[str, str]) -> MeasurementColumns:
+    try:
+        import h5py
+    except ImportError as exc:  # pragma: no cover - h5py is a dependency
+        raise InputDataError(f"{path}: reading MAT v7.3 / HDF5 files needs h5py: pip install h5py") from exc
+    kind = "mat" if file_format(path) == "mat" else "hdf5"
+    try:
+        h5 = h5py.File(path, "r")
+    except OSError as exc:
+        raise InputDataError(f"{path}: cannot open it as HDF5 / MAT v7.3 ({exc})") from exc
+    with h5:
+        names = tuple(k for k in h5.keys() if not k.startswith("#"))
+        missing = [c for c in columns if c not in h5]
+        if missing:
+            raise _missing_message(path, "variable(s)", missing, names,
+                                   "Variable names are case-sensitive: fix [data] in the config or the file")
+        absent = [c for c in present if c not in h5]
+        if absent:
+            raise _missing_message(path, "acceleration variable(s)", absent, names, "fix [data] accelerations")
+        values = {c: _h5_vector(h5[c], c, path) for c in columns}
+        extra = {v: _h5_vector(h5[v], v, path) for v in (time, "fs") if v in h5 and v not in columns and v not in present}
+    _check_lengths(path, values, "variables")
+    return _with_file_fs(path, kind, names, values, {}, time, extra)
+
+
+def _h5_vector(obj, name: str, path: Path) -> np.ndarray:
+    import h5py
+
+    if not isinstance(obj, h5py.Dataset):
+        raise InputDataError(
+            f"{path}: {name!r} is a group (a MATLAB struct, cell or sparse matrix), not a numeric vector; "
+            "store each channel as a numeric vector of its own"
+        )
+    cls = obj.attrs.get("MATLAB_class", b"")
+    cls = cls.decode() if isinstance(cls, bytes) else str(cls)
+    if cls and cls not in _MAT_NUMERIC or obj.attrs.get("MATLAB_empty", 0):
+        what = "an empty array" if obj.attrs.get("MATLAB_empty", 0) else f"a MATLAB {cls}"
+        raise InputDataError(f"{path}: variable {name!r} is {what}, not a real numeric vector")
+    return _vector(obj[()], f"{path}: variable {name!r}", f"HDF5 {obj.dtype}")
+
+
+def _vector(value, where: str, kind: str) -> np.ndarray:
+    """A 1-D float copy of a vector (1×N, N×1 or N); anything else is an error. ``where`` names it."""
+    if hasattr(value, "toarray"):  # scipy.sparse
+        raise InputDataError(f"{where} is a sparse matrix; store it as a full numeric vector")
+    array = np.asarray(value)
+    if array.dtype.kind not in "iuf":
+        raise InputDataError(
+            f"{where} ({kind}, dtype {array.dtype}) is not a real numeric vector; "
+            "store each channel as a real numeric vector of its own"
+        )
+    if array.size == 0:
+        raise InputDataError(f"{where} is empty")
+    if array.ndim > 2 or (array.ndim == 2 and min(array.shape) != 1):
+        raise InputDataError(
+            f"{where} has shape {array.shape}; expected a vector (1×N or N×1) - store each "
+            "channel as its own variable"
+        )
+    return np.array(array.reshape(-1), dtype=float)
+
+
+def _with_file_fs(path, kind, names, values, units, time, extra) -> MeasurementColumns:
+    """Attach the sampling information stored in a MAT/HDF5 file: a time vector and/or a scalar fs."""
+    fs, source, tolerance = None, "", FS_TOLERANCE
+    n = len(next(iter(values.values()))) if values else 0
+    if "fs" in extra:
+        stored = np.asarray(extra["fs"], dtype=float) if np.asarray(extra["fs"]).dtype.kind in "iuf" else None
+        if stored is None or stored.size != 1 or not (math.isfinite(float(stored.reshape(-1)[0])) and stored.reshape(-1)[0] > 0):
+            raise InputDataError(f"{path}: variable 'fs' must be one positive number [Hz], found {extra['fs']!r}")
+        fs, source = float(stored.reshape(-1)[0]), "variable 'fs'"
+    if time in extra:
+        t = _vector(extra[time], f"{path}: time variable {time!r}", "time")
+        if values and len(t) != n:
+            raise InputDataError(
+                f"{path}: time variable {time!r} has {len(t)} samples, the channels {n}; store them together"
+            )
+        derived = _sampling_frequency(t, f"{path}: time variable {time!r}", lambda row: "", None)
+        if fs is not None and abs(derived - fs) > 1e-3 * fs:
+            raise InputDataError(
+                f"{path}: time variable {time!r} gives fs = {derived:.9g} Hz but variable 'fs' = {fs:g} Hz; "
+                "correct one of them"
+            )
+        if fs is None:
+            fs, source, tolerance = derived, f"time variable {time!r}", 1e-3
+    hint = f"the file holds no time variable {time!r} and no scalar variable 'fs'; set fs in [data]"
+    return MeasurementColumns(
+        path=path, format=kind, names=tuple(names), values=values, units=dict(units), fs=fs, fs_source=source,
+        fs_tolerance=tolerance, hint=hint,
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Universal File Format, dataset 58 (pyuff)
+
+
+UFF_DIRECTIONS = {"X": 1, "Y": 2, "Z": 3, "RX": 4, "RY": 5, "RZ": 6}
+"""Direction labels of a ``"node:dir"`` channel key -> UFF direction code (the sign is the code's)."""
+_UFF_KEY = re.compile(r"^\s*(\d+)\s*:\s*([+-]?)\s*(X|Y|Z|RX|RY|RZ|\d+)\s*$", re.IGNORECASE)
+_UFF_FUNCTIONS = {0: "general", 1: "time response", 2: "auto spectrum", 3: "cross spectrum",
+                  4: "frequency response function", 5: "transmissibility", 6: "coherence",
+                  7: "auto correlation", 8: "cross correlation", 9: "power spectral density",
+                  10: "energy spectral density", 11: "probability density function", 12: "spectrum",
+                  13: "cumulative frequency distribution", 14: "peaks valley", 15: "stress/cycles",
+                  16: "strain/cycles", 17: "orbit", 18: "mode indicator function", 19: "force pattern",
+                  20: "partial power", 21: "partial coherence", 22: "eigenvalue", 23: "eigenvector",
+                  24: "shock response spectrum", 25: "finite impulse response filter",
+                  26: "multiple coherence", 27: "order function"}
+_UFF_KINDS = {8: "displacement", 9: "reaction force", 11: "velocity", 12: "acceleration", 13: "excitation force"}
+# response roles and the UFF specific data types that contradict them
+_UFF_CONTRADICTS = {
+    "displacement": {9, 11, 12, 13},
+    "velocity": {8, 9, 12, 13},
+    "acceleration": {8, 9, 11, 13},
+}
+
+
+def uff_channel_key(record: Mapping) -> str:
+    """The ``"node:dir"`` key of a UFF58 record, e.g. ``"2:+Z"`` (``"2:0"`` for a scalar record)."""
+    node, code = int(record.get("rsp_node", 0)), int(record.get("rsp_dir", 0))
+    label = {v: k for k, v in UFF_DIRECTIONS.items()}.get(abs(code))
+    if label is None:
+        return f"{node}:{code}"
+    return f"{node}:{'-' if code < 0 else '+'}{label}"
+
+
+def _parse_uff_key(key: str) -> tuple[int, int] | None:
+    match = _UFF_KEY.match(key)
+    if not match:
+        return None
+    node, sign, direction = match.groups()
+    code = int(direction) if direction.isdigit() else UFF_DIRECTIONS[direction.upper()]
+    return int(node), -code if sign == "-" else code
+
+
+def _read_uff(path: Path, columns: list[str], roles: Mapping[str, str], present: Mapping[str, str]) -> MeasurementColumns:
+    try:
+        import pyuff
+    except ImportError as exc:  # pragma: no cover - pyuff is a dependency
+        raise InputDataError(f"{path}: reading Universal Files needs pyuff: pip install pyuff") from exc
+    try:
+        uff = pyuff.UFF(str(path))
+        types = [int(t) for t in uff.get_set_types()]
+        positions = [i for i, t in enumerate(types) if t == 58]
+        headers = _as_list(uff.read_sets(positions, header_only=True)) if positions else []
+    except Exception as exc:  # pyuff raises bare Exception on malformed files
+        raise InputDataError(f"{path}: cannot read it as a Universal File ({exc}); check the file") from exc
+    if not headers:
+        raise InputDataError(
+            f"{path}: no dataset 58 (function at nodal DOF) records found (dataset types in the file: "
+            f"{sorted(set(types)) or 'none'}); export the time records as UFF58"
+        )
+    labels = [f"{str(h.get('id1', '')).strip()!r} ({uff_channel_key(h)})" for h in headers]
+    chosen = {}
+    for name in list(columns) + [c for c in present if c not in columns]:
+        index = _find_uff_record(path, name, headers, labels)
+        if index is None:
+            what = "acceleration record" if name in present and name not in columns else "record"
+            raise InputDataError(
+                f"{path}: no {what} {name!r}; the dataset 58 records are (id1 (node:dir)): {', '.join(labels)}. "
+                'Name a record in [data] by its id1 text or by "node:dir", e.g. "2:+Z"'
+            )
+        chosen[name] = index
+    records = {}
+    wanted = sorted({chosen[c] for c in columns})
+    try:
+        loaded = _as_list(uff.read_sets([positions[i] for i in wanted])) if wanted else []
+    except Exception as exc:
+        raise InputDataError(f"{path}: cannot read the dataset 58 records ({exc}); check the file") from exc
+    by_index = dict(zip(wanted, loaded))
+    for name in columns:
+        records[name] = by_index[chosen[name]]
+    values, units, steps, starts = {}, {}, {}, {}
+    for name, record in records.items():
+        where = f"{path}: record {name!r} ({labels[chosen[name]]})"
+        values[name], steps[name], starts[name] = _uff_samples(record, where)
+        kind = int(record.get("ordinate_spec_data_type", 0) or 0)
+        role = roles.get(name, "")
+        if kind in _UFF_CONTRADICTS.get(role, ()):
+            raise InputDataError(
+                f"{where} holds {_UFF_KINDS[kind]} (specific data type {kind}) but the config maps it as {role}; "
+                "fix the mapping in [data]"
+            )
+        unit = str(record.get("ordinate_axis_units_lab", "") or "").strip()
+        if unit and unit.upper() != "NONE":
+            units[name] = unit
+    _check_lengths(path, values, "records")
+    reference = next(iter(steps))
+    for name in steps:
+        if abs(steps[name] - steps[reference]) > 1e-6 * steps[reference]:
+            raise InputDataError(
+                f"{path}: inconsistent sampling intervals between records: {name!r} has {steps[name]:.9g} s, "
+                f"{reference!r} {steps[reference]:.9g} s; all channels must share one sampling rate"
+            )
+        if abs(starts[name] - starts[reference]) > TIME_TOLERANCE * steps[reference]:
+            raise InputDataError(
+                f"{path}: records start at different times: {name!r} at {starts[name]:.9g} s, {reference!r} at "
+                f"{starts[reference]:.9g} s; the channels must be sampled together"
+            )
+    step = float(np.mean(list(steps.values())))
+    return MeasurementColumns(
+        path=path, format="uff", names=tuple(labels), values=values, units=units, fs=1.0 / step,
+        fs_source="abscissa_inc of the records", fs_tolerance=FS_TOLERANCE,
+        hint="the records give no sampling interval; set fs in [data]",
+    )
+
+
+def _as_list(sets) -> list:
+    return sets if isinstance(sets, list) else [sets]
+
+
+def _find_uff_record(path: Path, key: str, headers: list, labels: list[str]) -> int | None:
+    text = key.strip()
+    hits = [i for i, h in enumerate(headers) if str(h.get("id1", "")).strip() == text]
+    how = "id1"
+    if not hits:
+        parsed = _parse_uff_key(key)
+        if parsed is not None:
+            hits = [i for i, h in enumerate(headers) if (int(h.get("rsp_node", -1)), int(h.get("rsp_dir", 0))) == parsed]
+            how = "response node and direction"
+    if len(hits) > 1:
+        raise InputDataError(
+            f"{path}: {key!r} matches {len(hits)} records by {how}: {[labels[i] for i in hits]}; give the records "
+            "distinct id1 texts (or node/direction) and name one of them"
+        )
+    return hits[0] if hits else None
+
+
+def _uff_samples(record: Mapping, where: str) -> tuple[np.ndarray, float, float]:
+    """Ordinate values, sampling interval [s] and start time [s] of a UFF58 time record."""
+    func = int(record.get("func_type", 0) or 0)
+    if func not in (0, 1):
+        name = _UFF_FUNCTIONS.get(func, "unknown")
+        raise InputDataError(
+            f"{where} is function type {func} ({name}); only time records (function type 1, or 0 general) "
+            "can be loaded"
+        )
+    abscissa = int(record.get("abscissa_spec_data_type", 0) or 0)
+    if abscissa not in (0, 1, 17):
+        raise InputDataError(
+            f"{where}: the abscissa is specific data type {abscissa}, not time (17); only time records can be loaded"
+        )
+    data = np.asarray(record.get("data"))
+    if np.iscomplexobj(data):
+        raise InputDataError(f"{where} holds complex values; only real time records can be loaded")
+    values = _vector(data, where, "UFF58")
+    if int(record.get("abscissa_spacing", 1)) == 1:
+        step = float(record.get("abscissa_inc", 0.0))
+        start = float(record.get("abscissa_min", 0.0))
+        if not (math.isfinite(step) and step > 0):
+            raise InputDataError(f"{where}: abscissa increment {step!r} s is not a positive number")
+        return values, step, start
+    x = np.asarray(record.get("x"), dtype=float)
+    # uneven abscissa: stored with 6 significant digits (E13.5), hence the extra slack
+    fs = _sampling_frequency(x, f"{where}: abscissa", lambda row: "", None, slack=1e-5 * float(np.max(np.abs(x))))
+    return values, 1.0 / fs, float(x[0])
 
 
 def _read_head(path: Path) -> tuple[list[str], list[str] | None]:
@@ -414,34 +1008,6 @@ def _numeric(series: pd.Series, name: str, path: Path, first_line: int) -> np.nd
         )
     return coerced.to_numpy(dtype=float)
 
-
-def _sampling_frequency(table: CSVColumns, time: str, fs: float | None) -> float:
-    t = table.values[time]
-    where = f"{table.path}: time column {time!r}"
-    if not np.all(np.isfinite(t)):
-        row = int(np.argmax(~np.isfinite(t)))
-        raise InputDataError(f"{where} has a missing value at line {table.first_line + row}; fill it or set [data] fs")
-    if len(t) < 2:
-        raise InputDataError(f"{where}: need at least two samples to derive fs")
-    dt = (t[-1] - t[0]) / (len(t) - 1)
-    deviation = np.abs(t - (t[0] + dt * np.arange(len(t))))
-    if not dt > 0 or np.any(np.diff(t) <= 0) or deviation.max() > TIME_TOLERANCE * dt:
-        row = int(np.argmax(deviation)) if dt > 0 else 0
-        raise InputDataError(
-            f"{where} is not uniformly sampled: expected increasing time stamps within {TIME_TOLERANCE:g} of a "
-            f"sample interval ({dt:.6g} s) of a uniform grid, found a deviation of {deviation.max():.3g} s at line "
-            f"{table.first_line + row}; resample the record to a uniform rate"
-        )
-    derived = 1.0 / dt
-    if fs is not None and abs(derived - fs) > 1e-3 * fs:
-        raise InputDataError(
-            f"{where} gives fs = {derived:.9g} Hz but [data] fs = {fs:g} Hz; correct fs, or drop it to use the time column"
-        )
-    return fs if fs is not None else derived
-
-
-def _stack(table: CSVColumns, columns) -> np.ndarray:
-    return np.column_stack([table.values[c] for c in columns])
 
 
 def _is_number(text: str) -> bool:

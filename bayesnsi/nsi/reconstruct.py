@@ -10,6 +10,8 @@ from ..exceptions import UnstableModelError
 from ..signals import Signals
 from .statespace import StateSpaceModel
 
+_FIXED_POINT_ITERATIONS = 4
+
 __all__ = ["Reconstruction", "reconstruct", "nrmse", "initial_state", "AffineReconstruction", "affine_reconstruction"]
 
 
@@ -139,21 +141,24 @@ def _closed_loop(result, signals: Signals, x0: np.ndarray) -> np.ndarray:
     n_dofs = max([signals.n_dofs] + [max(t.dofs) for t in terms])
     rows = np.array(result.output_dofs) - 1
     b_force, b_nl = B[:, :m], B[:, m:]
-    d_force = D[:, :m]
+    d_force, d_nl = D[:, :m], D[:, m:]
+    implicit = bool(np.any(d_nl != 0))  # y_k depends on n(y_k): solve by fixed-point iteration
     out = np.empty((n_samples, n_out))
     x = np.array(x0, dtype=float)
     xs = np.full(n_dofs, np.nan)
     vs = np.full(n_dofs, np.nan)
     bound = 1e6 * max(1.0, float(np.max(np.abs(signals.displacement))))
+    nl = np.zeros(len(terms))
     for k in range(n_samples):
-        yk = C @ x + d_force @ force[k]
-        out[k] = yk
-        xs[rows] = yk
+        linear_part = C @ x + d_force @ force[k]
         vs[rows] = c_vel @ x
-        drive = b_force @ force[k]
-        for idx, term in enumerate(terms):
-            drive -= b_nl[:, idx] * float(term.expr.function(xs, vs))
-        x = A @ x + drive
+        for _ in range(_FIXED_POINT_ITERATIONS if implicit else 1):
+            yk = linear_part - d_nl @ nl if implicit else linear_part
+            xs[rows] = yk
+            for idx, term in enumerate(terms):
+                nl[idx] = float(term.expr.function(xs, vs))
+        out[k] = yk
+        x = A @ x + b_force @ force[k] - b_nl @ nl
         if not np.all(np.abs(x) < bound):
             raise UnstableModelError(
                 f"closed-loop simulation of {result.candidate.name!r} diverged at sample {k} "

@@ -9,8 +9,7 @@ import warnings
 
 import numpy as np
 
-from bayesnsi.cli._selection import EVIDENCE_DEFAULTS, evaluate_evidence
-from bayesnsi.evidence import compare_evidence
+from bayesnsi.evidence import EVIDENCE_DEFAULTS, candidate_evidence, compare_evidence
 from bayesnsi.models import Term
 from bayesnsi.nsi import identify
 from bayesnsi.simulate import simulate_cases
@@ -29,7 +28,7 @@ def test_evidence_prefers_smaller_nested_model():
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 res = identify(case.signals, cand, block_rows=60, order=4)
-                evidences[cand.name] = list(evaluate_evidence(res, case.signals, options, seed).values())
+                evidences[cand.name] = list(candidate_evidence(res, case.signals, options, seed).values())
         table = compare_evidence(evidences)
         evidence_small += table.loc[small.name, "p_ar1"] > 0.5
         plain_big += table.loc[big.name, "p_plain"] > 0.5

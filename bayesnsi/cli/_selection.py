@@ -8,20 +8,10 @@ import warnings
 import numpy as np
 
 from ..exceptions import BayesNSIError, InputDataError
-from ..nsi import affine_reconstruction
+from ..evidence.candidate import EVIDENCE_DEFAULTS, candidate_evidence
 from ._common import identify_all, progress
 
-__all__ = ["EVIDENCE_DEFAULTS", "evidence_options", "select_all", "evaluate_evidence"]
-
-EVIDENCE_DEFAULTS = {
-    "likelihood": "ar1",
-    "compare": ["white"],
-    "n_walkers": 32,
-    "n_steps": 1500,
-    "n_burn": 300,
-    "reference_force_rms": None,
-}
-
+__all__ = ["evidence_options", "select_all"]
 
 def evidence_options(config) -> dict:
     """The ``[evidence]`` table merged over :data:`EVIDENCE_DEFAULTS` (unknown keys refused)."""
@@ -38,41 +28,6 @@ def evidence_options(config) -> dict:
         if lik not in ("white", "ar1") and not (lik.startswith("ar") and lik[2:].isdigit()):
             raise InputDataError(f"[evidence] likelihood {lik!r} unknown; use 'white', 'ar1' or 'arP' (P an integer)")
     return opts
-
-
-def evaluate_evidence(result, signals, opts, seed_sequence, candidate=None):
-    """Evidence of one identified candidate under each requested likelihood.
-
-    Returns
-    -------
-    dict likelihood -> EvidenceResult
-    """
-    from ..evidence import default_priors, marginal_evidence
-
-    candidate = candidate or result.candidate
-    affine = affine_reconstruction(result, signals)
-    u = result.extended_input(signals)
-    m = len(result.input_dofs)
-    term_rms = np.sqrt(np.mean(u[:, m:] ** 2, axis=0))
-    force_ref = opts["reference_force_rms"] or float(np.sqrt(np.sum(np.mean(np.asarray(signals.force) ** 2, axis=0))))
-    overrides = {t.name: s for t, s in zip(candidate.terms, candidate.coefficient_prior_scales) if s is not None}
-    priors = default_priors(affine, term_rms, force_ref, overrides=overrides, channel_names=signals.output_names)
-    out = {}
-    likelihoods = [opts["likelihood"]] + [lik for lik in opts["compare"] if lik != opts["likelihood"]]
-    for lik, child in zip(likelihoods, seed_sequence.spawn(len(likelihoods))):
-        ar_order = 0 if lik == "white" else int(lik[2:])
-        n_params = len(affine.names) + affine.measured.shape[1] * (1 + ar_order)
-        n_walkers = max(int(opts["n_walkers"]), 2 * n_params + 2)  # emcee needs >= 2 x parameters
-        out[lik] = marginal_evidence(
-            affine,
-            priors,
-            likelihood=lik,
-            rng=np.random.default_rng(child),
-            n_walkers=n_walkers + n_walkers % 2,
-            n_steps=int(opts["n_steps"]),
-            n_burn=int(opts["n_burn"]),
-        )
-    return out
 
 
 def select_all(config, signals, quiet=False):
@@ -99,7 +54,7 @@ def select_all(config, signals, quiet=False):
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
-                evidences[candidate.name] = evaluate_evidence(results[candidate.name], signals, opts, seed, candidate)
+                evidences[candidate.name] = candidate_evidence(results[candidate.name], signals, opts, seed, candidate)
             except BayesNSIError as err:
                 record.update(status="failed", error=f"evidence: {type(err).__name__}: {err}")
                 results.pop(candidate.name)

@@ -15,6 +15,7 @@ Conventions: posterior draws are ``(chain, draw, ...)`` with one chain per emcee
 sampled noise parameter is ``log σ`` per output channel; log evidences are in nats.
 """
 
+from .candidate import EVIDENCE_DEFAULTS, candidate_evidence, candidate_priors
 from .convergence import ConvergenceReport, convergence_report, posterior_summary, warn_if_unconverged
 from .likelihood import (
     SufficientStatistics,
@@ -45,6 +46,10 @@ from .ranking import ModelProbabilities, compare_evidence, plain_ranking, poster
 from .sampling import PosteriorSamples, sample_posterior
 
 __all__ = [
+    # candidates
+    "EVIDENCE_DEFAULTS",
+    "candidate_evidence",
+    "candidate_priors",
     # likelihood
     "SufficientStatistics",
     "sufficient_statistics",

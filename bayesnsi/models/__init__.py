@@ -1,6 +1,17 @@
 """Candidate nonlinear terms and models: the lowest layer (numpy only)."""
 
+from .dictionary import EFFECT_TYPES, clearance_expression, default_gaps, effect_dictionary
 from .expressions import Expression, parse_expression
 from .terms import CandidateModel, Term, nonlinear_force
 
-__all__ = ["Expression", "parse_expression", "Term", "CandidateModel", "nonlinear_force"]
+__all__ = [
+    "Expression",
+    "parse_expression",
+    "Term",
+    "CandidateModel",
+    "nonlinear_force",
+    "EFFECT_TYPES",
+    "effect_dictionary",
+    "clearance_expression",
+    "default_gaps",
+]

@@ -12,9 +12,10 @@ seeded datasets, the output noise cycling over 1, 2, 5, 10 % (dataset ``j`` has 
    settings (``case.recommended``); a candidate whose identification or evidence fails gets
    probability 0;
 2. computes the evidence of each identified candidate exactly as ``bayesnsi select`` does
-   (:func:`bayesnsi.cli._selection.evaluate_evidence`: affine reconstruction -> default priors
-   -> emcee + bridge sampling), under the white-noise and the exact AR(1) likelihood, with a
-   ``numpy.random.SeedSequence`` per candidate;
+   (:func:`bayesnsi.evidence.candidate.candidate_evidence`, formerly
+   ``bayesnsi.cli._selection.evaluate_evidence``: affine reconstruction -> default priors ->
+   emcee + bridge sampling) with :data:`EVIDENCE_DEFAULTS`, under the white-noise and the
+   exact AR(1) likelihood, with a ``numpy.random.SeedSequence`` per candidate;
 3. turns them into three probability vectors over the candidates (uniform model priors, via
    :func:`bayesnsi.evidence.compare_evidence`): the paper's plain ranking (Eq. 4, Gaussian
    likelihood at the ML noise level), the white-noise evidence posterior and the AR(1)
@@ -75,14 +76,37 @@ BINS = (0.0, 0.1, 0.5, 0.9, 0.99, 1.0)
 BIN_LABELS = ("[0, 0.1)", "[0.1, 0.5)", "[0.5, 0.9)", "[0.9, 0.99)", "[0.99, 1]")
 
 
+def _evidence_api():
+    """(EVIDENCE_DEFAULTS, per-candidate evidence function) of ``bayesnsi select``."""
+    try:
+        from bayesnsi.evidence.candidate import EVIDENCE_DEFAULTS, candidate_evidence
+    except ImportError:  # older trees kept it in the CLI
+        from bayesnsi.cli._selection import EVIDENCE_DEFAULTS
+        from bayesnsi.cli._selection import evaluate_evidence as candidate_evidence
+    return EVIDENCE_DEFAULTS, candidate_evidence
+
+
+def _git_state() -> str:
+    import subprocess
+
+    here = os.path.dirname(os.path.abspath(__file__))
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=here, capture_output=True, text=True)
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
+                               capture_output=True, text=True)
+        return head.stdout.strip() + (" + uncommitted changes" if dirty.stdout.strip() else "")
+    except OSError:
+        return "unknown"
+
+
 def one_dataset(case_name: str, index: int, seed: int, noise: float, opts: dict, seed0: int) -> dict:
     """Simulate, identify, compute evidences and the three rankings for one dataset."""
-    from bayesnsi.cli._selection import evaluate_evidence
     from bayesnsi.evidence import compare_evidence
     from bayesnsi.exceptions import BayesNSIError, ConvergenceWarning
     from bayesnsi.nsi import identify
     from bayesnsi.simulate import simulate_case
 
+    _, evaluate_evidence = _evidence_api()
     t0 = time.perf_counter()
     case = simulate_case(case_name, seed=seed, noise_percent=noise)
     names = [c.name for c in case.candidates]
@@ -248,7 +272,7 @@ def print_reliability(title: str, bins: list[dict]) -> None:
 
 
 def main(argv=None) -> int:
-    from bayesnsi.cli._selection import EVIDENCE_DEFAULTS
+    EVIDENCE_DEFAULTS, _ = _evidence_api()
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seeds", type=int, default=60, help="datasets per case (default 60: 15 per noise level)")
@@ -270,7 +294,7 @@ def main(argv=None) -> int:
 
     print("bayesnsi calibration study (SPEC 6)")
     print(f"python {platform.python_version()}, numpy {np.__version__}, {os.cpu_count()} CPUs, "
-          f"{args.workers} workers, threads per worker 1")
+          f"{args.workers} workers, threads per worker 1; repository {_git_state()}")
     print(f"cases {args.cases}; {n_seeds} datasets per case, seeds {args.seed0}..{args.seed0 + n_seeds - 1}, "
           f"noise cycling over {', '.join(f'{n:g}' for n in NOISE_LEVELS)} %")
     print(f"evidence options: {opts}")

@@ -24,7 +24,7 @@ _EPILOG = """examples:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand."""
-    from . import demo, identify, select, simulate
+    from . import demo, diagnose, identify, select, simulate
 
     parser = argparse.ArgumentParser(
         prog="bayesnsi",
@@ -34,7 +34,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for module in (simulate, identify, select, demo):
+    for module in (simulate, identify, select, diagnose, demo):
         module.add_parser(sub)
     return parser
 

@@ -146,6 +146,46 @@ def _halves(signals, candidate, nsi_options):
     return tuple(float(v) for v in values)
 
 
+def _check(kind, term, trial, current, current_z, signals, nsi_options, evidence_options, seed, *guards):
+    """Full evidence and the guards of one proposed effect -> (LoopStep, its log-evidence)."""
+    threshold, max_imag_ratio, stability_factor = guards
+    evidence = candidate_evidence(trial, signals, evidence_options, seed, warn=False)
+    ev = evidence[evidence_options["likelihood"]]
+    log_bf = ev.log_evidence - current_z
+    coef = trial.coefficients[-1]
+    halves = _halves(signals, trial.candidate, nsi_options)
+    stable = all(np.isfinite(halves)) and np.sign(halves[0]) == np.sign(halves[1]) == np.sign(coef.value)
+    stable = stable and max(abs(h) for h in halves) < stability_factor * min(abs(h) for h in halves)
+    if log_bf <= threshold:
+        reason = f"log Bayes factor {log_bf:.2f} <= threshold {threshold:.2f}"
+    elif coef.imag_ratio >= max_imag_ratio:
+        reason = f"quality index |Im|/|Re| = {coef.imag_ratio:.2f} >= {max_imag_ratio}"
+    elif not stable:
+        reason = f"coefficient unstable across record halves: {halves[0]:.4g} vs {halves[1]:.4g}"
+    else:
+        reason = "accepted"
+    step = LoopStep(
+        effect_type=kind,
+        term=term,
+        accepted=reason == "accepted",
+        reason=reason,
+        coefficient=coef.value,
+        ci95=tuple(float(c) for c in ev.ci95[-1]),
+        imag_ratio=coef.imag_ratio,
+        half_coefficients=halves,
+        log_bayes_factor=float(log_bf),
+        nrmse_before=current.reconstruct(signals).nrmse,
+        nrmse_after=trial.reconstruct(signals).nrmse,
+        candidate=trial.candidate,
+    )
+    return step, ev.log_evidence
+
+
+def step_result(step, scored):
+    """The NSIResult of the effect a step accepted."""
+    return next(result for _, term, _, result in scored if term == step.term)
+
+
 def close_the_loop(
     signals,
     candidate: CandidateModel,
@@ -157,6 +197,7 @@ def close_the_loop(
     max_imag_ratio: float = 0.3,
     stability_factor: float = 2.0,
     max_steps: int = 3,
+    n_tries: int = 3,
     seed: int = 0,
 ) -> LoopResult:
     """Search the effects a candidate lacks and add those the data support (SPEC section 7).
@@ -182,6 +223,9 @@ def close_the_loop(
         The half-record estimates must share the sign and differ by less than this factor.
     max_steps : int
         Most effects added.
+    n_tries : int
+        Per step, the best ``n_tries`` effects by Laplace evidence are checked in turn; the first
+        that passes every guard is added.
     seed : int
         Seed of the evidence computations.
 
@@ -195,7 +239,7 @@ def close_the_loop(
         std = {d: signals.displacement[:, c].std() for c, d in enumerate(signals.output_dofs)}
         gaps = {(d,): default_gaps(s) for d, s in std.items()}
         effects = effect_dictionary(signals.output_dofs, gaps=gaps)
-    seeds = iter(np.random.SeedSequence(seed).spawn(2 * max_steps + 1))
+    seeds = iter(np.random.SeedSequence(seed).spawn(n_tries * max_steps + 1))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", BayesNSIWarning)
         current = identify(signals, candidate, **nsi_options)
@@ -208,45 +252,24 @@ def close_the_loop(
         all_scores.append([(k, t, s) for k, t, s, _ in scored])
         if not scored or not np.isfinite(scored[0][2]):
             break
-        kind, term, _, trial = scored[0]
-        evidence = candidate_evidence(trial, signals, evidence_options, next(seeds), warn=False)
-        ev = evidence[evidence_options["likelihood"]]
-        log_bf = ev.log_evidence - current_z
-        coef = trial.coefficients[-1]
-        halves = _halves(signals, trial.candidate, nsi_options)
-        stable = all(np.isfinite(halves)) and np.sign(halves[0]) == np.sign(halves[1]) == np.sign(coef.value)
-        stable = stable and max(abs(h) for h in halves) < stability_factor * min(abs(h) for h in halves)
-        if log_bf <= threshold:
-            reason = f"log Bayes factor {log_bf:.2f} ≤ threshold {threshold:.2f}"
-        elif coef.imag_ratio >= max_imag_ratio:
-            reason = f"quality index |Im|/|Re| = {coef.imag_ratio:.2f} ≥ {max_imag_ratio}"
-        elif not stable:
-            reason = f"coefficient unstable across record halves: {halves[0]:.4g} vs {halves[1]:.4g}"
-        else:
-            reason = "accepted"
-        step = LoopStep(
-            effect_type=kind,
-            term=term,
-            accepted=reason == "accepted",
-            reason=reason,
-            coefficient=coef.value,
-            ci95=tuple(float(c) for c in ev.ci95[-1]),
-            imag_ratio=coef.imag_ratio,
-            half_coefficients=halves,
-            log_bayes_factor=float(log_bf),
-            nrmse_before=current.reconstruct(signals).nrmse,
-            nrmse_after=trial.reconstruct(signals).nrmse,
-            candidate=trial.candidate,
-        )
-        steps.append(step)
-        if not step.accepted:
+        step = None
+        for kind, term, score, trial in scored[:n_tries]:
+            if not np.isfinite(score):
+                break
+            guards = (threshold, max_imag_ratio, stability_factor)
+            step, log_z = _check(kind, term, trial, current, current_z, signals, nsi_options, evidence_options, next(seeds), *guards)
+            steps.append(step)
+            if step.accepted:
+                break
+        if step is None or not step.accepted:
             break
-        current, current_z = trial, ev.log_evidence
+        current, current_z = step_result(step, scored), log_z
     settings = dict(
         threshold=threshold,
         max_imag_ratio=max_imag_ratio,
         stability_factor=stability_factor,
         max_steps=max_steps,
+        n_tries=n_tries,
         n_effects=len(effects),
         nsi=nsi_options,
         evidence=evidence_options,

@@ -757,10 +757,11 @@ def _with_file_fs(path, kind, names, values, units, time, extra) -> MeasurementC
     fs, source, tolerance = None, "", FS_TOLERANCE
     n = len(next(iter(values.values()))) if values else 0
     if "fs" in extra:
-        stored = np.asarray(extra["fs"], dtype=float) if np.asarray(extra["fs"]).dtype.kind in "iuf" else None
-        if stored is None or stored.size != 1 or not (math.isfinite(float(stored.reshape(-1)[0])) and stored.reshape(-1)[0] > 0):
+        stored = np.asarray(extra["fs"])
+        value = float(stored.reshape(-1)[0]) if stored.dtype.kind in "iuf" and stored.size == 1 else math.nan
+        if not (math.isfinite(value) and value > 0):
             raise InputDataError(f"{path}: variable 'fs' must be one positive number [Hz], found {extra['fs']!r}")
-        fs, source = float(stored.reshape(-1)[0]), "variable 'fs'"
+        fs, source = value, "variable 'fs'"
     if time in extra:
         t = _vector(extra[time], f"{path}: time variable {time!r}", "time")
         if values and len(t) != n:
@@ -834,7 +835,7 @@ def _read_uff(path: Path, columns: list[str], roles: Mapping[str, str], present:
         uff = pyuff.UFF(str(path))
         types = [int(t) for t in uff.get_set_types()]
         positions = [i for i, t in enumerate(types) if t == 58]
-        headers = _as_list(uff.read_sets(positions, header_only=True)) if positions else []
+        headers = _uff_headers(uff, positions) if positions else []
     except Exception as exc:  # pyuff raises bare Exception on malformed files
         raise InputDataError(f"{path}: cannot read it as a Universal File ({exc}); check the file") from exc
     if not headers:
@@ -895,6 +896,13 @@ def _read_uff(path: Path, columns: list[str], roles: Mapping[str, str], present:
         fs_source="abscissa_inc of the records", fs_tolerance=FS_TOLERANCE,
         hint="the records give no sampling interval; set fs in [data]",
     )
+
+
+def _uff_headers(uff, positions: list[int]) -> list:
+    try:
+        return _as_list(uff.read_sets(positions, header_only=True))
+    except TypeError:  # pyuff without header_only: read the records whole
+        return _as_list(uff.read_sets(positions))
 
 
 def _as_list(sets) -> list:

@@ -8,7 +8,13 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-__all__ = ["plot_model_probabilities", "plot_reconstruction_errors", "plot_posterior_pairs", "plot_traces"]
+__all__ = [
+    "plot_model_probabilities",
+    "plot_reconstruction_errors",
+    "plot_posterior_pairs",
+    "plot_traces",
+    "plot_effect_force",
+]
 
 
 def plot_model_probabilities(table, ax=None):
@@ -100,4 +106,28 @@ def plot_traces(posterior, max_params: int = 4):
             ax.plot(coefs[chain, :, k], lw=0.5)
         ax.set_ylabel(names[k], fontsize=8)
     axes[-1, 0].set_xlabel("draw (after burn-in)")
+    return fig
+
+
+def plot_effect_force(step, signals, max_points: int = 4000):
+    """Restoring-force view of an added effect: λ·n(x, v) against x and v at its location (SPEC 7.5)."""
+    x, v = signals.state_rows(step.term.expr.displacement_dofs, step.term.expr.velocity_dofs)
+    force = step.coefficient * step.term.evaluate(x, v)
+    j = step.term.at[0]
+    column = list(signals.output_dofs).index(j)
+    xs = signals.displacement[:, column]
+    vs = signals.velocities()[:, column]
+    if len(step.term.at) == 2:
+        k = list(signals.output_dofs).index(step.term.at[1])
+        xs = xs - signals.displacement[:, k]
+        vs = vs - signals.velocities()[:, k]
+    pick = np.linspace(0, len(force) - 1, min(max_points, len(force))).astype(int)
+    fig, axes = plt.subplots(1, 2, figsize=(8.0, 3.4), layout="constrained")
+    axes[0].plot(xs[pick], force[pick], ".", ms=2)
+    axes[0].set_xlabel("relative displacement" if len(step.term.at) == 2 else f"x{j}")
+    axes[1].plot(vs[pick], force[pick], ".", ms=2, color="C1")
+    axes[1].set_xlabel("relative velocity" if len(step.term.at) == 2 else f"v{j}")
+    for ax in axes:
+        ax.set_ylabel("effect force")
+    fig.suptitle(f"{step.term.name}: λ = {step.coefficient:.4g}", fontsize=10)
     return fig

@@ -1,0 +1,127 @@
+"""``bayesnsi diagnose CONFIG --out DIR``: close the loop from the selected model (SPEC 7)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..io import RESULTS_FILENAME, atomic_write_json, load_config, load_signals, load_validation, prepare_output_dir, to_jsonable, versions
+from ..io.schema import term_record
+from ._common import add_run_arguments, nsi_options, progress
+from ._report import identification_report, selection_sections
+from ._selection import select_all
+from .select import validate
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub) -> None:
+    """Register the subcommand."""
+    p = sub.add_parser(
+        "diagnose",
+        help="close the loop: find an effect the selected model lacks, add it, report before/after",
+        description="Select a model as `bayesnsi select` does (or start from --start NAME), then search a "
+        "dictionary of effects (x², x|x|, x³, sign(v), v|v|, v³, x²·sign(v), clearances; at each measured DOF "
+        "and between neighbouring DOFs) for what its residual lacks; add an effect only when the Bayes factor, "
+        "its quality index and its stability across record halves support it; repeat.",
+        epilog="example: bayesnsi diagnose workflows/silverbox/silverbox.toml --start linear --out out/sb-loop",
+    )
+    add_run_arguments(p)
+    p.add_argument("--start", default=None, help="candidate to start from (default: the selected one)")
+    p.add_argument("--max-steps", type=int, default=3, help="most effects to add (default 3)")
+    p.add_argument("--threshold", type=float, default=float(np.log(100.0)), help="log Bayes factor to accept (default log 100)")
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    """Execute the command."""
+    from ..diagnose import close_the_loop
+    from ..exceptions import ConfigError
+
+    config = load_config(args.config)
+    out = prepare_output_dir(args.out, force=args.force)
+    signals = load_signals(config)
+    results, records, evidences, table, opts = select_all(config, signals, quiet=args.quiet)
+    ranked = [r for r in records if r["status"] == "ok"]
+    if not ranked:
+        raise ConfigError("no candidate could be identified, so there is no model to start the loop from")
+    start = args.start or max(ranked, key=lambda r: r["posterior"])["name"]
+    if start not in results:
+        raise ConfigError(f"--start {start!r} is not an identified candidate; choose one of {sorted(results)}")
+    progress(f"closing the loop from {start!r} ...", args.quiet)
+    loop = close_the_loop(
+        signals,
+        results[start].candidate,
+        nsi_options=nsi_options(config),
+        evidence_options={k: v for k, v in opts.items() if k != "compare"},
+        threshold=args.threshold,
+        max_steps=args.max_steps,
+        seed=config.seed,
+    )
+    validation = load_validation(config)
+    steps = []
+    for step in loop.steps:
+        steps.append(
+            {
+                "added": term_record(step.term),
+                "effect_type": step.effect_type,
+                "accepted": step.accepted,
+                "reason": step.reason,
+                "coefficient": step.coefficient,
+                "ci95": list(step.ci95),
+                "imag_ratio": step.imag_ratio,
+                "half_coefficients": list(step.half_coefficients),
+                "bayes_factor_log": step.log_bayes_factor,
+                "nrmse_before": step.nrmse_before,
+                "nrmse_after": step.nrmse_after,
+            }
+        )
+        progress(f"{'added' if step.accepted else 'rejected'} {step.term.name}: {step.reason}", args.quiet)
+    payload = {
+        "command": "diagnose",
+        "config": str(config.path),
+        "selected": start,
+        "final_model": [term_record(t) for t in loop.final.terms],
+        "candidates": records,
+        "loop": [s for s in steps if s["accepted"]],
+        "loop_rejected": [s for s in steps if not s["accepted"]],
+        "validation_before": validate(loop.start, validation),
+        "validation": validate(loop.final, validation),
+        "settings": {"config": config.raw, "seed": config.seed, "evidence": opts, "loop": to_jsonable(loop.settings)},
+        "versions": versions(),
+    }
+    path = atomic_write_json(out / RESULTS_FILENAME, to_jsonable(payload))
+    if not args.no_figures:
+        report = identification_report(config, signals, results, records, f"bayesnsi diagnose - {config.path.name}")
+        selection_sections(report, signals, results, evidences, table, opts, start)
+        _loop_section(report, signals, loop, payload)
+        progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
+    progress(f"wrote {path}", args.quiet)
+    return 0
+
+
+def _loop_section(report, signals, loop, payload):
+    import pandas as pd
+
+    from ..plots import plot_effect_force
+
+    blocks = report.section("Closing the loop (SPEC 7)")
+    blocks.append(
+        "Each row is the best effect of a step; it is added only if the log Bayes factor exceeds the threshold, "
+        "its quality index |Im|/|Re| is small and its coefficient keeps sign and size on both record halves."
+    )
+    rows = payload["loop"] + payload["loop_rejected"]
+    if rows:
+        blocks.append(pd.DataFrame(rows).drop(columns=["added"]).assign(effect=[r["added"]["expr"] + f" @ {r['added']['at']}" for r in rows]))
+    blocks.append(
+        pd.DataFrame(
+            {
+                "before (closed-loop rmse)": {v["name"]: v["rmse"] for v in payload["validation_before"]},
+                "after (closed-loop rmse)": {v["name"]: v["rmse"] for v in payload["validation"]},
+            }
+        )
+    )
+    for step in loop.steps:
+        if step.accepted:
+            fig = plot_effect_force(step, signals)
+            fig.set_label(f"Force of the added effect {step.term.name} against displacement and velocity at its location")
+            blocks.append(fig)

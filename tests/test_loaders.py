@@ -176,7 +176,8 @@ def test_uff_ascii_units_keys_and_uneven_abscissa(tmp_path, columns):
     _write_uff(tmp_path / "ascii.uff", columns, binary=0)
     signals = load_signals(load_config(_write_uff_config(tmp_path, "ascii.uff", fs=FS)))
     # ASCII UFF58 keeps 12 significant digits (E20.12)
-    np.testing.assert_allclose(signals.displacement[:, 1], columns["x2"], rtol=1e-10, atol=1e-11 * np.abs(columns["x2"]).max())
+    x2 = columns["x2"]
+    np.testing.assert_allclose(signals.displacement[:, 1], x2, rtol=1e-10, atol=1e-11 * np.abs(x2).max())
     table = read_columns(tmp_path / "ascii.uff", ["x1", "101:Z", "velocity 2", "102:-1"])
     assert table.fs == pytest.approx(FS, rel=1e-12) and table.format == "uff"
     assert table.units == {"x1": "m", "101:Z": "m/s", "velocity 2": "m/s", "102:-1": "m/s"}
@@ -249,7 +250,7 @@ def test_mat_errors(tmp_path, columns):
         _load(tmp_path, "complex.mat", fs=FS)
 
     _write_mat5(tmp_path / "nofs.mat", columns)
-    with pytest.raises(InputDataError, match="no sampling frequency .*no time variable 't' and no scalar variable 'fs'"):
+    with pytest.raises(InputDataError, match="no sampling frequency .*no time variable 't' and no scalar variable"):
         _load(tmp_path, "nofs.mat")
 
     _write_mat5(tmp_path / "fs200.mat", columns, fs=200.0)

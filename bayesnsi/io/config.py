@@ -60,6 +60,7 @@ from typing import Any
 
 from ..exceptions import ConfigError, ExpressionError
 from ..models import CandidateModel, Term
+from ..preprocess import INTEGRATION_METHODS
 from . import _toml
 
 __all__ = [
@@ -567,8 +568,6 @@ def _parse_integrate(table: Mapping, where: _Where, fs: float | None, accelerati
     taper = _number(value, "taper", here, defaults.taper)
     if not 0 <= taper < 1:
         raise here.error("taper", "a number in [0, 1)", taper)
-    from ..preprocess import INTEGRATION_METHODS
-
     return IntegrationSpec(
         band_hz=(float(band[0]), float(band[1])),
         method=_choice(value, "method", here, INTEGRATION_METHODS, defaults.method),

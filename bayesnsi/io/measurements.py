@@ -554,7 +554,9 @@ def _read_csv_any(path: Path, columns: list[str], time: str, present: Mapping[st
             f"{path}: acceleration column(s) {missing} not found; available columns: {', '.join(header)}"
         )
     table = read_csv_columns(path, list(columns) + ([time] if use_time else []))
-    fs = _sampling_frequency(table.values[time], f"{path}: time column {time!r}", table.locate, None) if use_time else None
+    fs = None
+    if use_time:
+        fs = _sampling_frequency(table.values[time], f"{path}: time column {time!r}", table.locate, None)
     values = {c: table.values[c] for c in columns}
     return MeasurementColumns(
         path=path, format="csv", names=table.names, values=values, units=table.units, fs=fs,
@@ -665,7 +667,9 @@ def _read_matlike(path: Path, columns: list[str], time: str, present: Mapping[st
     try:
         info = scipy.io.whosmat(str(path))
     except Exception as exc:  # scipy raises ValueError, MatReadError, TypeError... on non-MAT content
-        raise InputDataError(f"{path}: cannot read it as a MATLAB .mat file ({exc}); save it with MATLAB's save") from exc
+        raise InputDataError(
+            f"{path}: cannot read it as a MATLAB .mat file ({exc}); save it with MATLAB's save"
+        ) from exc
     classes = {name: cls for name, _, cls in info}
     names = tuple(classes)
     missing = [c for c in columns if c not in classes]
@@ -711,7 +715,8 @@ def _read_hdf5(path: Path, columns: list[str], time: str, present: Mapping[str, 
         if absent:
             raise _missing_message(path, "acceleration variable(s)", absent, names, "fix [data] accelerations")
         values = {c: _h5_vector(h5[c], c, path) for c in columns}
-        extra = {v: _h5_vector(h5[v], v, path) for v in (time, "fs") if v in h5 and v not in columns and v not in present}
+        stored = [v for v in (time, "fs") if v in h5 and v not in columns and v not in present]
+        extra = {v: _h5_vector(h5[v], v, path) for v in stored}
     _check_lengths(path, values, "variables")
     return _with_file_fs(path, kind, names, values, {}, time, extra)
 
@@ -826,7 +831,9 @@ def _parse_uff_key(key: str) -> tuple[int, int] | None:
     return int(node), -code if sign == "-" else code
 
 
-def _read_uff(path: Path, columns: list[str], roles: Mapping[str, str], present: Mapping[str, str]) -> MeasurementColumns:
+def _read_uff(
+    path: Path, columns: list[str], roles: Mapping[str, str], present: Mapping[str, str]
+) -> MeasurementColumns:
     try:
         import pyuff
     except ImportError as exc:  # pragma: no cover - pyuff is a dependency
@@ -916,7 +923,9 @@ def _find_uff_record(path: Path, key: str, headers: list, labels: list[str]) -> 
     if not hits:
         parsed = _parse_uff_key(key)
         if parsed is not None:
-            hits = [i for i, h in enumerate(headers) if (int(h.get("rsp_node", -1)), int(h.get("rsp_dir", 0))) == parsed]
+            hits = [
+                i for i, h in enumerate(headers) if (int(h.get("rsp_node", -1)), int(h.get("rsp_dir", 0))) == parsed
+            ]
             how = "response node and direction"
     if len(hits) > 1:
         raise InputDataError(

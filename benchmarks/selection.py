@@ -2,7 +2,7 @@
 
 1. Stage times per candidate, two-DOF case (seed 0, 1e3 samples, block_rows=60, order=4) and beam
    case (seed 0, 1e5 samples, 8 outputs, block_rows=60, order=32, band 1-30 Hz), 3 paper
-   candidates each, replaying ``bayesnsi.cli._selection`` (select_all -> evaluate_evidence, same
+   candidates each, replaying ``bayesnsi.cli._selection`` (select_all -> candidate_evidence, same
    seeds): identify, open-loop reconstruction, affine reconstruction (signatures), priors (extended
    input + default_priors); then, for the "ar1" (default) and "white" likelihoods, the timings of
    ``EvidenceResult.settings``: statistics (time_statistics_s), emcee (time_sampling_s), estimators
@@ -36,7 +36,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from bayesnsi.cli._selection import EVIDENCE_DEFAULTS  # noqa: E402
+from bayesnsi.evidence import EVIDENCE_DEFAULTS  # noqa: E402
 from bayesnsi.evidence import default_priors, marginal_evidence  # noqa: E402
 from bayesnsi.exceptions import BayesNSIError  # noqa: E402
 from bayesnsi.nsi import affine_reconstruction, identify  # noqa: E402
@@ -60,7 +60,7 @@ def timed(times, key, fn, *args, **kwargs):
 
 
 def priors_for(result, affine, signals, candidate):
-    """The priors of ``evaluate_evidence`` (term rms from the extended input, force rms reference)."""
+    """The priors of ``bayesnsi.evidence.candidate_evidence`` (term rms from the extended input, force rms reference)."""
     u, m = result.extended_input(signals), len(result.input_dofs)
     term_rms = np.sqrt(np.mean(u[:, m:] ** 2, axis=0))
     force_ref = float(np.sqrt(np.sum(np.mean(np.asarray(signals.force) ** 2, axis=0))))

@@ -12,7 +12,7 @@ from ..exceptions import BayesNSIError
 from ..io.schema import candidate_record, failed_candidate_record
 from ..nsi import identify
 
-__all__ = ["add_run_arguments", "identify_all", "nsi_options", "progress"]
+__all__ = ["add_run_arguments", "start_run", "identify_all", "nsi_options", "progress"]
 
 
 def add_run_arguments(parser) -> None:
@@ -22,6 +22,24 @@ def add_run_arguments(parser) -> None:
     parser.add_argument("--force", action="store_true", help="overwrite an existing results.json in DIR")
     parser.add_argument("--quiet", action="store_true", help="no progress messages")
     parser.add_argument("--no-figures", action="store_true", help="skip the report and its figures")
+
+
+def start_run(args):
+    """Load the config and its estimation signals, and prepare the output directory.
+
+    Returns
+    -------
+    config : ExperimentConfig
+    out : Path
+    signals : Signals
+    """
+    from ..io import load_config, load_signals, prepare_output_dir
+
+    config = load_config(args.config)
+    out = prepare_output_dir(args.out, force=args.force)
+    signals = load_signals(config)
+    progress(f"{len(config.candidates)} candidates, {signals.n_samples} samples at {signals.fs:g} Hz", args.quiet)
+    return config, out, signals
 
 
 def progress(message: str, quiet: bool) -> None:

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..io import RESULTS_FILENAME, atomic_write_json, load_config, load_signals, load_validation, prepare_output_dir, to_jsonable, versions
+from ..io import RESULTS_FILENAME, atomic_write_json, load_validation, to_jsonable, versions
 from ..io.schema import term_record
-from ._common import add_run_arguments, nsi_options, progress
+from ._common import add_run_arguments, nsi_options, progress, start_run
 from ._report import identification_report, selection_sections
 from ._selection import select_all
 from .select import validate
@@ -37,9 +37,7 @@ def run(args) -> int:
     from ..diagnose import close_the_loop
     from ..exceptions import ConfigError
 
-    config = load_config(args.config)
-    out = prepare_output_dir(args.out, force=args.force)
-    signals = load_signals(config)
+    config, out, signals = start_run(args)
     results, records, evidences, table, opts = select_all(config, signals, quiet=args.quiet)
     ranked = [r for r in records if r["status"] == "ok"]
     if not ranked:

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from ..io import RESULTS_FILENAME, atomic_write_json, load_config, load_signals, prepare_output_dir, to_jsonable, versions
-from ._common import add_run_arguments, identify_all, progress
+from ..io import RESULTS_FILENAME, atomic_write_json, to_jsonable, versions
+from ._common import add_run_arguments, identify_all, progress, start_run
 from ._report import identification_report
 
 __all__ = ["add_parser", "run"]
@@ -24,10 +24,7 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     """Execute the command."""
-    config = load_config(args.config)
-    out = prepare_output_dir(args.out, force=args.force)
-    signals = load_signals(config)
-    progress(f"{len(config.candidates)} candidates, {signals.n_samples} samples at {signals.fs:g} Hz", args.quiet)
+    config, out, signals = start_run(args)
     results, records = identify_all(config, signals, quiet=args.quiet)
     payload = {
         "command": "identify",

@@ -5,17 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..exceptions import BayesNSIError
-from ..io import (
-    RESULTS_FILENAME,
-    atomic_write_json,
-    load_config,
-    load_signals,
-    load_validation,
-    prepare_output_dir,
-    to_jsonable,
-    versions,
-)
-from ._common import add_run_arguments, progress
+from ..io import RESULTS_FILENAME, atomic_write_json, load_validation, to_jsonable, versions
+from ._common import add_run_arguments, progress, start_run
 from ._report import identification_report, selection_sections
 from ._selection import select_all
 
@@ -38,10 +29,7 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     """Execute the command."""
-    config = load_config(args.config)
-    out = prepare_output_dir(args.out, force=args.force)
-    signals = load_signals(config)
-    progress(f"{len(config.candidates)} candidates, {signals.n_samples} samples at {signals.fs:g} Hz", args.quiet)
+    config, out, signals = start_run(args)
     results, records, evidences, table, opts = select_all(config, signals, quiet=args.quiet)
     ranked = [r for r in records if r.get("posterior") is not None and r["status"] == "ok"]
     selected = max(ranked, key=lambda r: r["posterior"])["name"] if ranked else None

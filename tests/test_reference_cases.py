@@ -78,7 +78,7 @@ def test_two_dof_wrong_candidates_fit_worse(two_dof_10s, two_dof_100s):
         assert np.max(np.abs(z_err)) > 0.5  # damping of the wrong model is far off (paper: 272-633 %)
     cases, results = two_dof_10s
     force_rms = 10.0
-    for case, (_, _, superset) in zip(cases, results):
+    for _, _, superset in results:
         coulomb_term = superset.coefficients[1]
         # the sign(v1) force it claims is < 1 % of the excitation (paper: 0.17 N, ranked out)
         assert abs(coulomb_term.value) < 0.01 * force_rms

@@ -455,22 +455,24 @@ def identify(
     )
 
 
-def stabilization(result_or_signals, candidate=None, *, block_rows: int = 40, orders=None, velocity_method="fourth"):
+def stabilization(signals: Signals, candidate=None, *, block_rows: int = 40, orders=None, velocity_method="fourth"):
     """Poles against model order for a stabilisation diagram (SPEC section 3, paper Figs. 3, 7, 11).
 
     Parameters
     ----------
-    result_or_signals : Signals
+    signals : Signals
     candidate : as in :func:`identify`
     block_rows : int
     orders : sequence of int, optional
         Default 2, 4, ..., min(i·l - 1, 40).
+    velocity_method : str
+        As in :func:`identify`.
 
     Returns
     -------
-    list of (order, ndarray of Mode-like (frequency_hz, damping_ratio), ndarray spurious poles)
+    singular_values : ndarray
+    diagram : list of (order, ndarray (k, 2) of (frequency_hz, damping_ratio), ndarray of spurious poles)
     """
-    signals = result_or_signals
     cand = _as_terms(candidate)
     u = extended_input(signals, cand.terms, velocity_method)
     y = np.asarray(signals.displacement)

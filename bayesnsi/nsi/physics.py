@@ -71,15 +71,12 @@ def split_poles(poles: np.ndarray, dt: float | None = None, min_imag_ratio: floa
     poles = np.asarray(poles, dtype=complex)
     freqs, zetas = modal_parameters_from_poles(poles)
     modes, spurious = [], []
-    seen_conjugate = np.zeros(len(poles), dtype=bool)
-    for idx, (s, f, z) in enumerate(zip(poles, freqs, zetas)):
+    for s, f, z in zip(poles, freqs, zetas):
         is_complex = abs(s.imag) > min_imag_ratio * max(abs(s), 1e-300)
         at_nyquist = dt is not None and abs(abs(s.imag) * dt - np.pi) < 1e-9
         if is_complex and not at_nyquist and 0 < z < 1:
-            if s.imag > 0:
+            if s.imag > 0:  # one of each conjugate pair
                 modes.append(Mode(float(f), float(z), complex(s)))
-            else:
-                seen_conjugate[idx] = True
         else:
             spurious.append(s)
     modes.sort(key=lambda mode: mode.frequency_hz)

@@ -12,6 +12,7 @@ from .cases import (
     negative_stiffness_twin,
     simulate_case,
     simulate_cases,
+    three_dof,
     two_dof,
 )
 from .excitation import Excitation, band_limited_gaussian, fft_interpolate, from_samples
@@ -38,6 +39,7 @@ __all__ = [
     # reference cases
     "ReferenceCase",
     "two_dof",
+    "three_dof",
     "cantilever_beam_case",
     "negative_stiffness_twin",
     "negative_stiffness_parameters",

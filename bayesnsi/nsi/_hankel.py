@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-__all__ = ["hankel_gram", "gram_factor", "lq_factor", "grouped_order"]
+__all__ = ["ScaledStack", "hankel_gram", "gram_factor", "lq_factor", "grouped_order"]
 
 _CHUNK = 4096
 
@@ -32,12 +32,47 @@ def grouped_order(block_rows: int, n_inputs: int, n_outputs: int) -> np.ndarray:
     return np.concatenate([u_rows[1], u_rows[0], y_rows])
 
 
-def hankel_gram(z: np.ndarray, block_rows: int) -> np.ndarray:
+class ScaledStack:
+    """``z = [u / u_scale, y / y_scale]`` built a few rows at a time (no copy of the record).
+
+    Parameters
+    ----------
+    u : ndarray, shape (N, m)
+    y : ndarray, shape (N, l)
+    u_scale, y_scale : ndarray, shapes (m,), (l,)
+    """
+
+    def __init__(self, u, y, u_scale=None, y_scale=None):
+        self.u, self.y = u, y
+        self.u_scale = np.ones(u.shape[1]) if u_scale is None else u_scale
+        self.y_scale = np.ones(y.shape[1]) if y_scale is None else y_scale
+        self.shape = (u.shape[0], u.shape[1] + y.shape[1])
+
+    def rows(self, start: int, stop: int) -> np.ndarray:
+        """Rows ``start:stop`` of z, zero beyond the record's end."""
+        n, k = self.shape
+        out = np.zeros((stop - start, k))
+        last = min(stop, n)
+        if last > start:
+            m = self.u.shape[1]
+            out[: last - start, :m] = self.u[start:last] / self.u_scale
+            out[: last - start, m:] = self.y[start:last] / self.y_scale
+        return out
+
+
+def _as_stack(z) -> ScaledStack:
+    if isinstance(z, ScaledStack):
+        return z
+    z = np.asarray(z, dtype=float)
+    return ScaledStack(z, np.zeros((len(z), 0)))
+
+
+def hankel_gram(z, block_rows: int) -> np.ndarray:
     """Gram matrix of the interleaved block Hankel matrix from lagged correlations.
 
     Parameters
     ----------
-    z : ndarray, shape (n_samples, k)
+    z : ndarray, shape (n_samples, k), or ScaledStack
         Stacked signals ``[u, y]``.
     block_rows : int
         i; the Hankel matrix has 2i block rows and ``j = n_samples - 2i + 1`` columns.
@@ -50,25 +85,28 @@ def hankel_gram(z: np.ndarray, block_rows: int) -> np.ndarray:
     Notes
     -----
     One pass over the data in chunks computes ``T_d = Σ_{t<j} z_t z_{t+d}ᵀ`` for all lags
-    ``d < 2i`` (O(i k² N) flops, memory independent of N); block ``(r, r+d)`` of the Gram matrix
-    then follows exactly from ``S_{r,d} = T_d + Σ_{s<r} (z_{s+j} z_{s+j+d}ᵀ - z_s z_{s+d}ᵀ)``
-    (O(i³ k²), vectorised).
+    ``d < 2i`` (O(i k² N) flops, memory independent of N: the scaled rows are built chunk by
+    chunk); block ``(r, r+d)`` of the Gram matrix then follows exactly from
+    ``S_{r,d} = T_d + Σ_{s<r} (z_{s+j} z_{s+j+d}ᵀ - z_s z_{s+d}ᵀ)`` (O(i³ k²), vectorised).
     """
-    n, k = z.shape
+    stack = _as_stack(z)
+    n, k = stack.shape
     two_i = 2 * block_rows
     j = n - two_i + 1
-    windows = sliding_window_view(z, (two_i, k))[:, 0]  # (j, 2i, k) strided view, no copy
     base = np.zeros((k, two_i * k))
     for start in range(0, j, _CHUNK):
         stop = min(start + _CHUNK, j)
-        block = windows[start:stop].reshape(stop - start, two_i * k)
-        base += z[start:stop].T @ block
+        chunk = stack.rows(start, stop + two_i - 1)
+        block = sliding_window_view(chunk, (two_i, k))[:, 0].reshape(stop - start, two_i * k)
+        base += chunk[: stop - start].T @ block
     base = base.reshape(k, two_i, k).transpose(1, 0, 2)  # base[d] = T_d, (k, k)
     # Edge corrections for every (r, d) at once: S_{r,d} = T_d + Σ_{s<r} (tail_s,d - head_s,d).
-    padded = np.vstack([z, np.zeros((two_i, k))])
-    lagged = sliding_window_view(padded, (two_i, k))[:, 0]  # lagged[s, d] = z_{s+d}
-    head = np.einsum("sa,sdb->sdab", z[: two_i - 1], lagged[: two_i - 1])
-    tail = np.einsum("sa,sdb->sdab", padded[j : j + two_i - 1], lagged[j : j + two_i - 1])
+    head_rows = stack.rows(0, 2 * two_i - 2)
+    tail_rows = stack.rows(j, j + 2 * two_i - 2)
+    head_lagged = sliding_window_view(head_rows, (two_i, k))[:, 0]  # [s, d] = z_{s+d}
+    tail_lagged = sliding_window_view(tail_rows, (two_i, k))[:, 0]
+    head = np.einsum("sa,sdb->sdab", head_rows[: two_i - 1], head_lagged[: two_i - 1])
+    tail = np.einsum("sa,sdb->sdab", tail_rows[: two_i - 1], tail_lagged[: two_i - 1])
     corrections = np.concatenate([np.zeros((1, two_i, k, k)), np.cumsum(tail - head, axis=0)])
     blocks = base[None] + corrections  # blocks[r, d] = S_{r,d}
     r_idx, s_idx = np.meshgrid(np.arange(two_i), np.arange(two_i), indexing="ij")
@@ -76,11 +114,10 @@ def hankel_gram(z: np.ndarray, block_rows: int) -> np.ndarray:
     full = blocks[lower, lag]  # (2i, 2i, k, k); block (r, s) for r <= s
     swap = r_idx > s_idx
     full[swap] = full[swap].transpose(0, 2, 1)
-    gram = full.transpose(0, 2, 1, 3).reshape(two_i * k, two_i * k)
-    return gram
+    return full.transpose(0, 2, 1, 3).reshape(two_i * k, two_i * k)
 
 
-def gram_factor(z: np.ndarray, block_rows: int, n_inputs: int) -> np.ndarray:
+def gram_factor(z, block_rows: int, n_inputs: int) -> np.ndarray:
     """Square-root factor of the grouped, normalised Hankel Gram matrix (fast route).
 
     Returns lower-triangular ``L`` with ``L Lᵀ = H Hᵀ / j``, rows ``[U_f; U_p; Y_p; Y_f]``.
@@ -106,6 +143,7 @@ def lq_factor(z: np.ndarray, block_rows: int, n_inputs: int) -> np.ndarray:
 
     Memory and time grow with ``2i k × N``: for validating :func:`gram_factor` and small data.
     """
+    z = _as_stack(z).rows(0, z.shape[0])
     n, k = z.shape
     two_i = 2 * block_rows
     j = n - two_i + 1

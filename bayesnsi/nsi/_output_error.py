@@ -48,7 +48,7 @@ def _basis_gram(lam: np.ndarray, u: np.ndarray, y: np.ndarray):
     return gram, cross
 
 
-def refine_output_error(A, C, u, y, dt, zero_feedthrough=True):
+def refine_output_error(A, C, u, y, dt, zero_feedthrough=True, output_weights=None):
     """Least-squares B, D, x₀ minimising the simulation error with A, C fixed.
 
     Parameters
@@ -61,6 +61,9 @@ def refine_output_error(A, C, u, y, dt, zero_feedthrough=True):
         Sampling interval [s] (unused by the algebra; kept for a uniform signature).
     zero_feedthrough : bool
         Impose D = 0 (displacement outputs).
+    output_weights : ndarray, shape (l,), optional
+        Weight of each output channel's squared error (e.g. 1/var(y_o) so channels of different
+        size count alike); default 1.
 
     Returns
     -------
@@ -100,8 +103,9 @@ def refine_output_error(A, C, u, y, dt, zero_feedthrough=True):
         weights[free + k : free + 2 * k, n_b + n_d :] = -modal.imag
         if n_d:
             weights[free + 2 * k + np.arange(m), n_b + o * m + np.arange(m)] = 1.0
-        normal += weights.T @ gram @ weights
-        rhs += weights.T @ cross[:, o]
+        w = 1.0 if output_weights is None else output_weights[o]
+        normal += w * (weights.T @ gram @ weights)
+        rhs += w * (weights.T @ cross[:, o])
     scale = np.sqrt(np.diag(normal))
     scale[scale == 0] = 1.0
     theta = np.linalg.lstsq(normal / np.outer(scale, scale), rhs / scale, rcond=None)[0] / scale

@@ -367,7 +367,7 @@ def identify(
     check_block_rows(len(u), block_rows, n_in + n_out)
 
     u_scale, y_scale = u.std(axis=0), y.std(axis=0)
-    z = np.hstack([u / u_scale, y / y_scale])
+    z = _hankel.ScaledStack(u, y, u_scale, y_scale)
     factor_fn = _hankel.gram_factor if route == "correlation" else _hankel.lq_factor
     data = _subspace.SubspaceData(factor_fn(z, block_rows, n_in), block_rows, n_in, n_out)
     left, singular_values = _subspace.oblique_svd(data)
@@ -396,8 +396,7 @@ def identify(
         D = D_s * y_scale[:, None] / u_scale
     else:
         C = C_s * y_scale[:, None]
-        B_s, D_s, _ = refine_output_error(A, C_s, u / u_scale, y / y_scale, signals.dt, zero_feedthrough)
-        B, D = B_s / u_scale, D_s * y_scale[:, None] / u_scale
+        B, D, _ = refine_output_error(A, C, u, y, signals.dt, zero_feedthrough, output_weights=y_scale**-2.0)
     model = StateSpaceModel(A=A, B=B, C=C, D=D, dt=signals.dt)
     modes, spurious = split_poles(model.poles, signals.dt)
     if not modes:
@@ -477,7 +476,7 @@ def stabilization(signals: Signals, candidate=None, *, block_rows: int = 40, ord
     u = extended_input(signals, cand.terms, velocity_method)
     y = np.asarray(signals.displacement)
     check_block_rows(len(u), block_rows, u.shape[1] + y.shape[1])
-    z = np.hstack([u / u.std(axis=0), y / y.std(axis=0)])
+    z = _hankel.ScaledStack(u, y, u.std(axis=0), y.std(axis=0))
     data = _subspace.SubspaceData(_hankel.gram_factor(z, block_rows, u.shape[1]), block_rows, u.shape[1], y.shape[1])
     left, singular_values = _subspace.oblique_svd(data)
     limit = block_rows * y.shape[1] - 1

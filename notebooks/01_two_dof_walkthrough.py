@@ -35,6 +35,7 @@
 # evidence defaults and shows every figure.
 
 # %%
+import io
 import os
 
 import matplotlib
@@ -46,7 +47,7 @@ if SMALL:
     matplotlib.use("Agg")  # no figure output, nothing to render
 
 import matplotlib.pyplot as plt
-from IPython.display import display
+from IPython.display import Image, display
 
 from bayesnsi.evidence import EVIDENCE_DEFAULTS, candidate_evidence, compare_evidence
 from bayesnsi.nsi import coefficients_table, identify, modes_table
@@ -65,9 +66,15 @@ pd.set_option("display.precision", 4)
 
 
 def show(fig):
-    """Display a figure inline (full mode) and release it."""
+    """Display a figure inline as a PNG (full mode) and release it.
+
+    Rendered explicitly because ``bayesnsi.plots`` selects the non-interactive Agg backend
+    when imported, which turns off the notebook's own figure display.
+    """
     if not SMALL:
-        display(fig)
+        png = io.BytesIO()
+        fig.savefig(png, format="png", dpi=100, bbox_inches="tight")
+        display(Image(png.getvalue()))
     plt.close(fig)
 
 

@@ -38,6 +38,7 @@
 
 # %%
 import dataclasses
+import io
 import os
 from pathlib import Path
 
@@ -50,7 +51,7 @@ if SMALL:
     matplotlib.use("Agg")  # no figure output, nothing to render
 
 import matplotlib.pyplot as plt
-from IPython.display import display
+from IPython.display import Image, display
 
 from bayesnsi.diagnose import close_the_loop
 from bayesnsi.io import load_config, load_signals, load_validation
@@ -63,9 +64,15 @@ pd.set_option("display.precision", 4)
 
 
 def show(fig):
-    """Display a figure inline (full mode) and release it."""
+    """Display a figure inline as a PNG (full mode) and release it.
+
+    Rendered explicitly because ``bayesnsi.plots`` selects the non-interactive Agg backend
+    when imported, which turns off the notebook's own figure display.
+    """
     if not SMALL:
-        display(fig)
+        png = io.BytesIO()
+        fig.savefig(png, format="png", dpi=100, bbox_inches="tight")
+        display(Image(png.getvalue()))
     plt.close(fig)
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy import signal as _signal
+from scipy.linalg import blas as _blas
 
 __all__ = ["refine_output_error"]
 
@@ -26,7 +27,7 @@ def _basis_gram(lam: np.ndarray, u: np.ndarray, y: np.ndarray):
     """
     n, m = len(lam), u.shape[1]  # n: modes kept
     width = 2 * n * m + 2 * n + m
-    gram = np.zeros((width, width))
+    gram = np.zeros((width, width), order="F")
     cross = np.zeros((width, y.shape[1]))
     state = np.zeros((m, n), dtype=complex)
     log_lam = np.log(lam.astype(complex))
@@ -43,9 +44,9 @@ def _basis_gram(lam: np.ndarray, u: np.ndarray, y: np.ndarray):
         filtered = filtered.reshape(stop - start, n * m)
         powers = np.exp(np.arange(start, stop)[:, None] * log_lam[None, :])
         basis = np.hstack([filtered.real, filtered.imag, powers.real, powers.imag, uc])
-        gram += basis.T @ basis
+        gram = _blas.dsyrk(1.0, basis, beta=1.0, c=gram, trans=1, lower=0, overwrite_c=1)  # Sᵀ S, upper
         cross += basis.T @ y[start:stop]
-    return gram, cross
+    return np.triu(gram) + np.triu(gram, 1).T, cross
 
 
 def refine_output_error(A, C, u, y, dt, zero_feedthrough=True, output_weights=None):

@@ -165,6 +165,7 @@ for k, (key, label) in enumerate(RANKINGS.items()):
 ax.axhline(np.log(100.0), color="0.5", ls="--", lw=0.8, label="odds 100:1")
 ax.set_xscale("log")
 ax.set_yscale("symlog", linthresh=1.0)
+ax.set_ylim(bottom=min(0.0, 2.0 * margins["log odds"].min()))  # negative: a wrong model wins
 ax.set_xticks(NOISE_PERCENT, [f"{n:g}" for n in NOISE_PERCENT])
 ax.set_xlabel("output noise [%]")
 ax.set_ylabel("log odds, true vs best other [nat]")

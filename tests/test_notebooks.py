@@ -1,5 +1,6 @@
 """The notebooks run end to end (tiny-data mode), and each .ipynb matches its jupytext script."""
 
+import json
 import shutil
 from pathlib import Path
 
@@ -43,7 +44,19 @@ def cells(notebook) -> list[tuple[str, str]]:
 
 
 @pytest.fixture
-def small(monkeypatch):
+def small(monkeypatch, tmp_path_factory):
+    """Tiny-data switch on, one BLAS thread, and a ``python3`` kernel on this interpreter.
+
+    The kernelspec in a private JUPYTER_PATH entry (searched first) shadows any user-level
+    ``python3`` kernel that points at another Python; jupyter_client runs ``python`` as
+    ``sys.executable``.
+    """
+    kernels = tmp_path_factory.mktemp("jupyter")
+    spec = kernels / "kernels" / "python3"
+    spec.mkdir(parents=True)
+    argv = ["python", "-m", "ipykernel_launcher", "-f", "{connection_file}"]
+    (spec / "kernel.json").write_text(json.dumps({"argv": argv, "display_name": "Python 3", "language": "python"}))
+    monkeypatch.setenv("JUPYTER_PATH", str(kernels))
     monkeypatch.setenv("BAYESNSI_NOTEBOOK_SMALL", "1")
     for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
         monkeypatch.setenv(name, "1")

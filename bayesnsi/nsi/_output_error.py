@@ -30,22 +30,29 @@ def _basis_gram(lam: np.ndarray, u: np.ndarray, y: np.ndarray):
     gram = np.zeros((width, width), order="F")
     cross = np.zeros((width, y.shape[1]))
     state = np.zeros((m, n), dtype=complex)
-    log_lam = np.log(lam.astype(complex))
+    step_powers = np.exp(np.arange(_CHUNK)[:, None] * np.log(lam.astype(complex))[None, :])
+    chunk_start = np.ones(n, dtype=complex)  # λ^start
     a = np.array([1.0, 0.0], dtype=complex)
+    basis = np.empty((_CHUNK, width), order="F")
+    filtered = np.empty(_CHUNK, dtype=complex)
     for start in range(0, len(u), _CHUNK):
-        stop = min(start + _CHUNK, len(u))
-        uc = u[start:stop]
-        filtered = np.empty((stop - start, m, n), dtype=complex)
+        size = min(_CHUNK, len(u) - start)
+        uc = u[start : start + size]
         for c in range(m):
             for p, lp in enumerate(lam):
                 a[1] = -lp
-                filtered[:, c, p], zf = _signal.lfilter([0.0, 1.0], a, uc[:, c], zi=state[c, p : p + 1])
+                filtered[:size], zf = _signal.lfilter([0.0, 1.0], a, uc[:, c], zi=state[c, p : p + 1])
                 state[c, p] = zf[0]
-        filtered = filtered.reshape(stop - start, n * m)
-        powers = np.exp(np.arange(start, stop)[:, None] * log_lam[None, :])
-        basis = np.hstack([filtered.real, filtered.imag, powers.real, powers.imag, uc])
-        gram = _blas.dsyrk(1.0, basis, beta=1.0, c=gram, trans=1, lower=0, overwrite_c=1)  # Sᵀ S, upper
-        cross += basis.T @ y[start:stop]
+                basis[:size, c * n + p] = filtered[:size].real
+                basis[:size, n * m + c * n + p] = filtered[:size].imag
+        powers = step_powers[:size] * chunk_start
+        basis[:size, 2 * n * m : 2 * n * m + n] = powers.real
+        basis[:size, 2 * n * m + n : 2 * n * m + 2 * n] = powers.imag
+        basis[:size, 2 * n * m + 2 * n :] = uc
+        chunk_start = chunk_start * lam**size
+        view = basis[:size]
+        gram = _blas.dsyrk(1.0, view, beta=1.0, c=gram, trans=1, lower=0, overwrite_c=1)  # Sᵀ S, upper
+        cross += view.T @ y[start : start + size]
     return np.triu(gram) + np.triu(gram, 1).T, cross
 
 

@@ -5,6 +5,8 @@
 #     text_representation:
 #       extension: .py
 #       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.19.6
 #   kernelspec:
 #     display_name: Python 3 (ipykernel)
 #     language: python
@@ -28,7 +30,7 @@
 #
 # **Tiny-data switch.** `BAYESNSI_NOTEBOOK_SMALL=1` runs one level with one seed and a short
 # emcee chain, and draws no figures. The full run (4 levels x 5 seeds x 3 candidates x 2
-# likelihoods) takes a few minutes on one core.
+# likelihoods) takes one to two minutes on one core.
 
 # %%
 import io
@@ -198,7 +200,8 @@ for (noise, seed), group in study.groupby(["noise %", "seed"]):
     for key in RANKINGS:
         best = group.loc[group[f"p {key}"].idxmax()]
         error = best[f"alpha error % {key}"]
-        selected.append({"noise %": noise, "seed": seed, "ranking": key, "alpha error %": -100.0 if np.isnan(error) else error})
+        error = -100.0 if np.isnan(error) else error  # the selected model has no α term
+        selected.append({"noise %": noise, "seed": seed, "ranking": key, "alpha error %": error})
 selected = pd.DataFrame(selected)
 
 fig, axes = plt.subplots(1, 2, figsize=(10.0, 3.6), layout="constrained")

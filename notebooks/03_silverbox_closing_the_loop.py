@@ -5,6 +5,8 @@
 #     text_representation:
 #       extension: .py
 #       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.19.6
 #   kernelspec:
 #     display_name: Python 3 (ipykernel)
 #     language: python
@@ -158,7 +160,8 @@ def closed_loop(result, segments):
 
 def rmse_mv(reconstructions):
     """RMS closed-loop error after the first N_INIT samples, in mV, per segment."""
-    return pd.Series({name: 1e3 * np.sqrt(np.mean(rec.residual[N_INIT:] ** 2)) for name, rec in reconstructions.items()})
+    rmse = {name: np.sqrt(np.mean(rec.residual[N_INIT:] ** 2)) for name, rec in reconstructions.items()}
+    return 1e3 * pd.Series(rmse)
 
 
 if HAVE_DATA:

@@ -89,7 +89,8 @@ def test_ipynb_in_sync_with_script(script):
     assert paired.is_file(), f"{paired.name} missing: run `jupytext --to ipynb {script.name}` in notebooks/"
     from_script = jupytext.read(script)
     from_ipynb = jupytext.read(paired)
-    assert cells(from_ipynb) == cells(from_script), f"{paired.name} is out of date: run `jupytext --to ipynb {script.name}` in notebooks/"
+    stale = f"{paired.name} is out of date: run `jupytext --sync {script.name}` in notebooks/"
+    assert cells(from_ipynb) == cells(from_script), stale
     for cell in from_ipynb.cells:  # committed without outputs
         if cell.cell_type == "code":
             assert cell.outputs == [] and cell.execution_count is None

@@ -41,6 +41,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv=None) -> int:
     """Run the command line; returns the exit code."""
+    import matplotlib
+
+    matplotlib.use("Agg")  # reports are written to files; no display is needed
     parser = build_parser()
     args = parser.parse_args(argv)
     try:

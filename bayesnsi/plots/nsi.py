@@ -7,11 +7,8 @@ Figure; saving is the caller's job (``bayesnsi.io``).
 
 from __future__ import annotations
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
 __all__ = ["plot_singular_values", "plot_stabilization", "plot_frf", "plot_coefficient_spectrum"]
 

@@ -91,3 +91,20 @@ def test_help_lists_commands(capsys):
     out = capsys.readouterr().out
     for command in ("simulate", "identify", "select", "demo"):
         assert command in out
+
+
+def test_select_is_reproducible_and_independent_of_jobs(two_dof_config, tmp_path):
+    """Same config and seed: identical numbers on rerun and with --jobs 1 vs --jobs 2."""
+    numbers = []
+    for run, jobs in enumerate(["1", "1", "2"]):
+        out = tmp_path / f"run{run}"
+        assert main(["select", str(two_dof_config), "--out", str(out), "--quiet", "--no-figures", "--jobs", jobs]) == 0
+        results = json.loads((out / "results.json").read_text())
+        numbers.append(
+            [
+                (c["name"], c["log_evidence"], c["posterior"], [k["value"] for k in c["coefficients"]], c["nrmse"])
+                for c in results["candidates"]
+            ]
+        )
+        assert results["settings"]["seed"] == 3 and results["versions"]["bayesnsi"]
+    assert numbers[0] == numbers[1] == numbers[2]

@@ -22,6 +22,7 @@ def add_run_arguments(parser) -> None:
     parser.add_argument("--force", action="store_true", help="overwrite an existing results.json in DIR")
     parser.add_argument("--quiet", action="store_true", help="no progress messages")
     parser.add_argument("--no-figures", action="store_true", help="skip the report and its figures")
+    parser.add_argument("--jobs", type=int, default=1, help="candidates run in parallel processes (default 1)")
 
 
 def start_run(args):
@@ -63,35 +64,83 @@ def nsi_options(config) -> dict:
     )
 
 
-def identify_all(config, signals, quiet=False):
-    """Identify every candidate; failures are recorded with their reason, never raised.
+def _candidate_task(signals, candidate, options, evidence_options, seed_sequence):
+    """Identify one candidate (and compute its evidence); runs in a worker process for --jobs.
+
+    Returns
+    -------
+    record : dict
+    result : NSIResult or None
+    evidences : dict likelihood -> EvidenceResult, or None
+    seconds : float
+    """
+    start = time.perf_counter()
+    result = evidences = None
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            result = identify(signals, candidate, **options)
+            record = candidate_record(result, result.reconstruct(signals))
+            if evidence_options is not None:
+                from ..evidence import candidate_evidence
+
+                evidences = candidate_evidence(result, signals, evidence_options, seed_sequence, candidate)
+        except (BayesNSIError, np.linalg.LinAlgError) as err:
+            stage = "evidence: " if result is not None else ""
+            record = failed_candidate_record(candidate, err)
+            record["error"] = stage + record["error"]
+            result = evidences = None
+    record["warnings"] = [str(w.message) for w in caught]
+    record["seconds"] = time.perf_counter() - start
+    return record, result, evidences
+
+
+def identify_all(config, signals, quiet=False, jobs: int = 1, evidence_options=None):
+    """Identify every candidate (and its evidence); failures are recorded, never raised.
+
+    Candidates run in ``jobs`` worker processes; each has its own seed sequence spawned from the
+    config's seed in config order, so the numbers do not depend on ``jobs``.
 
     Returns
     -------
     results : dict name -> NSIResult (successful candidates only)
     records : list of dict (results.json candidate records, in config order)
+    evidences : dict name -> dict likelihood -> EvidenceResult (empty without evidence_options)
     """
-    results, records = {}, []
     options = nsi_options(config)
-    for k, candidate in enumerate(config.candidates, 1):
-        start = time.perf_counter()
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            try:
-                result = identify(signals, candidate, **options)
-                reconstruction = result.reconstruct(signals)
-            except (BayesNSIError, np.linalg.LinAlgError) as err:
-                records.append(failed_candidate_record(candidate, err))
-                progress(f"[{k}/{len(config.candidates)}] {candidate.name}: failed - {err}", quiet)
-                continue
-        record = candidate_record(result, reconstruction)
-        record["warnings"] = [str(w.message) for w in caught]
-        record["seconds"] = time.perf_counter() - start
-        results[candidate.name] = result
+    seeds = np.random.SeedSequence(config.seed).spawn(len(config.candidates))
+    tasks = [(signals, cand, options, evidence_options, seed) for cand, seed in zip(config.candidates, seeds)]
+    if jobs > 1 and len(tasks) > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(max_workers=jobs) as pool:
+            futures = [pool.submit(_candidate_task, *task) for task in tasks]
+            outcomes = []
+            for k, future in enumerate(futures, 1):
+                outcomes.append(future.result())
+                _report_progress(k, len(tasks), config.candidates[k - 1], outcomes[-1], evidence_options, quiet)
+    else:
+        outcomes = []
+        for k, task in enumerate(tasks, 1):
+            outcomes.append(_candidate_task(*task))
+            _report_progress(k, len(tasks), config.candidates[k - 1], outcomes[-1], evidence_options, quiet)
+    results, records, evidences = {}, [], {}
+    for candidate, (record, result, evidence) in zip(config.candidates, outcomes):
         records.append(record)
-        progress(
-            f"[{k}/{len(config.candidates)}] {candidate.name}: order {result.order}, "
-            f"NRMSE {reconstruction.nrmse:.4f} ({record['seconds']:.2f} s)",
-            quiet,
-        )
-    return results, records
+        if result is not None:
+            results[candidate.name] = result
+        if evidence is not None:
+            evidences[candidate.name] = evidence
+    return results, records, evidences
+
+
+def _report_progress(k, total, candidate, outcome, evidence_options, quiet):
+    record, result, evidence = outcome
+    if result is None:
+        progress(f"[{k}/{total}] {candidate.name}: failed - {record['error']}", quiet)
+        return
+    text = f"[{k}/{total}] {candidate.name}: order {result.order}, NRMSE {record['nrmse']:.4f}"
+    if evidence:
+        primary = evidence[evidence_options["likelihood"]]
+        text += f", log Z ({primary.likelihood}) = {primary.log_evidence:.2f} ± {primary.log_evidence_se:.2f}"
+    progress(f"{text} ({record['seconds']:.1f} s)", quiet)

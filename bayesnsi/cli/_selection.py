@@ -2,14 +2,11 @@
 
 from __future__ import annotations
 
-import time
-import warnings
-
 import numpy as np
 
-from ..exceptions import BayesNSIError, InputDataError
-from ..evidence.candidate import EVIDENCE_DEFAULTS, candidate_evidence
-from ._common import identify_all, progress
+from ..exceptions import InputDataError
+from ..evidence.candidate import EVIDENCE_DEFAULTS
+from ._common import identify_all
 
 __all__ = ["evidence_options", "select_all"]
 
@@ -30,8 +27,8 @@ def evidence_options(config) -> dict:
     return opts
 
 
-def select_all(config, signals, quiet=False):
-    """Identify every candidate, compute evidences and rank (SPEC 6).
+def select_all(config, signals, quiet=False, jobs: int = 1):
+    """Identify every candidate, compute evidences and rank (SPEC 6), on ``jobs`` processes.
 
     Returns
     -------
@@ -44,29 +41,7 @@ def select_all(config, signals, quiet=False):
     from ..evidence import compare_evidence
 
     opts = evidence_options(config)
-    results, records = identify_all(config, signals, quiet=quiet)
-    seeds = np.random.SeedSequence(config.seed).spawn(len(config.candidates))
-    evidences = {}
-    for record, candidate, seed in zip(records, config.candidates, seeds):
-        if record["status"] != "ok":
-            continue
-        start = time.perf_counter()
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            try:
-                evidences[candidate.name] = candidate_evidence(results[candidate.name], signals, opts, seed, candidate)
-            except BayesNSIError as err:
-                record.update(status="failed", error=f"evidence: {type(err).__name__}: {err}")
-                results.pop(candidate.name)
-                progress(f"{candidate.name}: evidence failed - {err}", quiet)
-                continue
-        record.setdefault("warnings", []).extend(str(w.message) for w in caught)
-        primary = evidences[candidate.name][opts["likelihood"]]
-        progress(
-            f"{candidate.name}: log Z ({opts['likelihood']}) = {primary.log_evidence:.2f} ± {primary.log_evidence_se:.2f}"
-            f" ({time.perf_counter() - start:.1f} s)",
-            quiet,
-        )
+    results, records, evidences = identify_all(config, signals, quiet=quiet, jobs=jobs, evidence_options=opts)
     table = compare_evidence(
         {c.name: list(evidences[c.name].values()) if c.name in evidences else None for c in config.candidates},
         priors=[c.prior for c in config.candidates],

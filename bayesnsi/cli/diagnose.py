@@ -38,7 +38,7 @@ def run(args) -> int:
     from ..exceptions import ConfigError
 
     config, out, signals = start_run(args)
-    results, records, evidences, table, opts = select_all(config, signals, quiet=args.quiet)
+    results, records, evidences, table, opts = select_all(config, signals, quiet=args.quiet, jobs=args.jobs)
     ranked = [r for r in records if r["status"] == "ok"]
     if not ranked:
         raise ConfigError("no candidate could be identified, so there is no model to start the loop from")

@@ -25,7 +25,7 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     """Execute the command."""
     config, out, signals = start_run(args)
-    results, records = identify_all(config, signals, quiet=args.quiet)
+    results, records, _ = identify_all(config, signals, quiet=args.quiet, jobs=args.jobs)
     payload = {
         "command": "identify",
         "config": str(config.path),

@@ -30,7 +30,7 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     """Execute the command."""
     config, out, signals = start_run(args)
-    results, records, evidences, table, opts = select_all(config, signals, quiet=args.quiet)
+    results, records, evidences, table, opts = select_all(config, signals, quiet=args.quiet, jobs=args.jobs)
     ranked = [r for r in records if r.get("posterior") is not None and r["status"] == "ok"]
     selected = max(ranked, key=lambda r: r["posterior"])["name"] if ranked else None
     validation = load_validation(config)

@@ -125,6 +125,10 @@ class Expression:
     def __str__(self) -> str:
         return self.canonical
 
+    def __reduce__(self):
+        """Pickle by text: the compiled closure is rebuilt by parsing (worker processes)."""
+        return (parse_expression, (self.text,))
+
 
 def parse_expression(text: str) -> Expression:
     """Parse a term expression safely (SPEC section 9).

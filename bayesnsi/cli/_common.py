@@ -12,7 +12,7 @@ from ..exceptions import BayesNSIError
 from ..io.schema import candidate_record, failed_candidate_record
 from ..nsi import identify
 
-__all__ = ["add_run_arguments", "start_run", "identify_all", "nsi_options", "progress"]
+__all__ = ["add_run_arguments", "start_run", "identify_all", "nsi_options", "progress", "progress_bar"]
 
 
 def add_run_arguments(parser) -> None:
@@ -44,9 +44,18 @@ def start_run(args):
 
 
 def progress(message: str, quiet: bool) -> None:
-    """One progress line on stderr (suppressed by --quiet)."""
+    """One progress line on stderr (suppressed by --quiet); safe beside a running progress bar."""
     if not quiet:
-        print(message, file=sys.stderr, flush=True)
+        from tqdm import tqdm
+
+        tqdm.write(message, file=sys.stderr)
+
+
+def progress_bar(total: int, description: str, quiet: bool):
+    """A tqdm progress bar on stderr for a long step (disabled by --quiet or when not a terminal)."""
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=description, unit="candidate", file=sys.stderr, disable=quiet or None, leave=False)
 
 
 def nsi_options(config) -> dict:
@@ -110,20 +119,22 @@ def identify_all(config, signals, quiet=False, jobs: int = 1, evidence_options=N
     options = nsi_options(config)
     seeds = np.random.SeedSequence(config.seed).spawn(len(config.candidates))
     tasks = [(signals, cand, options, evidence_options, seed) for cand, seed in zip(config.candidates, seeds)]
-    if jobs > 1 and len(tasks) > 1:
-        from concurrent.futures import ProcessPoolExecutor
+    outcomes = []
+    with progress_bar(len(tasks), "candidates", quiet) as bar:
+        if jobs > 1 and len(tasks) > 1:
+            from concurrent.futures import ProcessPoolExecutor
 
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
-            futures = [pool.submit(_candidate_task, *task) for task in tasks]
-            outcomes = []
-            for k, future in enumerate(futures, 1):
-                outcomes.append(future.result())
+            with ProcessPoolExecutor(max_workers=jobs) as pool:
+                futures = [pool.submit(_candidate_task, *task) for task in tasks]
+                for k, future in enumerate(futures, 1):
+                    outcomes.append(future.result())
+                    _report_progress(k, len(tasks), config.candidates[k - 1], outcomes[-1], evidence_options, quiet)
+                    bar.update()
+        else:
+            for k, task in enumerate(tasks, 1):
+                outcomes.append(_candidate_task(*task))
                 _report_progress(k, len(tasks), config.candidates[k - 1], outcomes[-1], evidence_options, quiet)
-    else:
-        outcomes = []
-        for k, task in enumerate(tasks, 1):
-            outcomes.append(_candidate_task(*task))
-            _report_progress(k, len(tasks), config.candidates[k - 1], outcomes[-1], evidence_options, quiet)
+                bar.update()
     results, records, evidences = {}, [], {}
     for candidate, (record, result, evidence) in zip(config.candidates, outcomes):
         records.append(record)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..io import versions
 from ..io.report import Report
 from ..nsi import coefficients_table, modes_table, stabilization
 
@@ -51,6 +52,7 @@ def identification_report(config, signals, results, records, title, report=None)
         f"displacements at DOFs {list(signals.output_dofs)}; config {config.path}."
     )
     intro.append(("pre", "\n".join(f"{k} = {v!r}" for k, v in vars(config.nsi).items())))
+    intro.append(("pre", "versions: " + ", ".join(f"{k} {v}" for k, v in versions().items()) + f"\nseed = {config.seed}"))
     failed = [r for r in records if r.get("status") == "failed"]
     if failed:
         intro.append("Failed candidates: " + "; ".join(f"{r['name']}: {r['error']}" for r in failed))

@@ -45,7 +45,7 @@ def test_select_writes_spec9_results_and_report(two_dof_config, tmp_path):
     assert html.count("<img") == 4 + 4 * n_cand
     for heading in ("Data and settings", "Identified modes", "Model selection", "Coefficient posteriors"):
         assert heading in html
-    assert "versions: " in html and "numpy" in html and "data:image/png;base64," in html
+    assert "versions:" in html and "numpy" in html and "data:image/png;base64," in html
 
 
 def test_identify_and_existing_output(two_dof_config, tmp_path, capsys):

@@ -52,7 +52,8 @@ def identification_report(config, signals, results, records, title, report=None)
         f"displacements at DOFs {list(signals.output_dofs)}; config {config.path}."
     )
     intro.append(("pre", "\n".join(f"{k} = {v!r}" for k, v in vars(config.nsi).items())))
-    intro.append(("pre", "versions: " + ", ".join(f"{k} {v}" for k, v in versions().items()) + f"\nseed = {config.seed}"))
+    listed = "\n".join(f"  {k} {v}" for k, v in versions().items())
+    intro.append(("pre", f"seed = {config.seed}\nversions:\n{listed}"))
     failed = [r for r in records if r.get("status") == "failed"]
     if failed:
         intro.append("Failed candidates: " + "; ".join(f"{r['name']}: {r['error']}" for r in failed))

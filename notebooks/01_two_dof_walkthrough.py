@@ -70,8 +70,8 @@ pd.set_option("display.precision", 4)
 def show(fig):
     """Display a figure inline as a PNG (full mode) and release it.
 
-    Rendered explicitly because ``bayesnsi.plots`` selects the non-interactive Agg backend
-    when imported, which turns off the notebook's own figure display.
+    Rendered explicitly so each figure shows exactly once, whatever the backend (small mode
+    uses the non-interactive Agg backend), and is then closed.
     """
     if not SMALL:
         png = io.BytesIO()

@@ -30,9 +30,9 @@ from .measurements import (
     read_csv_columns,
     read_csv_signals,
     read_signals,
-    uff_channel_key,
     write_signals_csv,
 )
+from ._formats import UFF_DIRECTIONS, uff_channel_key
 from .results import (
     RESULTS_FILENAME,
     atomic_open,
@@ -61,6 +61,7 @@ __all__ = [
     "MeasurementColumns",
     "file_format",
     "uff_channel_key",
+    "UFF_DIRECTIONS",
     "FORMATS",
     "FS_TOLERANCE",
     "load_signals",

@@ -120,16 +120,17 @@ class StateSpaceModel:
         """
         u = np.asarray(inputs, dtype=float)
         lam, vec, vinv = self._modal()
-        drive = u @ (vinv @ self.B).T  # (N, n) modal inputs
-        states = np.empty_like(drive, dtype=complex)
-        for p, lp in enumerate(lam):
-            # z[k+1] = λ z[k] + drive[k], z[0] = 0
-            states[:, p] = _signal.lfilter([0.0, 1.0], [1.0, -lp], drive[:, p])
-        y = (states @ (self.C @ vec).T).real + u @ self.D.T
-        if x0 is not None:
-            modal_x0 = vinv @ np.asarray(x0, dtype=float)
-            powers = np.exp(np.arange(len(u))[:, None] * np.log(lam.astype(complex))[None, :])
-            y += ((powers * modal_x0) @ (self.C @ vec).T).real
+        with np.errstate(over="ignore", invalid="ignore"):  # divergence is reported below
+            drive = u @ (vinv @ self.B).T  # (N, n) modal inputs
+            states = np.empty_like(drive, dtype=complex)
+            for p, lp in enumerate(lam):
+                # z[k+1] = λ z[k] + drive[k], z[0] = 0
+                states[:, p] = _signal.lfilter([0.0, 1.0], [1.0, -lp], drive[:, p])
+            y = (states @ (self.C @ vec).T).real + u @ self.D.T
+            if x0 is not None:
+                modal_x0 = vinv @ np.asarray(x0, dtype=float)
+                powers = np.exp(np.arange(len(u))[:, None] * np.log(lam.astype(complex))[None, :])
+                y += ((powers * modal_x0) @ (self.C @ vec).T).real
         if not np.all(np.isfinite(y)):
             raise UnstableModelError("simulation diverged: the model is unstable")
         return y

@@ -4,18 +4,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..exceptions import InputDataError
+from ..exceptions import ConfigError
 from ..evidence.candidate import EVIDENCE_DEFAULTS
 from ._common import identify_all
 
 __all__ = ["evidence_options", "select_all"]
+
 
 def evidence_options(config) -> dict:
     """The ``[evidence]`` table merged over :data:`EVIDENCE_DEFAULTS` (unknown keys refused)."""
     raw = dict(config.evidence_settings or {})
     unknown = sorted(set(raw) - set(EVIDENCE_DEFAULTS))
     if unknown:
-        raise InputDataError(
+        raise ConfigError(
             f"{config.path}: [evidence] has unknown key(s) {unknown}; allowed: {sorted(EVIDENCE_DEFAULTS)}"
         )
     opts = {**EVIDENCE_DEFAULTS, **raw}
@@ -23,7 +24,7 @@ def evidence_options(config) -> dict:
     opts["compare"] = [compare] if isinstance(compare, str) else list(compare)
     for lik in [opts["likelihood"], *opts["compare"]]:
         if lik not in ("white", "ar1") and not (lik.startswith("ar") and lik[2:].isdigit()):
-            raise InputDataError(f"[evidence] likelihood {lik!r} unknown; use 'white', 'ar1' or 'arP' (P an integer)")
+            raise ConfigError(f"[evidence] likelihood {lik!r} unknown; use 'white', 'ar1' or 'arP' (P an integer)")
     return opts
 
 

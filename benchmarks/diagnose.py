@@ -1,0 +1,65 @@
+"""Cost of closing the loop (SPEC 7) against one `select` of a single candidate.
+
+For the two-DOF case (declared model 1 {v1|v1|}, data with nothing missing) and the beam case
+(declared {x13³}, data with k2·x13² missing): wall time of a full loop
+(:func:`bayesnsi.diagnose.close_the_loop`, default dictionary and guards), the number of loop
+steps and of effects scored, and the time of one select of a single candidate (NSI +
+reconstruction + evidence). Issue target: a loop step costs no more than one select.
+
+Run: ``OMP_NUM_THREADS=1 .venv/bin/python benchmarks/diagnose.py [--quick]`` (``--quick``: two-DOF only)
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+import warnings
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")  # one BLAS thread: faster on a shared 2-core machine (SPEC 10)
+
+import numpy as np  # noqa: E402
+
+from bayesnsi.diagnose import close_the_loop  # noqa: E402
+from bayesnsi.evidence import EVIDENCE_DEFAULTS, candidate_evidence  # noqa: E402
+from bayesnsi.models import CandidateModel  # noqa: E402
+from bayesnsi.nsi import identify  # noqa: E402
+from bayesnsi.simulate import simulate_case  # noqa: E402
+
+CASES = {
+    "two-dof": (CandidateModel.from_terms("declared", [("v1*abs(v1)", 1)]), dict(block_rows=60, order=4)),
+    "beam": (
+        CandidateModel.from_terms("declared", [("x13**3", 13)]),
+        dict(block_rows=40, order=32, band_hz=(1.0, 30.0)),
+    ),
+}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true")
+    args = parser.parse_args()
+    names = ["two-dof"] if args.quick else list(CASES)
+    print(f"{'case':8} {'select 1 cand [s]':>18} {'loop [s]':>9} {'steps':>6} {'effects':>8} {'s / step':>9}  added")
+    for name in names:
+        case = simulate_case(name, seed=0)
+        candidate, nsi = CASES[name]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            start = time.perf_counter()
+            result = identify(case.signals, candidate, **nsi)
+            result.reconstruct(case.signals)
+            candidate_evidence(result, case.signals, {**EVIDENCE_DEFAULTS, "compare": []}, np.random.SeedSequence(0))
+            select_time = time.perf_counter() - start
+            start = time.perf_counter()
+            loop = close_the_loop(case.signals, candidate, nsi_options=nsi, max_steps=2, seed=0)
+            loop_time = time.perf_counter() - start
+        steps = max(len(loop.scores), 1)
+        added = ", ".join(s.term.name for s in loop.added) or "nothing"
+        n_effects = loop.settings["n_effects"]
+        print(f"{name:8} {select_time:18.2f} {loop_time:9.1f} {steps:6d} {n_effects:8d} {loop_time / steps:9.1f}  {added}")
+
+
+if __name__ == "__main__":
+    main()

@@ -146,7 +146,7 @@ def _halves(signals, candidate, nsi_options):
     return tuple(float(v) for v in values)
 
 
-def _check(kind, term, trial, current, current_z, signals, nsi_options, evidence_options, seed, *guards):
+def _check(kind, term, trial, nrmse_before, current_z, signals, nsi_options, evidence_options, seed, *guards):
     """Full evidence and the guards of one proposed effect -> (LoopStep, its log-evidence)."""
     threshold, max_imag_ratio, stability_factor = guards
     evidence = candidate_evidence(trial, signals, evidence_options, seed, warn=False)
@@ -174,7 +174,7 @@ def _check(kind, term, trial, current, current_z, signals, nsi_options, evidence
         imag_ratio=coef.imag_ratio,
         half_coefficients=halves,
         log_bayes_factor=float(log_bf),
-        nrmse_before=current.reconstruct(signals).nrmse,
+        nrmse_before=nrmse_before,
         nrmse_after=trial.reconstruct(signals).nrmse,
         candidate=trial.candidate,
     )
@@ -253,11 +253,12 @@ def close_the_loop(
         if not scored or not np.isfinite(scored[0][2]):
             break
         step = None
+        nrmse_before = current.reconstruct(signals).nrmse
         for kind, term, score, trial in scored[:n_tries]:
             if not np.isfinite(score):
                 break
             guards = (threshold, max_imag_ratio, stability_factor)
-            step, log_z = _check(kind, term, trial, current, current_z, signals, nsi_options, evidence_options, next(seeds), *guards)
+            step, log_z = _check(kind, term, trial, nrmse_before, current_z, signals, nsi_options, evidence_options, next(seeds), *guards)
             steps.append(step)
             if step.accepted:
                 break

@@ -16,9 +16,11 @@ __all__ = [
     "NotIdentifiableError",
     "UnstableModelError",
     "OutputExistsError",
+    "SchedulerError",
     "BayesNSIWarning",
     "SpuriousPoleWarning",
     "ConvergenceWarning",
+    "CacheWarning",
 ]
 
 
@@ -62,6 +64,10 @@ class OutputExistsError(BayesNSIError, FileExistsError):
     """An output directory already holds results; pass ``--force`` or choose another directory."""
 
 
+class SchedulerError(BayesNSIError, RuntimeError):
+    """A Dask scheduler cannot be reached, or its workers cannot run this version of bayesnsi."""
+
+
 class BayesNSIWarning(UserWarning):
     """Base class of bayesnsi warnings: a result was computed but deserves a second look."""
 
@@ -72,3 +78,7 @@ class SpuriousPoleWarning(BayesNSIWarning):
 
 class ConvergenceWarning(BayesNSIWarning):
     """An MCMC run did not meet the convergence criteria (r_hat, effective sample size)."""
+
+
+class CacheWarning(BayesNSIWarning):
+    """A cached candidate result is unreadable or not trusted; the candidate is recomputed."""

@@ -6,6 +6,20 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
+try:
+    from hypothesis import HealthCheck, settings
+except ImportError:  # pragma: no cover - hypothesis is a test dependency
+    settings = None
+
+if settings is not None:
+    # Property-based suites without an explicit max_examples follow the active profile:
+    # "bayesnsi" (default, bounded for `make test`) or "long" (thousands of examples):
+    #   BAYESNSI_HYPOTHESIS_PROFILE=long .venv/bin/pytest -q tests/test_fuzz.py
+    _quiet = [HealthCheck.too_slow, HealthCheck.filter_too_much]
+    settings.register_profile("bayesnsi", max_examples=60, deadline=None, suppress_health_check=_quiet)
+    settings.register_profile("long", max_examples=3000, deadline=None, suppress_health_check=_quiet)
+    settings.load_profile(os.environ.get("BAYESNSI_HYPOTHESIS_PROFILE", "bayesnsi"))
+
 
 def base_seed() -> int:
     """Seed offset for stochastic tests (override with BAYESNSI_TEST_SEED)."""

@@ -1,5 +1,8 @@
 """Catalogue of bad inputs: each gets its own error class and a message that says what to do."""
 
+import re
+import warnings
+
 import numpy as np
 import pytest
 
@@ -87,3 +90,156 @@ def test_empty_candidate_name_and_duplicate_terms():
         CandidateModel(name="", terms=())
     with pytest.raises(ConfigError, match="repeats"):
         CandidateModel.from_terms("m", [("x1", 1), ("x1", 1)])
+
+
+# ---------------------------------------------------------------------------------------------
+# the rest of the catalogue (issue 6): files and configs, candidate lists, physics, MCMC, CLI
+
+
+def _experiment(folder, edit=None, csv_columns=None):
+    """A small valid experiment (CSV + config) in ``folder``, optionally edited; returns the config path."""
+    from bayesnsi.io import dump_config
+
+    n = 300
+    rng = np.random.default_rng(1)
+    columns = csv_columns or {"f2": rng.normal(size=n), "x1": rng.normal(size=n), "x2": rng.normal(size=n)}
+    lines = [",".join(["t", *columns])]
+    lines += [",".join([repr(k / 100.0)] + [repr(float(v[k])) for v in columns.values()]) for k in range(n)]
+    (folder / "data.csv").write_text("\n".join(lines) + "\n")
+    raw = {
+        "data": {"file": "data.csv", "fs": 100.0, "inputs": {"f2": 2}, "outputs": {"x1": 1, "x2": 2}},
+        "nsi": {"block_rows": 10, "order": 4},
+        "candidates": [{"name": "cubic", "terms": [{"expr": "x1**3", "at": 1}]}],
+    }
+    if edit is not None:
+        edit(raw)
+    path = folder / "experiment.toml"
+    path.write_text(dump_config(raw))
+    return path
+
+
+def _set(section, key, value):
+    return lambda raw: raw[section].__setitem__(key, value)
+
+
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (_set("data", "outputs", {"x1": 1, "x9": 2}), r"column\(s\) \['x9'\] not found; available columns"),
+        (_set("data", "inputs", {"force": 2}), r"column\(s\) \['force'\] not found"),
+    ],
+)
+def test_unknown_columns_in_the_mapping(tmp_path, edit, message):
+    from bayesnsi.io import load_config, load_signals
+
+    with pytest.raises(InputDataError, match=message + r".*fix \[data\]"):
+        load_signals(load_config(_experiment(tmp_path, edit)))
+
+
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (_set("data", "outputs", {"x1": 0, "x2": 2}), "DOF number >= 1"),
+        (_set("data", "outputs", {"x1": 2, "x2": 2}), "DOF 2 is mapped twice"),
+        (lambda raw: raw["candidates"][0].__setitem__("terms", [{"expr": "x1**3", "at": 5}]), "neither forced nor measured"),
+        (lambda raw: raw["candidates"][0].__setitem__("terms", [{"expr": "x7**3", "at": 1}]), "reads DOF.*7"),
+        (_set("nsi", "order", 999), "at most block_rows x outputs"),
+        (lambda raw: raw.__setitem__("candidates", []), "no candidate models"),
+        (lambda raw: raw["candidates"][0].__setitem__("terms", [{"expr": "x1.real", "at": 1}]), "terms"),
+        (lambda raw: raw["candidates"][0].__setitem__("terms", [{"expr": "x1**99999", "at": 1}]), "terms"),
+    ],
+)
+def test_config_dofs_orders_candidates(tmp_path, edit, message):
+    from bayesnsi.exceptions import ConfigError
+    from bayesnsi.io import load_config
+
+    with pytest.raises(ConfigError, match=message):
+        load_config(_experiment(tmp_path, edit))
+
+
+def test_all_zero_channel_in_a_file(tmp_path):
+    from bayesnsi.io import load_config, load_signals
+
+    rng = np.random.default_rng(2)
+    columns = {"f2": rng.normal(size=300), "x1": np.zeros(300), "x2": rng.normal(size=300)}
+    with pytest.raises(InputDataError, match="constant.*remove it from the config"):
+        load_signals(load_config(_experiment(tmp_path, csv_columns=columns)))
+
+
+def test_nan_in_a_file_names_the_line(tmp_path):
+    from bayesnsi.io import load_config, load_signals
+
+    rng = np.random.default_rng(3)
+    x1 = rng.normal(size=300)
+    x1[17] = np.inf
+    columns = {"f2": rng.normal(size=300), "x1": x1, "x2": rng.normal(size=300)}
+    with pytest.raises(InputDataError, match=r"'x1' has 1 missing or non-finite.*sample 17 \(line 19\).*fill or remove"):
+        load_signals(load_config(_experiment(tmp_path, csv_columns=columns)))
+
+
+def test_empty_candidate_list_in_the_api():
+    from bayesnsi.exceptions import ConfigError
+    from bayesnsi.run import dictionary_candidates, run_candidates, subset_candidates
+
+    with pytest.raises(ConfigError, match="candidate list is empty; give at least one candidate"):
+        run_candidates(_signals(), [])
+    with pytest.raises(ConfigError, match="no datasets"):
+        from bayesnsi.run import run_datasets
+
+        run_datasets([], [CandidateModel("linear", ())])
+    with pytest.raises(ConfigError, match="term dictionary is empty"):
+        subset_candidates([])
+    with pytest.raises(ConfigError, match="unknown effect type"):
+        dictionary_candidates([1, 2], types=["x^7"])
+    with pytest.raises(ConfigError, match="lower max_terms"):
+        dictionary_candidates([1, 2, 3, 4, 5, 6], max_terms=12)
+
+
+def test_no_physical_modes():
+    # white-noise outputs at order 2: the identified poles are real, none is a structural mode
+    with pytest.raises(UnstableModelError, match="no physical mode.*check the order"):
+        identify(_signals(), None, block_rows=5, order=2)
+
+
+def test_unconverged_mcmc_warns_with_advice():
+    from bayesnsi import simulate_case
+    from bayesnsi.evidence import candidate_evidence
+    from bayesnsi.exceptions import ConvergenceWarning
+
+    case = simulate_case("two-dof", seed=0, duration=5.0)
+    case_signals = case.signals
+    result = identify(case_signals, case.candidates[0], block_rows=20, order=4)
+    options = {"likelihood": "white", "compare": [], "n_walkers": 8, "n_steps": 20, "n_burn": 5, "reference_force_rms": None}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        candidate_evidence(result, case_signals, options)
+    messages = [str(w.message) for w in caught if issubclass(w.category, ConvergenceWarning)]
+    assert any(re.search(r"MCMC not converged.*Run about \d+x more steps", m) for m in messages), messages
+
+
+def test_unreachable_scheduler_and_bad_jobs(tmp_path, monkeypatch, capsys):
+    from bayesnsi.cli import main
+    from bayesnsi.run import backends
+
+    monkeypatch.setattr(backends, "CONNECT_TIMEOUT_S", 1.0)
+    config = _experiment(tmp_path)
+    code = main(["identify", str(config), "--out", str(tmp_path / "o"), "--quiet", "--scheduler", "tcp://127.0.0.1:9"])
+    err = capsys.readouterr().err
+    assert code == 2 and "cannot reach the Dask scheduler" in err and "drop --scheduler" in err
+    assert "Traceback" not in err
+    assert main(["identify", str(config), "--out", str(tmp_path / "p"), "--quiet", "--jobs", "0"]) == 2
+    assert "jobs must be a positive integer" in capsys.readouterr().err
+
+
+def test_cli_exits_2_in_one_line_and_debug_shows_the_traceback(tmp_path, capsys):
+    from bayesnsi.cli import main
+
+    config = _experiment(tmp_path, lambda raw: raw["candidates"][0].__setitem__("terms", [{"expr": "__import__('os')", "at": 1}]))
+    assert main(["select", str(config), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("bayesnsi select: error:") and "unknown name" in err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+    assert main(["--debug", "select", str(config), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback (most recent call last)" in err and "ConfigError" in err
+    assert not (tmp_path / "o" / "results.json").exists()

@@ -1,59 +1,171 @@
-"""Closing the loop (SPEC 7) on simulated data with an undeclared effect, and a negative control.
+"""Closing the loop (SPEC 7) on simulated data with undeclared effects, and negative controls.
 
-Data: the paper's two-DOF chain (declared: 20·v1|v1| at DOF 1) simulated with an extra effect
-that no candidate declares; truth known from the simulation.
+Data: :mod:`bayesnsi.simulate.undeclared` (the two- and three-DOF chains of SPEC 8 with effects
+that the declared candidate lacks; truth known from the simulation). Criteria of issue 4: the
+right type and location found first, its coefficient within 10 %, NRMSE after at most a third of
+NRMSE before or at the noise floor (the NRMSE of the true model identified by NSI on the same
+data), and nothing added to a negative control. The full statistics over seeds and noise levels
+are in ``benchmarks/diagnose_suite.py``; here one seed per effect type.
 """
+
+import warnings
 
 import numpy as np
 import pytest
 
-from bayesnsi import CandidateModel, Signals, Term
-from bayesnsi.diagnose import close_the_loop
+from bayesnsi import CandidateModel
+from bayesnsi.diagnose import close_the_loop, refine_gap, score_effects
+from bayesnsi.evidence import EVIDENCE_DEFAULTS
 from bayesnsi.models import effect_dictionary
-from bayesnsi.simulate import add_output_noise, band_limited_gaussian, chain_system, simulate_response
+from bayesnsi.models.dictionary import clearance_effect, clearance_gap, effect_base_type
+from bayesnsi.nsi import identify
+from bayesnsi.simulate.undeclared import UNDECLARED_CASES, effect_sizes, undeclared_case, undeclared_cases
 
-NSI = dict(block_rows=60, order=4)
-DECLARED = CandidateModel.from_terms("declared", [("v1*abs(v1)", 1)])
-EFFECTS = effect_dictionary([1, 2], types=("x^3", "sign(v)", "v|v|", "x|x|"))
+FLOOR_FACTOR = 1.1  # "at the noise floor": at most 1.1 x the NRMSE of the true model
 
 
-def two_dof_with(extra_terms, extra_coefficients, seed, duration=20.0, noise=2.0, fs=100.0, oversample=8):
-    M, C, K = chain_system([1.0, 1.5], [800.0, 1000.0], [1.0, 1.0])
-    terms = [Term("v1*abs(v1)", 1)] + [Term(*t) for t in extra_terms]
-    rng = np.random.default_rng(seed)
-    excitation = band_limited_gaussian(int(duration * fs), fs, 10.0, rng, oversample=oversample)
-    response = simulate_response(
-        M, C, K, [2], excitation.fine, fs * oversample, oversample, terms, [20.0] + list(extra_coefficients)
-    )
-    x = add_output_noise(response.displacement, noise, rng)
-    v = add_output_noise(response.velocity, noise, rng)
-    return Signals(excitation.samples, x, fs, [2], [1, 2], velocity=v)
+def run_loop(case, **kwargs):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return close_the_loop(case.signals, case.declared, nsi_options=case.nsi, seed=case.seed, **kwargs)
+
+
+def truth_nrmse(case):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return identify(case.signals, case.truth, **case.nsi).reconstruct(case.signals).nrmse
+
+
+def final_coefficient(loop, effect):
+    """Coefficient, in the final model, of the added term matching ``effect`` (type and location)."""
+    step = next(s for s in loop.added if effect.matches(s.effect_type, s.term))
+    index = loop.final.terms.index(step.term)
+    return loop.final.coefficients[index].value, step
+
+
+def assert_found(case, loop):
+    """Every missing effect added (type and location), nothing else, coefficients within 10 %."""
+    assert len(loop.added) == len(case.missing), [s.term.name for s in loop.added]
+    assert any(e.matches(loop.added[0].effect_type, loop.added[0].term) for e in case.missing)
+    for effect in case.missing:
+        value, step = final_coefficient(loop, effect)
+        assert value == pytest.approx(effect.coefficient, rel=0.10), effect.describe()
+        assert step.log_bayes_factor > np.log(100.0)
+
+
+def assert_nrmse_criterion(case, loop):
+    before = loop.start.reconstruct(case.signals).nrmse
+    after = loop.final.reconstruct(case.signals).nrmse
+    assert after <= before / 3 or after <= FLOOR_FACTOR * truth_nrmse(case), (before, after, truth_nrmse(case))
+
+
+# --------------------------------------------------------------------------------------------
+# the cases themselves
+
+
+def test_undeclared_cases_declare_part_of_the_truth():
+    for name in UNDECLARED_CASES:
+        case = undeclared_case(name, seed=0, noise_percent=1.0, duration=5.0)
+        assert case.truth.terms[: case.declared.n_terms] == case.declared.terms
+        assert case.reference.true_terms == case.truth.terms
+        assert case.is_negative_control == name.startswith("control")
+        sizes = effect_sizes(case)
+        assert all(0.03 < r < 0.6 for r in sizes.values()), (name, sizes)  # physically significant, not dominant
+
+
+def test_undeclared_cases_are_seeded():
+    a, b = undeclared_cases("clearance", [3, 4], 2.0, duration=5.0)
+    again = undeclared_case("clearance", seed=4, noise_percent=2.0, duration=5.0)
+    np.testing.assert_allclose(b.signals.displacement, again.signals.displacement)
+    assert not np.allclose(a.signals.displacement, b.signals.displacement)
+    assert b.missing[0].gap == 0.015
+
+
+def test_clearance_effects_carry_their_gap():
+    kind, term = clearance_effect((1, 2), 0.0123456)
+    assert clearance_gap(kind) == pytest.approx(0.0123456)
+    assert effect_base_type(kind) == "clearance" and term.at == (1, 2)
+    effects = effect_dictionary([1, 2], types=("x^3",), gaps={(2,): [0.01, 0.02]})
+    assert [k for k, _ in effects] == ["x^3", "x^3", "clearance g=0.01", "clearance g=0.02", "x^3"]
+
+
+# --------------------------------------------------------------------------------------------
+# closing the loop
 
 
 @pytest.fixture(scope="module")
-def coulomb_loop():
-    signals = two_dof_with([("sign(v2)", 2)], [1.0], seed=0)
-    return close_the_loop(signals, DECLARED, nsi_options=NSI, effects=EFFECTS, max_steps=2, seed=0)
+def coulomb():
+    case = undeclared_case("coulomb-dof2", seed=0, noise_percent=2.0)
+    return case, run_loop(case)
 
 
-def test_undeclared_coulomb_friction_at_other_dof_is_found(coulomb_loop):
-    first = coulomb_loop.added[0]
+def test_undeclared_coulomb_friction_at_other_dof_is_found(coulomb):
+    case, loop = coulomb
+    assert_found(case, loop)
+    first = loop.added[0]
     assert first.term.name == "sign(v2)@2"
-    assert first.coefficient == pytest.approx(1.0, rel=0.10)
     assert first.ci95[0] < first.coefficient < first.ci95[1]
-    assert len(coulomb_loop.added) == 1  # nothing spurious after it
-    # measured: NRMSE 0.094 -> 0.036 (2.6x lower; noise floor ≈ 0.02)
-    assert first.nrmse_after < 0.45 * first.nrmse_before
 
 
-@pytest.mark.xfail(strict=True, reason="open (issue 4): sign(v2) at 100 Hz leaves model error, NRMSE 0.036 vs floor 0.02")
-def test_coulomb_nrmse_after_is_a_third_or_at_noise_floor(coulomb_loop):
-    first = coulomb_loop.added[0]
-    assert first.nrmse_after <= first.nrmse_before / 3 or first.nrmse_after < 0.025
+def test_coulomb_nrmse_after_is_a_third_or_at_noise_floor(coulomb):
+    # measured (seed 0, 2 %): 0.092 -> 0.033, the true model's NRMSE on the same data is 0.033:
+    # sign(v2) at 100 Hz leaves model error above the 2 % noise, for the truth as well
+    assert_nrmse_criterion(*coulomb)
+
+
+def test_clearance_gap_is_refined_off_the_grid():
+    case = undeclared_case("clearance", seed=1, noise_percent=1.0)
+    loop = run_loop(case, max_steps=2)
+    assert_found(case, loop)
+    assert clearance_gap(loop.added[0].effect_type) == pytest.approx(case.missing[0].gap, rel=0.05)
+    assert_nrmse_criterion(case, loop)
+
+
+def test_refine_gap_moves_towards_the_true_gap():
+    case = undeclared_case("clearance", seed=2, noise_percent=1.0, duration=15.0)
+    options = {**EVIDENCE_DEFAULTS, "compare": []}
+    coarse = [clearance_effect(2, g) for g in (0.008, 0.024)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        scored = score_effects(case.signals, case.declared, coarse, case.nsi, options)
+        best = refine_gap(case.signals, case.declared, scored[0], coarse, case.nsi, options)
+    assert best[2] > scored[0][2]
+    assert abs(clearance_gap(best[0]) - 0.015) < abs(clearance_gap(scored[0][0]) - 0.015)
+    assert clearance_gap(best[0]) == pytest.approx(0.015, rel=0.05)
 
 
 def test_negative_control_adds_nothing():
-    signals = two_dof_with([], [], seed=3)
-    loop = close_the_loop(signals, DECLARED, nsi_options=NSI, effects=EFFECTS, max_steps=2, seed=3)
+    case = undeclared_case("control-two-dof", seed=3, noise_percent=2.0)
+    loop = run_loop(case, max_steps=2)
     assert loop.added == ()
-    assert loop.final.candidate == DECLARED
+    assert loop.final.candidate == case.declared
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["cubic-pair", "quadratic-damping"])
+def test_undeclared_single_effect_is_found(name):
+    case = undeclared_case(name, seed=0, noise_percent=2.0)
+    loop = run_loop(case)
+    assert_found(case, loop)
+    assert_nrmse_criterion(case, loop)
+
+
+@pytest.mark.slow
+def test_two_missing_effects_are_both_found():
+    case = undeclared_case("two-missing", seed=0, noise_percent=1.0)
+    loop = run_loop(case)
+    assert_found(case, loop)
+    assert_nrmse_criterion(case, loop)
+
+
+@pytest.mark.slow
+def test_negative_control_three_dof_adds_nothing():
+    case = undeclared_case("control-three-dof", seed=0, noise_percent=5.0)
+    loop = run_loop(case)
+    assert loop.added == ()
+
+
+def test_loop_from_a_candidate_object_keeps_declared_terms(coulomb):
+    case, loop = coulomb
+    assert isinstance(loop.final.candidate, CandidateModel)
+    assert loop.final.terms[: case.declared.n_terms] == case.declared.terms

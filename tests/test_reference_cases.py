@@ -133,6 +133,39 @@ def test_beam_damping_and_coefficients(beam):
     np.testing.assert_allclose(true_model.coefficient_values, case.true_coefficients, rtol=0.01)
 
 
+def _beam_prediction_error(case, block_rows=60):
+    return _identify(
+        case.signals, case.candidate("model 3"), block_rows=block_rows, order=32, band_hz=(1.0, 30.0),
+        bd_method="prediction-error",
+    )
+
+
+def test_beam_coefficients_prediction_error(beam):
+    """Issue criterion k2, k3 within 1 % with the errors-in-variables B/D step (seed 0)."""
+    case, _ = beam
+    result = _beam_prediction_error(case)
+    np.testing.assert_allclose(result.coefficient_values, case.true_coefficients, rtol=0.01)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2, 3, 4])
+def test_beam_coefficients_prediction_error_seeds(seed):
+    """k2, k3 within 1 % on further seeds (benchmarks/beam_bias.py: output-error is off by up to 5.6 %)."""
+    case = simulate_case("beam", seed=seed)
+    result = _beam_prediction_error(case)
+    np.testing.assert_allclose(result.coefficient_values, case.true_coefficients, rtol=0.01)
+
+
+@pytest.mark.xfail(strict=True, reason="open: damping of A from the subspace step still biased by input noise")
+def test_beam_damping_prediction_error(beam):
+    """Issue criterion: damping within 5 % (A, C come from the subspace step, unchanged by bd_method)."""
+    case, _ = beam
+    result = _beam_prediction_error(case)
+    f, _, z_err, _ = _modal_errors(result, case)
+    in_band = (f > 1.0) & (f < 80.0)
+    assert np.max(np.abs(z_err[in_band])) < 0.05
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_negative_stiffness_twin_model_2(seed):
     """Table 8 model 2: k1 (static FRF), k2, k3, α1, α2 within 3 %."""

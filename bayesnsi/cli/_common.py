@@ -3,26 +3,30 @@
 from __future__ import annotations
 
 import sys
-import time
-import warnings
+from pathlib import Path
 
-import numpy as np
-
-from ..exceptions import BayesNSIError
-from ..io.schema import candidate_record, failed_candidate_record
-from ..nsi import identify
-
-__all__ = ["add_run_arguments", "start_run", "identify_all", "nsi_options", "progress", "progress_bar"]
+__all__ = ["add_run_arguments", "identify_all", "nsi_options", "progress", "progress_bar", "run_options", "start_run"]
 
 
 def add_run_arguments(parser) -> None:
     """Arguments shared by the commands that run a config: CONFIG, --out, --force, --quiet."""
     parser.add_argument("config", help="experiment config (TOML)")
     parser.add_argument("--out", required=True, help="output directory")
-    parser.add_argument("--force", action="store_true", help="overwrite an existing results.json in DIR")
+    parser.add_argument(
+        "--force", action="store_true",
+        help="overwrite an existing results.json in DIR (finished candidates cached in DIR/.cache are reused)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress messages")
     parser.add_argument("--no-figures", action="store_true", help="skip the report and its figures")
-    parser.add_argument("--jobs", type=int, default=1, help="candidates run in parallel processes (default 1)")
+    parser.add_argument("--jobs", type=int, default=1, help="candidates run in N local worker processes (default 1)")
+    parser.add_argument(
+        "--scheduler", metavar="ADDRESS", default=None,
+        help="run the candidates on a Dask cluster, e.g. tcp://10.0.0.5:8786 (overrides --jobs)",
+    )
+    parser.add_argument(
+        "--no-cache", action="store_true",
+        help="recompute every candidate instead of reusing results cached in DIR/.cache by an earlier run",
+    )
 
 
 def start_run(args):
@@ -73,42 +77,29 @@ def nsi_options(config) -> dict:
     )
 
 
-def _candidate_task(signals, candidate, options, evidence_options, seed_sequence):
-    """Identify one candidate (and compute its evidence); runs in a worker process for --jobs.
+def run_options(args, out) -> dict:
+    """Keyword arguments of :func:`identify_all` from the command line: backend and cache.
 
-    Returns
-    -------
-    record : dict
-    result : NSIResult or None
-    evidences : dict likelihood -> EvidenceResult, or None
-    seconds : float
+    The cache lives in ``out/.cache`` (see :mod:`bayesnsi.io.cache`); ``--no-cache`` recomputes
+    every candidate (fresh entries are still written, so an interrupted run stays resumable).
     """
-    start = time.perf_counter()
-    result = evidences = None
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        try:
-            result = identify(signals, candidate, **options)
-            record = candidate_record(result, result.reconstruct(signals))
-            if evidence_options is not None:
-                from ..evidence import candidate_evidence
+    from ..io.cache import CACHE_DIRNAME, ResultCache
 
-                evidences = candidate_evidence(result, signals, evidence_options, seed_sequence, candidate)
-        except (BayesNSIError, np.linalg.LinAlgError) as err:
-            stage = "evidence: " if result is not None else ""
-            record = failed_candidate_record(candidate, err)
-            record["error"] = stage + record["error"]
-            result = evidences = None
-    record["warnings"] = [str(w.message) for w in caught]
-    record["seconds"] = time.perf_counter() - start
-    return record, result, evidences
+    return dict(
+        jobs=getattr(args, "jobs", 1),
+        scheduler=getattr(args, "scheduler", None),
+        cache=ResultCache(Path(out) / CACHE_DIRNAME, read=not getattr(args, "no_cache", False)),
+    )
 
 
-def identify_all(config, signals, quiet=False, jobs: int = 1, evidence_options=None):
+def identify_all(config, signals, quiet=False, jobs: int = 1, evidence_options=None, scheduler=None, cache=None):
     """Identify every candidate (and its evidence); failures are recorded, never raised.
 
-    Candidates run in ``jobs`` worker processes; each has its own seed sequence spawned from the
-    config's seed in config order, so the numbers do not depend on ``jobs``.
+    Candidates run serially, in ``jobs`` local worker processes, or on the Dask scheduler
+    ``scheduler`` (:func:`bayesnsi.run.dispatch`); each has its own seed sequence spawned from
+    the config's seed in config order, so the numbers do not depend on the backend. With a
+    ``cache`` (:class:`~bayesnsi.io.cache.ResultCache`) finished candidates are stored as they
+    arrive and reused by a rerun.
 
     Returns
     -------
@@ -116,25 +107,23 @@ def identify_all(config, signals, quiet=False, jobs: int = 1, evidence_options=N
     records : list of dict (results.json candidate records, in config order)
     evidences : dict name -> dict likelihood -> EvidenceResult (empty without evidence_options)
     """
-    options = nsi_options(config)
-    seeds = np.random.SeedSequence(config.seed).spawn(len(config.candidates))
-    tasks = [(signals, cand, options, evidence_options, seed) for cand, seed in zip(config.candidates, seeds)]
-    outcomes = []
-    with progress_bar(len(tasks), "candidates", quiet) as bar:
-        if jobs > 1 and len(tasks) > 1:
-            from concurrent.futures import ProcessPoolExecutor
+    from ..run import run_candidates
 
-            with ProcessPoolExecutor(max_workers=jobs) as pool:
-                futures = [pool.submit(_candidate_task, *task) for task in tasks]
-                for k, future in enumerate(futures, 1):
-                    outcomes.append(future.result())
-                    _report_progress(k, len(tasks), config.candidates[k - 1], outcomes[-1], evidence_options, quiet)
-                    bar.update()
-        else:
-            for k, task in enumerate(tasks, 1):
-                outcomes.append(_candidate_task(*task))
-                _report_progress(k, len(tasks), config.candidates[k - 1], outcomes[-1], evidence_options, quiet)
-                bar.update()
+    total = len(config.candidates)
+    if total > 1 or scheduler is not None:
+        progress(f"running {total} candidates ({_backend_text(jobs, scheduler)})", quiet)
+    with progress_bar(total, "candidates", quiet) as bar:
+        done = []
+
+        def report(k, outcome, cached):
+            done.append(k)
+            _report_progress(len(done), total, config.candidates[k], outcome, evidence_options, quiet, cached)
+            bar.update()
+
+        outcomes = run_candidates(
+            signals, config.candidates, nsi_options(config), evidence_options, config.seed,
+            jobs=jobs, scheduler=scheduler, cache=cache, on_result=report,
+        )
     results, records, evidences = {}, [], {}
     for candidate, (record, result, evidence) in zip(config.candidates, outcomes):
         records.append(record)
@@ -145,13 +134,20 @@ def identify_all(config, signals, quiet=False, jobs: int = 1, evidence_options=N
     return results, records, evidences
 
 
-def _report_progress(k, total, candidate, outcome, evidence_options, quiet):
+def _backend_text(jobs, scheduler) -> str:
+    if scheduler is not None:
+        return f"Dask scheduler {scheduler}"
+    return f"{jobs} local worker processes" if jobs > 1 else "serially"
+
+
+def _report_progress(k, total, candidate, outcome, evidence_options, quiet, cached=False):
     record, result, evidence = outcome
+    origin = "cached" if cached else f"{record['seconds']:.1f} s"
     if result is None:
-        progress(f"[{k}/{total}] {candidate.name}: failed - {record['error']}", quiet)
+        progress(f"[{k}/{total}] {candidate.name}: failed - {record['error']} ({origin})", quiet)
         return
     text = f"[{k}/{total}] {candidate.name}: order {result.order}, NRMSE {record['nrmse']:.4f}"
     if evidence:
         primary = evidence[evidence_options["likelihood"]]
         text += f", log Z ({primary.likelihood}) = {primary.log_evidence:.2f} ± {primary.log_evidence_se:.2f}"
-    progress(f"{text} ({record['seconds']:.1f} s)", quiet)
+    progress(f"{text} ({origin})", quiet)

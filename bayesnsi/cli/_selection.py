@@ -28,8 +28,10 @@ def evidence_options(config) -> dict:
     return opts
 
 
-def select_all(config, signals, quiet=False, jobs: int = 1):
+def select_all(config, signals, quiet=False, jobs: int = 1, **run_options):
     """Identify every candidate, compute evidences and rank (SPEC 6), on ``jobs`` processes.
+
+    ``run_options`` (``scheduler``, ``cache``) are passed to :func:`identify_all`.
 
     Returns
     -------
@@ -42,7 +44,9 @@ def select_all(config, signals, quiet=False, jobs: int = 1):
     from ..evidence import compare_evidence
 
     opts = evidence_options(config)
-    results, records, evidences = identify_all(config, signals, quiet=quiet, jobs=jobs, evidence_options=opts)
+    results, records, evidences = identify_all(
+        config, signals, quiet=quiet, jobs=jobs, evidence_options=opts, **run_options
+    )
     table = compare_evidence(
         {c.name: list(evidences[c.name].values()) if c.name in evidences else None for c in config.candidates},
         priors=[c.prior for c in config.candidates],

@@ -6,7 +6,7 @@ import numpy as np
 
 from ..io import RESULTS_FILENAME, atomic_write_json, load_validation, to_jsonable, versions
 from ..io.schema import term_record
-from ._common import add_run_arguments, nsi_options, progress, start_run
+from ._common import add_run_arguments, nsi_options, progress, run_options, start_run
 from ._report import identification_report, selection_sections
 from ._selection import select_all
 from .select import validate
@@ -38,7 +38,7 @@ def run(args) -> int:
     from ..exceptions import ConfigError
 
     config, out, signals = start_run(args)
-    results, records, evidences, table, opts = select_all(config, signals, quiet=args.quiet, jobs=args.jobs)
+    results, records, evidences, table, opts = select_all(config, signals, quiet=args.quiet, **run_options(args, out))
     ranked = [r for r in records if r["status"] == "ok"]
     if not ranked:
         raise ConfigError("no candidate could be identified, so there is no model to start the loop from")

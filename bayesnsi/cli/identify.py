@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..io import RESULTS_FILENAME, atomic_write_json, to_jsonable, versions
-from ._common import add_run_arguments, identify_all, progress, start_run
+from ._common import add_run_arguments, identify_all, progress, run_options, start_run
 from ._report import identification_report
 
 __all__ = ["add_parser", "run"]
@@ -25,7 +25,7 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     """Execute the command."""
     config, out, signals = start_run(args)
-    results, records, _ = identify_all(config, signals, quiet=args.quiet, jobs=args.jobs)
+    results, records, _ = identify_all(config, signals, quiet=args.quiet, **run_options(args, out))
     payload = {
         "command": "identify",
         "config": str(config.path),

@@ -6,7 +6,7 @@ import numpy as np
 
 from ..exceptions import BayesNSIError
 from ..io import RESULTS_FILENAME, atomic_write_json, load_validation, to_jsonable, versions
-from ._common import add_run_arguments, progress, start_run
+from ._common import add_run_arguments, progress, run_options, start_run
 from ._report import identification_report, selection_sections
 from ._selection import select_all
 
@@ -30,7 +30,7 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     """Execute the command."""
     config, out, signals = start_run(args)
-    results, records, evidences, table, opts = select_all(config, signals, quiet=args.quiet, jobs=args.jobs)
+    results, records, evidences, table, opts = select_all(config, signals, quiet=args.quiet, **run_options(args, out))
     ranked = [r for r in records if r.get("posterior") is not None and r["status"] == "ok"]
     selected = max(ranked, key=lambda r: r["posterior"])["name"] if ranked else None
     validation = load_validation(config)

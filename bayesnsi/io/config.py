@@ -322,7 +322,10 @@ def load_config(path: str | os.PathLike, check_files: bool = True) -> Experiment
         On any mistake: unreadable TOML, unknown keys, wrong types, missing data mapping,
         bad expressions, terms on unmeasured DOFs, overlapping validation segments, missing files.
     """
-    path = Path(path).expanduser().resolve()
+    try:
+        path = Path(path).expanduser().resolve()
+    except RuntimeError as exc:  # "~user" that names no user
+        raise ConfigError(f"config path {str(path)!r}: {exc}; write the path without '~'") from exc
     if not path.is_file():
         raise ConfigError(f"config file {path} not found; check the path (relative paths start at the working folder)")
     try:
@@ -579,16 +582,29 @@ def _parse_integrate(table: Mapping, where: _Where, fs: float | None, accelerati
 
 
 def _resolve_file(name: str, where: _Where, key: str, check_files: bool) -> Path:
-    file = Path(name).expanduser()
+    if not name.strip() or "\x00" in name:
+        raise where.error(key, "a file name (relative to the config file's folder)", name)
+    file = _expand_home(Path(name), where, key)
     if not file.is_absolute():
         file = where.path.parent / file
-    file = file.resolve()
+    try:
+        file = file.resolve()
+    except (OSError, RuntimeError, ValueError) as exc:  # e.g. a symlink loop
+        raise where.problem(key, f"cannot resolve the path {name!r} ({exc}); fix the file name") from exc
     if check_files and not file.is_file():
         raise where.problem(
             key, f"data file {name!r} not found (looked for {file}); paths are relative to the "
             "config file's folder - fix the name or move the file there"
         )
     return file
+
+
+def _expand_home(path: Path, where: _Where, key: str) -> Path:
+    """``~`` and ``~user`` expanded; a user that does not exist is a ConfigError (not RuntimeError)."""
+    try:
+        return path.expanduser()
+    except RuntimeError as exc:
+        raise where.problem(key, f"cannot expand {str(path)!r} ({exc}); write the path without '~'") from exc
 
 
 def _dof_map(table: Mapping, key: str, where: _Where, required: bool) -> dict[str, int] | None:

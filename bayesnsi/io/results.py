@@ -27,7 +27,7 @@ from typing import IO, Any
 
 import numpy as np
 
-from ..exceptions import OutputExistsError
+from ..exceptions import ConfigError, OutputExistsError
 
 __all__ = [
     "RESULTS_FILENAME",
@@ -51,6 +51,9 @@ _OPTIONAL_PACKAGES = (
     "arviz-plots",
     "xarray",
     "matplotlib",
+    "joblib",
+    "dask",
+    "distributed",
 )
 
 
@@ -182,7 +185,8 @@ def to_jsonable(obj: Any) -> Any:
 def versions() -> dict[str, str]:
     """Versions of Python, the platform, bayesnsi and its numerical dependencies.
 
-    Optional packages (pandas, emcee, arviz*, xarray, matplotlib) are listed when installed;
+    Optional packages (pandas, emcee, arviz*, xarray, matplotlib, joblib, dask, distributed)
+    are listed when installed;
     they are looked up with :mod:`importlib.metadata` and never imported.
 
     Returns
@@ -228,7 +232,10 @@ def prepare_output_dir(path: str | os.PathLike, force: bool = False) -> Path:
         If ``path`` is a file, or a directory that already holds ``results.json`` and
         ``force`` is False.
     """
-    folder = Path(path).expanduser().resolve()
+    try:
+        folder = Path(path).expanduser().resolve()
+    except RuntimeError as exc:  # "~user" that names no user
+        raise ConfigError(f"output path {str(path)!r}: {exc}; write the path without '~'") from exc
     if folder.exists() and not folder.is_dir():
         raise OutputExistsError(f"output path {folder} exists and is a file, not a directory; choose another --out")
     if (folder / RESULTS_FILENAME).exists() and not force:

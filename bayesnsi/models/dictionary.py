@@ -8,7 +8,15 @@ import numpy as np
 
 from .terms import Term
 
-__all__ = ["EFFECT_TYPES", "effect_dictionary", "clearance_expression", "default_gaps"]
+__all__ = [
+    "EFFECT_TYPES",
+    "effect_dictionary",
+    "clearance_expression",
+    "clearance_effect",
+    "clearance_gap",
+    "effect_base_type",
+    "default_gaps",
+]
 
 EFFECT_TYPES: dict[str, str] = {
     "x^2": "{x}**2",
@@ -26,6 +34,39 @@ def clearance_expression(x: str, gap: float) -> str:
     """Clearance (dead-zone) spring ``max(0, |x| - g)·sign(x)`` written in the term grammar."""
     g = f"{gap:.6g}"
     return f"(abs({x})-{g})*(sign(abs({x})-{g})+1)/2*sign({x})"
+
+
+def _location_symbols(at: tuple[int, ...]) -> tuple[str, str]:
+    if len(at) == 2:
+        return f"(x{at[0]}-x{at[1]})", f"(v{at[0]}-v{at[1]})"
+    return f"x{at[0]}", f"v{at[0]}"
+
+
+def clearance_effect(at, gap: float) -> tuple[str, Term]:
+    """A clearance effect ``("clearance g=<gap>", Term)`` at DOF ``k`` or across a pair ``(j, k)``.
+
+    Parameters
+    ----------
+    at : int or (int, int)
+        Location (SPEC 1: grounded at DOF k, or an element between j and k acting on x_j - x_k).
+    gap : float
+        Gap g [m] of ``max(0, |x| - g)·sign(x)`` (SPEC 7, step 2).
+    """
+    at = (int(at),) if np.ndim(at) == 0 else tuple(int(a) for a in at)
+    x, _ = _location_symbols(at)
+    return f"clearance g={gap:.6g}", Term(clearance_expression(x, gap), at if len(at) == 2 else at[0])
+
+
+def clearance_gap(effect_type: str) -> float | None:
+    """The gap of a ``"clearance g=..."`` effect type, None for any other type."""
+    if not effect_type.startswith("clearance g="):
+        return None
+    return float(effect_type.split("=", 1)[1])
+
+
+def effect_base_type(effect_type: str) -> str:
+    """The type without its parameter: ``"clearance g=0.01"`` -> ``"clearance"``."""
+    return "clearance" if effect_type.startswith("clearance") else effect_type
 
 
 def effect_dictionary(
@@ -50,18 +91,19 @@ def effect_dictionary(
     Returns
     -------
     list of (effect type, Term)
+        Clearances are typed ``"clearance g=<gap>"`` (:func:`clearance_gap` reads the gap back).
     """
     dofs = sorted(set(int(d) for d in measured_dofs))
     if pairs is None:
         pairs = [(j, j + 1) for j in dofs if j + 1 in dofs]
-    locations = [((k,), f"x{k}", f"v{k}") for k in dofs]
-    locations += [((j, k), f"(x{j}-x{k})", f"(v{j}-v{k})") for j, k in pairs]
+    locations = [(k,) for k in dofs] + [(int(j), int(k)) for j, k in pairs]
     out = []
-    for at, x, v in locations:
+    for at in locations:
+        x, v = _location_symbols(at)
         for name in types:
             out.append((name, Term(EFFECT_TYPES[name].format(x=x, v=v), at if len(at) == 2 else at[0])))
         for gap in (gaps or {}).get(at, ()):
-            out.append((f"clearance g={gap:.3g}", Term(clearance_expression(x, gap), at if len(at) == 2 else at[0])))
+            out.append(clearance_effect(at, float(gap)))
     return out
 
 

@@ -1,0 +1,126 @@
+"""Closing the loop (SPEC 7) on undeclared-effect cases and negative controls, over seeds.
+
+For every case of :data:`bayesnsi.simulate.undeclared.UNDECLARED_CASES`, every seed and noise
+level, :func:`bayesnsi.diagnose.close_the_loop` starts from the declared candidate with its
+default dictionary (all effect types at every measured DOF and neighbouring pair, clearances on
+a gap grid) and default guards. Per case the table gives
+
+* ``first``: runs whose first added effect has the type and location of a missing one;
+* ``all``: runs that added exactly the missing effects (nothing more, nothing less);
+* ``coef err``: median and worst |λ̂/λ - 1| of the found missing effects in the final model;
+* ``within 10 %``: found missing effects with |λ̂/λ - 1| ≤ 0.1;
+* ``after/before``: median open-loop NRMSE of the final over the declared model;
+* ``nrmse ok``: runs with NRMSE after ≤ NRMSE before / 3, or at the noise floor, i.e. at most
+  1.1 × the NRMSE of the true model identified by NSI on the same data (column ``truth``);
+* ``false add``: negative controls (and, for the others, additions that are not missing effects);
+* ``s``: mean wall time of one loop.
+
+Run: ``OMP_NUM_THREADS=1 .venv/bin/python benchmarks/diagnose_suite.py [--seeds 5] [--noise 1 5]
+[--cases NAME ...] [--verbose]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+import warnings
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")  # one BLAS thread: faster on a shared 2-core machine (SPEC 10)
+
+import numpy as np  # noqa: E402
+
+from bayesnsi.diagnose import close_the_loop  # noqa: E402
+from bayesnsi.nsi import identify  # noqa: E402
+from bayesnsi.simulate.undeclared import UNDECLARED_CASES, undeclared_cases  # noqa: E402
+
+FLOOR_FACTOR = 1.1  # "at the noise floor": NRMSE after ≤ 1.1 × NRMSE of the true model
+
+
+def evaluate(case, loop) -> dict:
+    """Score one loop run against the truth of its case."""
+    added = loop.added
+    first = bool(added) and any(e.matches(added[0].effect_type, added[0].term) for e in case.missing)
+    matched = [next((s for s in added if e.matches(s.effect_type, s.term)), None) for e in case.missing]
+    spurious = [s for s in added if not any(s is m for m in matched)]  # wrong effects and duplicates
+    final = {t: c.value for t, c in zip(loop.final.terms, loop.final.coefficients)}
+    errors = [abs(final[s.term] / e.coefficient - 1.0) for e, s in zip(case.missing, matched) if s is not None]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        truth = identify(case.signals, case.truth, **case.nsi).reconstruct(case.signals).nrmse
+    before = loop.start.reconstruct(case.signals).nrmse
+    after = loop.final.reconstruct(case.signals).nrmse
+    return dict(
+        first=first,
+        all=all(s is not None for s in matched) and not spurious,
+        spurious=len(spurious),
+        errors=errors,
+        before=before,
+        after=after,
+        truth=truth,
+        nrmse_ok=after <= before / 3 or after <= FLOOR_FACTOR * truth,
+        added=[s.term.name for s in added],
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=5, help="seeds per case and noise level (default 5)")
+    parser.add_argument("--noise", type=float, nargs="+", default=[1.0, 5.0], help="noise levels [%%] (default 1 5)")
+    parser.add_argument("--cases", nargs="+", default=list(UNDECLARED_CASES), choices=list(UNDECLARED_CASES))
+    parser.add_argument("--verbose", action="store_true", help="print every run")
+    args = parser.parse_args()
+    header = (
+        f"{'case':18} {'noise':>5} {'first':>6} {'all':>6} {'coef err med/max':>17} {'within 10%':>10} "
+        f"{'after/before':>12} {'truth':>6} {'nrmse ok':>8} {'false add':>9} {'s':>5}"
+    )
+    print(header)
+    print("-" * len(header))
+    for name in args.cases:
+        for noise in args.noise:
+            cases = undeclared_cases(name, range(args.seeds), noise)
+            rows, times = [], []
+            for case in cases:
+                start = time.perf_counter()
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    loop = close_the_loop(case.signals, case.declared, nsi_options=case.nsi, seed=case.seed)
+                times.append(time.perf_counter() - start)
+                row = evaluate(case, loop)
+                rows.append(row)
+                if args.verbose:
+                    errs = ", ".join(f"{e:.3f}" for e in row["errors"])
+                    print(
+                        f"  seed {case.seed}: added {row['added'] or 'nothing'}; coef err [{errs}]; "
+                        f"nrmse {row['before']:.4f} -> {row['after']:.4f} (truth {row['truth']:.4f}); {times[-1]:.1f} s"
+                    )
+                    for step in loop.steps:
+                        true = any(e.matches(step.effect_type, step.term) for e in case.missing)
+                        h = np.abs(step.half_coefficients)
+                        print(
+                            f"    {'+' if step.accepted else '-'} {'TRUE' if true else 'false'} {step.term.name[:48]:48} "
+                            f"logBF {step.log_bayes_factor:8.1f} imag {step.imag_ratio:5.2f} halves x{max(h) / min(h):5.2f} "
+                            f"nrmse {step.nrmse_before:.4f}->{step.nrmse_after:.4f}"
+                        )
+            n = len(rows)
+            control = cases[0].is_negative_control
+            errors = [e for r in rows for e in r["errors"]]
+            n_missing = n * len(cases[0].missing)
+            ratio = np.median([r["after"] / r["before"] for r in rows])
+            truth = np.median([r["truth"] for r in rows])
+            false_add = sum(bool(r["added"]) for r in rows) if control else sum(r["spurious"] > 0 for r in rows)
+            first = "-" if control else f"{sum(r['first'] for r in rows)}/{n}"
+            allf = f"{sum(r['all'] for r in rows)}/{n}"
+            err = f"{np.median(errors):.3f}/{np.max(errors):.3f}" if errors else "-"
+            within = f"{sum(e <= 0.1 for e in errors)}/{n_missing}" if not control else "-"
+            ok = "-" if control else f"{sum(r['nrmse_ok'] for r in rows)}/{n}"
+            print(
+                f"{name:18} {noise:5.1f} {first:>6} {allf:>6} {err:>17} {within:>10} {ratio:12.3f} {truth:6.4f} "
+                f"{ok:>8} {f'{false_add}/{n}':>9} {np.mean(times):5.1f}",
+                flush=True,
+            )
+
+
+if __name__ == "__main__":
+    main()

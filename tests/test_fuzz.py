@@ -1,0 +1,262 @@
+"""Property-based fuzzing of every text bayesnsi reads: expressions, configs (TOML) and CSV files.
+
+Whatever the input, the result is a value or a :class:`~bayesnsi.exceptions.BayesNSIError`
+subclass - never another exception. The number of examples follows the hypothesis profile
+registered in conftest.py (``BAYESNSI_HYPOTHESIS_PROFILE=long`` for thousands).
+"""
+
+import math
+import tempfile
+import warnings
+from pathlib import Path
+
+import numpy as np
+from hypothesis import event, given
+from hypothesis import strategies as st
+
+from bayesnsi.exceptions import BayesNSIError
+from bayesnsi.io import (
+    DataSpec,
+    dump_config,
+    load_config,
+    load_signals,
+    load_validation,
+    read_csv_columns,
+    read_signals,
+)
+from bayesnsi.models import parse_expression
+
+FOLDER = Path(tempfile.mkdtemp(prefix="bayesnsi-fuzz-"))
+N_ROWS = 120
+
+
+def _write_valid_csv(path: Path) -> None:
+    rng = np.random.default_rng(0)
+    names = ["t", "f2", "x1", "x2", "v1", "v2", "a1"]
+    rows = [",".join(names)]
+    for k in range(N_ROWS):
+        rows.append(",".join([repr(k / 100.0)] + [repr(float(v)) for v in rng.normal(size=len(names) - 1)]))
+    path.write_text("\n".join(rows) + "\n")
+
+
+_write_valid_csv(FOLDER / "data.csv")
+
+
+def _outcome(call):
+    """Run ``call``; a BayesNSIError is a valid outcome, anything else fails the test."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # warnings are results too; only exceptions are judged
+        try:
+            result = call()
+        except BayesNSIError as err:
+            assert str(err).strip(), "an error needs a message"
+            event(f"error: {type(err).__name__}")
+            return err
+    event(f"result: {type(result).__name__}")
+    return result
+
+
+# ---------------------------------------------------------------------------------------------
+# expressions
+
+GRAMMAR = ["x1", "x2", "v1", "v12", "abs(", "sign(", "tanh(", "(", ")", "+", "-", "*", "/", "**", "2", "0.5", "1e308",
+           "99999", ".", "__import__", "'os'", "lambda", ":", "[", "]", ",", " ", "nan", "inf", "x0", "exp("]
+
+
+_valid_expr = st.recursive(
+    st.sampled_from(["x1", "x2", "v1", "v2", "2", "0.5", "1e-3"]),
+    lambda inner: st.tuples(inner, st.sampled_from(["+", "-", "*", "/"]), inner).map(lambda t: f"({t[0]}{t[1]}{t[2]})")
+    | st.tuples(st.sampled_from(["abs", "sign", "tanh", "-"]), inner).map(lambda t: f"{t[0]}({t[1]})")
+    | st.tuples(inner, st.integers(0, 7)).map(lambda t: f"{t[0]}**{t[1]}"),
+    max_leaves=8,
+)
+
+
+@given(st.text(max_size=80) | st.lists(st.sampled_from(GRAMMAR), max_size=25).map("".join) | _valid_expr)
+def test_expression_parser_gives_expression_or_bayesnsi_error(text):
+    expr = _outcome(lambda: parse_expression(text))
+    if isinstance(expr, BayesNSIError):
+        return
+    n_dofs = max(expr.dofs, default=1)
+    if n_dofs > 64:
+        return  # parsed; the config refuses DOFs that are not measured
+    x = np.linspace(-1.0, 1.0, 4 * n_dofs).reshape(n_dofs, 4)
+    with np.errstate(all="ignore"):
+        assert expr.evaluate(x, x).shape == (4,)
+    assert parse_expression(expr.text).canonical == expr.canonical
+
+
+# ---------------------------------------------------------------------------------------------
+# configs
+
+_scalars = (
+    st.integers(-5, 300) | st.integers(-(2**63), 2**63 - 1) | st.floats(allow_nan=True, allow_infinity=True)
+    | st.booleans() | st.text(max_size=8) | st.sampled_from(["auto", "ar1", "white", "robust", "fourth", "time"])
+)
+_values = st.recursive(_scalars, lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=4), inner, max_size=3), max_leaves=6)
+_columns = st.sampled_from(["f2", "x1", "x2", "v1", "v2", "a1", "t", "missing", ""])
+_dof_map = st.dictionaries(_columns, st.integers(-1, 4) | _values, max_size=3)
+_expr = st.lists(st.sampled_from(GRAMMAR), min_size=1, max_size=8).map("".join) | st.text(max_size=10)
+_term = st.fixed_dictionaries(
+    {"expr": _expr, "at": st.integers(-1, 4) | st.lists(st.integers(0, 4), max_size=3) | _values},
+    optional={"prior_scale": _scalars, "bogus": _scalars},
+)
+_candidate = st.fixed_dictionaries(
+    {"name": st.text(max_size=6) | st.sampled_from(["a", "b"]), "terms": st.lists(_term, max_size=2) | _values},
+    optional={"prior": _scalars},
+)
+_data = st.fixed_dictionaries(
+    {"file": st.sampled_from(["data.csv", "data.csv", "nope.csv", "", "."]) | st.text(max_size=6)},
+    optional={
+        "fs": st.sampled_from([100.0, 100, 50.0, 0.0, -1.0, math.nan, math.inf]) | _scalars,
+        "inputs": _dof_map, "outputs": _dof_map, "velocities": _dof_map, "accelerations": _dof_map,
+        "estimation": st.lists(st.integers(-5, 200), max_size=3) | _values,
+        "remove_mean": _scalars, "decimate": st.integers(-1, 200) | _scalars, "time_column": _columns | _scalars,
+        "integrate": st.fixed_dictionaries({}, optional={
+            "band_hz": st.lists(st.floats(-1, 80), max_size=3) | _values, "method": _scalars, "taper": _scalars,
+            "filter_inputs": _scalars, "filter_order": _scalars, "detrend_order": _scalars,
+        }) | _values,
+    },
+)
+_nsi = st.fixed_dictionaries({}, optional={
+    "block_rows": st.integers(-1, 200) | _scalars, "order": st.integers(-1, 20) | _scalars,
+    "band_hz": st.lists(st.floats(-1, 80), max_size=3) | _values, "band": _values,
+    "velocity_method": _scalars, "bd_method": _scalars, "max_order": _scalars, "zero_feedthrough": _scalars,
+    "input_hold": _scalars,
+})
+_validation = st.fixed_dictionaries(
+    {"name": st.text(max_size=4)},
+    optional={"start": st.integers(-2, 150) | _scalars, "stop": st.integers(-2, 150) | _scalars, "file": st.sampled_from(["data.csv", "x.csv"])},
+)
+_config = st.fixed_dictionaries(
+    {"data": _data | _values},
+    optional={
+        "seed": _scalars, "nsi": _nsi | _values, "candidates": st.lists(_candidate, max_size=3) | _values,
+        "validation": st.lists(_validation, max_size=2) | _values, "evidence": st.dictionaries(st.text(max_size=5), _values, max_size=3),
+        "meta": _values, "extra": _values,
+    },
+)
+_SANE = {
+    "data": {"file": "data.csv", "fs": 100.0, "inputs": {"f2": 2}, "outputs": {"x1": 1, "x2": 2}},
+    "candidates": [{"name": "m", "terms": [{"expr": "x1**3", "at": 1}]}],
+}
+
+
+def _load_everything(path):
+    config = load_config(path)
+    signals = load_signals(config)
+    segments = load_validation(config)
+    return config, signals, segments
+
+
+def _patched(patch):
+    """The sane config with some sections replaced or, where both are tables, updated."""
+    document = {key: (dict(value) if isinstance(value, dict) else value) for key, value in _SANE.items()}
+    for key, value in patch.items():
+        if isinstance(value, dict) and isinstance(document.get(key), dict):
+            document[key].update(value)
+        else:
+            document[key] = value
+    return document
+
+
+_KEYS = {
+    "data": ["file", "fs", "inputs", "outputs", "velocities", "accelerations", "estimation", "remove_mean", "decimate",
+             "time_column", "integrate"],
+    "nsi": ["block_rows", "order", "band_hz", "band", "velocity_method", "bd_method", "max_order", "zero_feedthrough",
+            "input_hold", "unknown"],
+    "evidence": ["likelihood", "n_steps", "seed", "compare"],
+}
+_edit_values = (
+    _scalars | _dof_map | st.lists(st.integers(-5, 200), max_size=3) | st.lists(st.floats(-1, 80), max_size=3)
+    | st.fixed_dictionaries({"band_hz": st.lists(st.floats(0, 60), min_size=2, max_size=2)})
+)
+
+
+@st.composite
+def _single_edit(draw):
+    """The sane config with one key of one section changed: reaches the checks behind the first one."""
+    section = draw(st.sampled_from(["data", "nsi", "evidence", "candidates", "validation", "seed"]))
+    if section in _KEYS:
+        return _patched({section: {draw(st.sampled_from(_KEYS[section])): draw(_edit_values)}})
+    if section == "candidates":
+        return _patched({"candidates": draw(st.lists(_candidate, min_size=1, max_size=2))})
+    if section == "validation":
+        return _patched({"data": {"estimation": [0, 60]}, "validation": draw(st.lists(_validation, max_size=2))})
+    return _patched({"seed": draw(_scalars)})
+
+
+@given(_config | _config.map(_patched) | _single_edit())
+def test_config_loader_on_structured_documents(document):
+    path = FOLDER / "structured.toml"
+    try:
+        text = dump_config(document)
+    except BayesNSIError:
+        return  # not writable as TOML (e.g. an empty key); nothing to load
+    path.write_text(text, encoding="utf-8")
+    _outcome(lambda: _load_everything(path))
+
+
+@given(st.binary(max_size=200) | st.text(max_size=200).map(lambda t: t.encode("utf-8", "surrogatepass")))
+def test_config_loader_on_arbitrary_bytes(content):
+    path = FOLDER / "raw.toml"
+    path.write_bytes(content)
+    _outcome(lambda: _load_everything(path))
+
+
+# ---------------------------------------------------------------------------------------------
+# CSV files
+
+_cell = (
+    st.floats(allow_nan=True, allow_infinity=True).map(repr)
+    | st.integers(-10, 10).map(str)
+    | st.sampled_from(["", " ", "nan", "NaN", "inf", "-inf", "1e999", "abc", '"1,5"', '"x"', "0x10", "1_000", "—", "\t", '"'])
+    | st.text(max_size=4)
+)
+_header = st.lists(st.sampled_from(["t", "f2", "x1", "x2", "v1", "v2", "", "1.5", "x1 ", '"x2"', "ü"]) | st.text(max_size=3), min_size=0, max_size=7)
+
+
+@st.composite
+def _csv_text(draw):
+    """Mostly well-formed measurement CSVs with a few mutations (cells, header, rows, endings)."""
+    header = list(draw(st.permutations(["t", "f2", "x1", "x2", "v1", "v2"])))
+    header = header[: draw(st.integers(1, 6))] + draw(st.lists(_header.map(lambda h: h[0] if h else ""), max_size=1))
+    n_rows = draw(st.integers(0, 30))
+    rng = np.random.default_rng(draw(st.integers(0, 3)))
+    rows = [[repr(k / 100.0) if name == "t" else repr(float(rng.normal())) for name in header] for k in range(n_rows)]
+    for row, col, cell in draw(st.lists(st.tuples(st.integers(0, 40), st.integers(0, 7), _cell), max_size=3)):
+        if row < n_rows and col < len(header):
+            rows[row][col] = cell
+    if rows and draw(st.booleans()):
+        rows[draw(st.integers(0, n_rows - 1))].append(draw(_cell))  # a ragged row
+    lines = [",".join(header)]
+    if draw(st.booleans()):
+        lines.append(",".join(draw(st.sampled_from(["s", "N", "m", "mm", ""])) for _ in header))
+    lines += [",".join(row) for row in rows]
+    ending = draw(st.sampled_from(["\n", "\r\n", ",\n", ""]))
+    return ending.join(lines) + ending
+
+
+_specs = st.sampled_from([
+    DataSpec(file=Path("unused"), fs=100.0, inputs={"f2": 2}, outputs={"x1": 1, "x2": 2}),
+    DataSpec(file=Path("unused"), fs=None, inputs={"f2": 2}, outputs={"x1": 1}),
+    DataSpec(file=Path("unused"), fs=100.0, inputs={"f2": 2}, outputs={"x1": 1, "x2": 2}, velocities={"v1": 1, "v2": 2}),
+    DataSpec(file=Path("unused"), fs=100.0, inputs={"f2": 2}, outputs={"x1": 1}, decimate=2),
+])
+
+
+@given(_csv_text() | st.text(max_size=150), _specs)
+def test_csv_loader_gives_signals_or_bayesnsi_error(text, spec):
+    path = FOLDER / "fuzz.csv"
+    path.write_text(text, encoding="utf-8")
+    _outcome(lambda: read_csv_columns(path, ["x1", "f2"]))
+    signals = _outcome(lambda: read_signals(path, spec))
+    if not isinstance(signals, BayesNSIError):
+        assert np.all(np.isfinite(signals.displacement)) and signals.displacement.shape[1] == len(spec.outputs)
+
+
+@given(st.binary(max_size=300))
+def test_csv_loader_on_arbitrary_bytes(content):
+    path = FOLDER / "fuzz_bytes.csv"
+    path.write_bytes(content)
+    _outcome(lambda: read_signals(path, DataSpec(file=path, fs=100.0, inputs={"f2": 2}, outputs={"x1": 1})))

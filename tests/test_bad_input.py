@@ -243,3 +243,12 @@ def test_cli_exits_2_in_one_line_and_debug_shows_the_traceback(tmp_path, capsys)
     err = capsys.readouterr().err
     assert "Traceback (most recent call last)" in err and "ConfigError" in err
     assert not (tmp_path / "o" / "results.json").exists()
+
+
+def test_expression_dof_bounds_and_missing_rows():
+    from bayesnsi.exceptions import ShapeError
+
+    with pytest.raises(ExpressionError, match="beyond"):
+        parse_expression("x999999999")
+    with pytest.raises(ShapeError, match="reads DOFs"):
+        parse_expression("x3**2").evaluate(np.zeros((2, 5)), np.zeros((2, 5)))

@@ -23,14 +23,16 @@ from typing import Callable
 
 import numpy as np
 
-from ..exceptions import ExpressionError
+from ..exceptions import ExpressionError, ShapeError
 
-__all__ = ["Expression", "parse_expression", "MAX_EXPONENT", "MAX_LENGTH"]
+__all__ = ["Expression", "parse_expression", "MAX_EXPONENT", "MAX_LENGTH", "MAX_DOF"]
 
 MAX_EXPONENT = 16.0
 """Largest allowed magnitude of a constant exponent."""
 MAX_LENGTH = 400
 """Longest accepted expression text, in characters."""
+MAX_DOF = 100_000
+"""Largest DOF number an expression may read (far beyond any model this package identifies)."""
 _MAX_DEPTH = 40
 
 _FUNCTIONS: dict[str, Callable[[np.ndarray], np.ndarray]] = {
@@ -105,8 +107,14 @@ class Expression:
         numpy.ndarray
             The basis function, with the trailing shape of ``x``.
         """
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            out = self._function(x, v)
+        try:
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                out = self._function(x, v)
+        except (IndexError, KeyError) as err:
+            raise ShapeError(
+                f"expression {self.canonical!r} reads DOFs {list(self.dofs)}, which x or v does not hold "
+                f"({err}); pass arrays with a row per DOF (row k-1 is DOF k) or a mapping with those DOFs"
+            ) from None
         if isinstance(x, dict):
             shape = np.shape(next(iter(x.values()))) if x else np.shape(next(iter(v.values())))
         else:
@@ -189,6 +197,8 @@ class _Parser:
                 tokens.append(("num", float(m.group("number"))))
             elif m.group("state"):
                 dof = int(m.group("dof"))
+                if dof > MAX_DOF:
+                    raise ExpressionError(f"DOF {dof} in {self.text!r} is beyond {MAX_DOF}; DOFs are numbered from 1")
                 if dof < 1:
                     raise ExpressionError(f"DOFs are numbered from 1, found {m.group(0).strip()!r} in {text!r}")
                 tokens.append((m.group("state"), dof))

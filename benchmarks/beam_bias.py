@@ -20,15 +20,15 @@ import os
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"  # before numpy (SPEC 10: multithreaded BLAS is slower here)
 
-import argparse  # noqa: E402
-import time  # noqa: E402
-import warnings  # noqa: E402
+import argparse
+import time
+import warnings
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from bayesnsi.exceptions import SpuriousPoleWarning  # noqa: E402
-from bayesnsi.nsi import identify  # noqa: E402
-from bayesnsi.simulate import simulate_case  # noqa: E402
+from bayesnsi.exceptions import SpuriousPoleWarning
+from bayesnsi.nsi import identify
+from bayesnsi.simulate import simulate_case
 
 METHODS = ("output-error", "prediction-error")
 CLOSE_PAIR_HZ = (10.105, 10.554)
@@ -44,18 +44,26 @@ def _row(case, result):
     close = []
     for target in CLOSE_PAIR_HZ:
         gap = np.abs(f - target)
-        close.append(100 * z_err[np.argmin(gap)] if gap.size and gap.min() < 0.2 else np.nan)
+        close.append(
+            100 * z_err[np.argmin(gap)] if gap.size and gap.min() < 0.2 else np.nan
+        )
     k_err = 100 * (result.coefficient_values / case.true_coefficients - 1)
     return k_err, close, 100 * np.max(np.abs(z_err[in_band]))
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4, 5])
     parser.add_argument("--block-rows", type=int, default=40)
     args = parser.parse_args()
-    print(f"beam, model 3 {{x13², x13³}}, 1 % noise, 1e5 samples, i = {args.block_rows}, n = 32, band 1-30 Hz")
-    print(f"{'seed':>4} {'bd_method':>17} {'k2 %':>7} {'k3 %':>7} {'ζ10.1 %':>8} {'ζ10.6 %':>8} {'max|ζ| %':>9} {'time s':>7}")
+    print(
+        f"beam, model 3 {{x13², x13³}}, 1 % noise, 1e5 samples, i = {args.block_rows}, n = 32, band 1-30 Hz"
+    )
+    print(
+        f"{'seed':>4} {'bd_method':>17} {'k2 %':>7} {'k3 %':>7} {'ζ10.1 %':>8} {'ζ10.6 %':>8} {'max|ζ| %':>9} {'time s':>7}"
+    )
     worst = {m: 0.0 for m in METHODS}
     for seed in args.seeds:
         case = simulate_case("beam", seed=seed)
@@ -64,14 +72,23 @@ def main():
                 warnings.simplefilter("ignore", SpuriousPoleWarning)
                 start = time.perf_counter()
                 result = identify(
-                    case.signals, case.candidate("model 3"), block_rows=args.block_rows, order=32,
-                    band_hz=(1.0, 30.0), bd_method=method,
+                    case.signals,
+                    case.candidate("model 3"),
+                    block_rows=args.block_rows,
+                    order=32,
+                    band_hz=(1.0, 30.0),
+                    bd_method=method,
                 )
                 elapsed = time.perf_counter() - start
             k_err, close, z_max = _row(case, result)
             worst[method] = max(worst[method], float(np.max(np.abs(k_err))))
-            close_txt = " ".join("       -" if np.isnan(c) else f"{c:8.1f}" for c in close)
-            print(f"{seed:>4} {method:>17} {k_err[0]:7.2f} {k_err[1]:7.2f} {close_txt} {z_max:9.1f} {elapsed:7.2f}", flush=True)
+            close_txt = " ".join(
+                "       -" if np.isnan(c) else f"{c:8.1f}" for c in close
+            )
+            print(
+                f"{seed:>4} {method:>17} {k_err[0]:7.2f} {k_err[1]:7.2f} {close_txt} {z_max:9.1f} {elapsed:7.2f}",
+                flush=True,
+            )
     for method in METHODS:
         print(f"largest |k error| with {method}: {worst[method]:.2f} %")
 

@@ -29,11 +29,11 @@ import warnings
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # one BLAS thread: faster on a shared 2-core machine (SPEC 10)
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from bayesnsi.diagnose import close_the_loop  # noqa: E402
-from bayesnsi.nsi import identify  # noqa: E402
-from bayesnsi.simulate.undeclared import UNDECLARED_CASES, undeclared_cases  # noqa: E402
+from bayesnsi.diagnose import close_the_loop
+from bayesnsi.nsi import identify
+from bayesnsi.simulate.undeclared import UNDECLARED_CASES, undeclared_cases
 
 FLOOR_FACTOR = 1.1  # "at the noise floor": NRMSE after ≤ 1.1 × NRMSE of the true model
 

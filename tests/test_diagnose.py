@@ -19,7 +19,12 @@ from bayesnsi.evidence import EVIDENCE_DEFAULTS
 from bayesnsi.models import effect_dictionary
 from bayesnsi.models.dictionary import clearance_effect, clearance_gap, effect_base_type
 from bayesnsi.nsi import identify
-from bayesnsi.simulate.undeclared import UNDECLARED_CASES, effect_sizes, undeclared_case, undeclared_cases
+from bayesnsi.simulate.undeclared import (
+    UNDECLARED_CASES,
+    effect_sizes,
+    undeclared_case,
+    undeclared_cases,
+)
 
 FLOOR_FACTOR = 1.1  # "at the noise floor": at most 1.1 x the NRMSE of the true model
 
@@ -96,7 +101,7 @@ def test_clearance_effects_carry_their_gap():
 @pytest.fixture(scope="module")
 def coulomb():
     case = undeclared_case("coulomb-dof2", seed=0, noise_percent=2.0)
-    return case, run_loop(case)
+    return case, run_loop(case, max_steps=2)
 
 
 def test_undeclared_coulomb_friction_at_other_dof_is_found(coulomb):

@@ -21,6 +21,7 @@ from bayesnsi.exceptions import ConfigError, InputDataError
 from bayesnsi.io import dump_config, load_config, load_signals, load_validation, write_signals_csv
 from bayesnsi.nsi import identify
 from bayesnsi.preprocess import (
+    upsample,
     band_filter,
     band_window,
     decimate,
@@ -316,3 +317,22 @@ def test_nsi_band_is_checked_against_the_decimated_nyquist(tmp_path):
     path.write_text(dump_config({"data": section, "nsi": {"band_hz": [1.0, 20.0]}, "candidates": CANDIDATES}))
     with pytest.raises(ConfigError, match="below the Nyquist frequency 12.5 Hz"):
         load_config(path, check_files=False)
+
+
+def test_upsample_is_exact_for_band_limited_signals_and_keeps_samples():
+    """Independent reference: the analytic sinusoids evaluated on the finer grid."""
+    fs, n = 100.0, 1000
+    t = np.arange(n) / fs
+    x = np.c_[np.sin(2 * np.pi * 3 * t), 0.3 * np.cos(2 * np.pi * 11 * t + 0.4)]
+    fine = upsample(x, 4)
+    tf = np.arange(4 * n) / (4 * fs)
+    exact = np.c_[np.sin(2 * np.pi * 3 * tf), 0.3 * np.cos(2 * np.pi * 11 * tf + 0.4)]
+    np.testing.assert_allclose(fine[::4], x, atol=1e-12)
+    interior = slice(200, -200)  # the mirrored extension is not periodic in slope at the ends
+    np.testing.assert_allclose(fine[interior], exact[interior], atol=1e-4)
+    signals = Signals(x[:, :1], x[:, 1:], fs, [1], [1], velocity=x[:, 1:] * 2)
+    up = upsample(signals, 3)
+    assert up.fs == 3 * fs and up.n_samples == 3 * n
+    np.testing.assert_allclose(up.displacement[::3], signals.displacement, atol=1e-12)
+    with pytest.raises(InputDataError):
+        upsample(x, 0)

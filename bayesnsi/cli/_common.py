@@ -74,6 +74,7 @@ def nsi_options(config) -> dict:
         bd_method=s.bd_method,
         zero_feedthrough=s.zero_feedthrough,
         input_hold=s.input_hold,
+        upsample=s.upsample,
     )
 
 

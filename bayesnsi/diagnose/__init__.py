@@ -2,4 +2,4 @@
 
 from .search import LoopResult, LoopStep, close_the_loop, refine_gap, score_effects
 
-__all__ = ["LoopResult", "LoopStep", "close_the_loop", "score_effects", "refine_gap"]
+__all__ = ["LoopResult", "LoopStep", "close_the_loop", "refine_gap", "score_effects"]

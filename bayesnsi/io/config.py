@@ -89,7 +89,7 @@ _DATA_KEYS = (
 _INTEGRATE_KEYS = ("band_hz", "method", "taper", "filter_inputs", "filter_order", "detrend_order")
 _NSI_KEYS = (
     "block_rows", "order", "band_hz", "band", "velocity_method", "bd_method", "max_order", "zero_feedthrough",
-    "input_hold",
+    "input_hold", "upsample",
 )
 _CANDIDATE_KEYS = ("name", "prior", "terms")
 _TERM_KEYS = ("expr", "at", "prior_scale")
@@ -235,6 +235,9 @@ class NSISettings:
     input_hold : {"auto", "average", "sample"}
         How the extended input represents a sampling interval (see
         :func:`bayesnsi.nsi.extended_input`).
+    upsample : int
+        Identify on a grid this many times finer than the data (``identify(upsample=...)``;
+        helps discontinuous terms such as sign(v)); block_rows then counts fine-grid samples.
     """
 
     block_rows: int = 40
@@ -245,6 +248,7 @@ class NSISettings:
     max_order: int = 40
     zero_feedthrough: bool = True
     input_hold: str = "auto"
+    upsample: int = 1
 
 
 @dataclass(frozen=True)
@@ -665,6 +669,7 @@ def _parse_nsi(table: Any, where: _Where, data: DataSpec) -> NSISettings:
         max_order=_int(table, "max_order", where, defaults.max_order, minimum=1),
         zero_feedthrough=_bool(table, "zero_feedthrough", where, defaults.zero_feedthrough),
         input_hold=_choice(table, "input_hold", where, INPUT_HOLDS, defaults.input_hold),
+        upsample=_int(table, "upsample", where, defaults.upsample, minimum=1),
     )
 
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Iterable, Sequence
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 
@@ -10,12 +10,12 @@ from .terms import Term
 
 __all__ = [
     "EFFECT_TYPES",
-    "effect_dictionary",
-    "clearance_expression",
     "clearance_effect",
+    "clearance_expression",
     "clearance_gap",
-    "effect_base_type",
     "default_gaps",
+    "effect_base_type",
+    "effect_dictionary",
 ]
 
 EFFECT_TYPES: dict[str, str] = {

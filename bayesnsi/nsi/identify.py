@@ -24,7 +24,7 @@ from ..exceptions import (
 from ..models import CandidateModel, Term
 from ..signals import Signals
 from . import _hankel, _subspace
-from ._eiv import refine_prediction_error
+from ._eiv import refine_prediction_error, white_noise_std
 from ._output_error import refine_output_error
 from .physics import CoefficientEstimate, Mode, coefficient_spectrum, default_band, identification_routes, split_poles
 from .statespace import StateSpaceModel
@@ -229,10 +229,19 @@ class NSIResult:
         """λ_i(ω), complex, shape (n_freq, q)."""
         return coefficient_spectrum(self.frf(freqs_hz), self.input_dofs, self.output_dofs, self.terms)
 
+    @property
+    def upsample(self) -> int:
+        """Factor between the identification grid and the data's sampling (1: the same)."""
+        return int(self.settings.get("upsample", 1))
+
+    def working_signals(self, signals: Signals) -> Signals:
+        """``signals`` on the identification grid (band-limited interpolation when upsampled)."""
+        return _working_signals(signals, self.upsample)
+
     def extended_input(self, signals: Signals) -> np.ndarray:
-        """Extended input of this candidate built from ``signals``."""
+        """Extended input of this candidate built from ``signals`` (data rate), on the model's grid."""
         return extended_input(
-            signals,
+            self.working_signals(signals),
             self.terms,
             self.settings.get("velocity_method", "fourth"),
             self.settings.get("input_hold", "auto"),
@@ -268,6 +277,14 @@ class NSIResult:
             },
             index=pd.Index([c.term.name for c in self.coefficients], name="term"),
         )
+
+
+def _working_signals(signals: Signals, factor: int) -> Signals:
+    if factor == 1:
+        return signals
+    from ..preprocess import upsample
+
+    return upsample(signals, factor)
 
 
 def _as_terms(candidate) -> CandidateModel:
@@ -307,6 +324,7 @@ def identify(
     bd_method: str = "output-error",
     zero_feedthrough: bool = True,
     input_hold: str = "auto",
+    upsample: int = 1,
 ) -> NSIResult:
     """Identify one candidate model by nonlinear subspace identification (SPEC sections 2-4).
 
@@ -337,11 +355,21 @@ def identify(
         noise propagated through the nonlinear inputs (errors in variables, SPEC 10; see
         :mod:`bayesnsi.nsi._eiv`; noise std estimated from the data). Measured on the beam
         (SPEC 8.2, 1 % noise, i = 40, n = 32): k2, k3 errors of -5.1/-5.4, -2.3/-0.6, +0.2/+0.7 %
-        (seeds 0-2) with "output-error" fall to within 0.5 %; about 1-2 s more at 1e5 samples.
+        (seeds 0-7) with "output-error" (up to 5.6 %) fall to within 0.65 %; 2-5 s more at 1e5
+        samples. A, C (hence damping) are not changed. With ``upsample=2`` (negative-stiffness
+        twin, seed 0) α1 was -1.0 %.
     zero_feedthrough : bool
         Impose D = 0 (displacement outputs, SPEC section 2).
     input_hold : {"auto", "average", "sample"}
         Interval-mean or point-sample extended input; see :func:`extended_input`.
+    upsample : int
+        Identify on a grid ``upsample`` times finer than the data's (band-limited
+        interpolation, :func:`bayesnsi.preprocess.upsample`), so that discontinuous terms such
+        as sign(ż) are evaluated between the samples (SPEC 2 and 10). ``block_rows`` then
+        counts fine-grid samples; the result reconstructs at the data's own samples. Measured
+        on the negative-stiffness twin (512 Hz, 140 s, model 2, i = 40·R): noise-free, the
+        open-loop NRMSE falls from 0.0065 to 0.0028 and the α1 error from -2.3 % to -0.7 %
+        with R = 2; with 1 % noise α1 from -2.1 % to -0.6 %. Cost: about R² × the time.
 
     Returns
     -------
@@ -366,6 +394,10 @@ def identify(
     if bd_method not in ("robust", "output-error", "prediction-error"):
         raise InputDataError(f"bd_method must be 'robust', 'output-error' or 'prediction-error', got {bd_method!r}")
     identification_routes(cand.terms, signals.input_dofs, signals.output_dofs)
+    if not isinstance(upsample, (int, np.integer)) or upsample < 1:
+        raise InputDataError(f"upsample must be an integer >= 1, got {upsample!r}")
+    data_fs = signals.fs
+    signals = _working_signals(signals, int(upsample))
     input_hold = resolve_input_hold(input_hold, cand.terms)
     u = extended_input(signals, cand.terms, velocity_method, input_hold)
     y = np.asarray(signals.displacement)
@@ -404,6 +436,7 @@ def identify(
         C = C_s * y_scale[:, None]
         B, D, _, _ = refine_prediction_error(
             A, C, u, y, signals.dt, signals, cand.terms, zero_feedthrough,
+            noise_std=white_noise_std(y[:: int(upsample)]),  # data-rate samples: the noise is white there
             velocity_method=velocity_method, output_weights=y_scale**-2.0,
         )
     else:
@@ -447,8 +480,9 @@ def identify(
         bd_method=bd_method,
         zero_feedthrough=bool(zero_feedthrough),
         input_hold=input_hold,
-        n_samples=int(len(u)),
-        fs=signals.fs,
+        upsample=int(upsample),
+        n_samples=int(len(u)) // int(upsample),
+        fs=data_fs,
     )
     return NSIResult(
         candidate=cand,

@@ -115,14 +115,18 @@ def reconstruct(result, signals: Signals, closed_loop: bool = False, n_init: int
         When the closed-loop simulation diverges (a wrong model can be unstable in feedback).
     """
     model = result.model
+    factor = getattr(result, "upsample", 1)  # identified on a finer grid: work there, compare at the data's samples
+    work = result.working_signals(signals) if factor > 1 else signals
     u = result.extended_input(signals)
-    y = np.asarray(signals.displacement)
-    init = len(y) if n_init is None and not closed_loop else min(n_init or 50, len(y))
-    x0 = initial_state(model, u[:init], y[:init])
+    y_work = np.asarray(work.displacement)
+    init = len(y_work) if n_init is None and not closed_loop else min((n_init or 50) * factor, len(y_work))
+    x0 = initial_state(model, u[:init], y_work[:init])
     if not closed_loop:
         predicted = model.simulate(u, x0)
     else:
-        predicted = _closed_loop(result, signals, x0)
+        predicted = _closed_loop(result, work, x0)
+    y = np.asarray(signals.displacement)
+    predicted = predicted[::factor]
     per, overall = nrmse(y, predicted)
     return Reconstruction(
         measured=y, predicted=predicted, closed_loop=closed_loop, x0=x0, nrmse_per_channel=per, nrmse=overall
@@ -220,18 +224,20 @@ def affine_reconstruction(result, signals: Signals) -> AffineReconstruction:
     estimate = result.coefficient_values
     if np.any(estimate == 0):
         raise NotIdentifiableError("a coefficient estimate is exactly zero; its per-unit signature is undefined")
+    factor = getattr(result, "upsample", 1)
     u = result.extended_input(signals)
+    y_work = np.asarray(result.working_signals(signals).displacement) if factor > 1 else np.asarray(signals.displacement)
     y = np.asarray(signals.displacement)
-    x0 = initial_state(model, u, y)
+    x0 = initial_state(model, u, y_work)
     unit_b = model.B[:, m:] / estimate
     force_model = StateSpaceModel(model.A, model.B[:, :m], model.C, model.D[:, :m], model.dt)
-    baseline = force_model.simulate(u[:, :m], x0)
+    baseline = force_model.simulate(u[:, :m], x0)[::factor]
     term_model = StateSpaceModel(model.A, unit_b, model.C, model.D[:, m:] / estimate, model.dt)
     q = u.shape[1] - m
     signatures = np.empty(y.shape + (q,))
     for i in range(q):
         single = StateSpaceModel(model.A, unit_b[:, i : i + 1], model.C, term_model.D[:, i : i + 1], model.dt)
-        signatures[:, :, i] = single.simulate(u[:, m + i : m + i + 1])
+        signatures[:, :, i] = single.simulate(u[:, m + i : m + i + 1])[::factor]
     return AffineReconstruction(
         measured=y, baseline=baseline, signatures=signatures, estimate=estimate, names=tuple(t.name for t in result.terms)
     )

@@ -18,6 +18,7 @@ from .cases import (
 from .excitation import Excitation, band_limited_gaussian, fft_interpolate, from_samples
 from .integrate import Response, add_output_noise, rk4_modal_error, simulate_response
 from .structures import cantilever_beam, chain_system, modal_damping, modal_parameters, state_matrix
+from .undeclared import UNDECLARED_CASES, MissingEffect, UndeclaredCase, effect_sizes, undeclared_case, undeclared_cases
 
 __all__ = [
     # structures
@@ -46,4 +47,11 @@ __all__ = [
     "CASES",
     "simulate_case",
     "simulate_cases",
+    # undeclared-effect cases for closing the loop (SPEC 7)
+    "UndeclaredCase",
+    "MissingEffect",
+    "UNDECLARED_CASES",
+    "undeclared_case",
+    "undeclared_cases",
+    "effect_sizes",
 ]

@@ -15,8 +15,12 @@ a gap grid) and default guards. Per case the table gives
 * ``false add``: negative controls (and, for the others, additions that are not missing effects);
 * ``s``: mean wall time of one loop.
 
+NSI settings: the case's recommended ones (:attr:`UndeclaredCase.nsi`), overridden by
+``--bd-method`` and ``--upsample R`` (block rows are then multiplied by R: they count fine-grid
+samples); the true model of column ``truth`` is identified with the same settings.
+
 Run: ``OMP_NUM_THREADS=1 .venv/bin/python benchmarks/diagnose_suite.py [--seeds 5] [--noise 1 5]
-[--cases NAME ...] [--verbose]``
+[--cases NAME ...] [--bd-method METHOD] [--upsample R] [--verbose]``
 """
 
 from __future__ import annotations
@@ -38,7 +42,19 @@ from bayesnsi.simulate.undeclared import UNDECLARED_CASES, undeclared_cases
 FLOOR_FACTOR = 1.1  # "at the noise floor": NRMSE after ≤ 1.1 × NRMSE of the true model
 
 
-def evaluate(case, loop) -> dict:
+def nsi_settings(case, bd_method=None, upsample=None) -> dict:
+    """The case's NSI settings with the overrides of the command line."""
+    nsi = dict(case.nsi)
+    if bd_method is not None:
+        nsi["bd_method"] = bd_method
+    if upsample is not None:
+        base = nsi.get("upsample", 1)
+        nsi["block_rows"] = nsi["block_rows"] // base * upsample
+        nsi["upsample"] = upsample
+    return nsi
+
+
+def evaluate(case, loop, nsi=None) -> dict:
     """Score one loop run against the truth of its case."""
     added = loop.added
     first = bool(added) and any(e.matches(added[0].effect_type, added[0].term) for e in case.missing)
@@ -48,7 +64,7 @@ def evaluate(case, loop) -> dict:
     errors = [abs(final[s.term] / e.coefficient - 1.0) for e, s in zip(case.missing, matched) if s is not None]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        truth = identify(case.signals, case.truth, **case.nsi).reconstruct(case.signals).nrmse
+        truth = identify(case.signals, case.truth, **(case.nsi if nsi is None else nsi)).reconstruct(case.signals).nrmse
     before = loop.start.reconstruct(case.signals).nrmse
     after = loop.final.reconstruct(case.signals).nrmse
     return dict(
@@ -69,8 +85,11 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=5, help="seeds per case and noise level (default 5)")
     parser.add_argument("--noise", type=float, nargs="+", default=[1.0, 5.0], help="noise levels [%%] (default 1 5)")
     parser.add_argument("--cases", nargs="+", default=list(UNDECLARED_CASES), choices=list(UNDECLARED_CASES))
+    parser.add_argument("--bd-method", choices=["robust", "output-error", "prediction-error"], help="override B, D method")
+    parser.add_argument("--upsample", type=int, help="override the NSI upsampling factor (block rows scaled with it)")
     parser.add_argument("--verbose", action="store_true", help="print every run")
     args = parser.parse_args()
+    print(f"NSI overrides: bd_method={args.bd_method}, upsample={args.upsample}")
     header = (
         f"{'case':18} {'noise':>5} {'first':>6} {'all':>6} {'coef err med/max':>17} {'within 10%':>10} "
         f"{'after/before':>12} {'truth':>6} {'nrmse ok':>8} {'false add':>9} {'s':>5}"
@@ -82,12 +101,13 @@ def main() -> None:
             cases = undeclared_cases(name, range(args.seeds), noise)
             rows, times = [], []
             for case in cases:
+                nsi = nsi_settings(case, args.bd_method, args.upsample)
                 start = time.perf_counter()
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
-                    loop = close_the_loop(case.signals, case.declared, nsi_options=case.nsi, seed=case.seed)
+                    loop = close_the_loop(case.signals, case.declared, nsi_options=nsi, seed=case.seed)
                 times.append(time.perf_counter() - start)
-                row = evaluate(case, loop)
+                row = evaluate(case, loop, nsi)
                 rows.append(row)
                 if args.verbose:
                     errs = ", ".join(f"{e:.3f}" for e in row["errors"])

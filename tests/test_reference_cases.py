@@ -166,6 +166,23 @@ def test_beam_damping_prediction_error(beam):
     assert np.max(np.abs(z_err[in_band])) < 0.05
 
 
+def test_beam_damping_refined_poles(beam):
+    """identify(refine_poles=...) (output error on band-passed data): damping of every identified
+    1-80 Hz mode within 5 %, frequencies within 0.1 % (seed 0; seeds 0-4 in benchmarks/beam_bias.py:
+    at most 3.6 %, against 8.8-17.9 % from the subspace A). The 10.55 Hz mode is still missed and
+    k2, k3 are not within 1 % with it, hence test_beam_damping_prediction_error stays xfail."""
+    case, _ = beam
+    result = _identify(
+        case.signals, case.candidate("model 3"), block_rows=40, order=32, band_hz=(1.0, 30.0),
+        bd_method="output-error", refine_poles=(1.5, 85.0),
+    )
+    f, f_err, z_err, nearest = _modal_errors(result, case)
+    in_band = (f > 1.0) & (f < 80.0)
+    assert len(set(nearest[in_band])) >= 14
+    assert np.max(np.abs(f_err[in_band])) < 0.001
+    assert np.max(np.abs(z_err[in_band])) < 0.05
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_negative_stiffness_twin_model_2(seed):
     """Table 8 model 2: k1 (static FRF), k2, k3, α1, α2 within 3 %."""

@@ -32,7 +32,7 @@ def test_evidence_prefers_smaller_nested_model():
         table = compare_evidence(evidences)
         evidence_small += table.loc[small.name, "p_ar1"] > 0.5
         plain_big += table.loc[big.name, "p_plain"] > 0.5
-    # measured: evidence picks the smaller model on 8 of 10 seeds; the plain ranking picks the
-    # superset on 4 of 10
-    assert evidence_small >= 8
+    # measured: the evidence (innovations residual, AR(1)) picks the smaller model on 10 of 10
+    # seeds (8 of 10 with the open-loop residual); the plain ranking picks the superset on 4 of 10
+    assert evidence_small >= 9
     assert plain_big >= 2

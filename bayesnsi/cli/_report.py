@@ -92,15 +92,23 @@ def identification_report(config, signals, results, records, title, report=None)
     return report
 
 
+_RESIDUAL_TEXT = {
+    "reconstruction": "open-loop reconstruction residual",
+    "innovations": "one-step-ahead innovations of the Kalman predictor that carries the input noise (SPEC 10)",
+}
+
+
 def selection_sections(report, signals, results, evidences, table, opts, selected):
     """Sections of a selection: probabilities side by side, posteriors, reconstruction errors."""
     from ..plots import plot_model_probabilities, plot_posterior_pairs, plot_reconstruction_errors, plot_traces
 
     head = report.section("Model selection (paper Eqs. 1-4 and marginal evidence)")
     head.append(
-        f"Selected: {selected} (posterior under the marginal evidence with {opts['likelihood']} residuals). "
-        "The plain ranking is the paper's Gaussian likelihood with σ̂² = mean squared residual; the evidence "
-        "integrates the coefficients and the noise scale over stated proper priors (emcee + bridge sampling)."
+        f"Selected: {selected} (posterior under the marginal evidence with an {opts['likelihood']} model of the "
+        f"{_RESIDUAL_TEXT.get(opts.get('residual'), opts.get('residual'))}). "
+        "The plain ranking is the paper's Gaussian likelihood of the open-loop reconstruction residual with "
+        "σ̂² = mean squared residual; the evidence integrates the coefficients and the noise scale over stated "
+        "proper priors (emcee + bridge sampling)."
     )
     head.append(table)
     fig = plot_model_probabilities(table)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..exceptions import ConfigError
-from ..evidence.candidate import EVIDENCE_DEFAULTS
+from ..evidence.candidate import EVIDENCE_DEFAULTS, RESIDUALS
 from ._common import identify_all
 
 __all__ = ["evidence_options", "select_all"]
@@ -22,6 +22,8 @@ def evidence_options(config) -> dict:
     opts = {**EVIDENCE_DEFAULTS, **raw}
     compare = opts["compare"]
     opts["compare"] = [compare] if isinstance(compare, str) else list(compare)
+    if opts["residual"] not in RESIDUALS:
+        raise ConfigError(f"[evidence] residual {opts['residual']!r} unknown; use one of {list(RESIDUALS)}")
     for lik in [opts["likelihood"], *opts["compare"]]:
         if lik not in ("white", "ar1") and not (lik.startswith("ar") and lik[2:].isdigit()):
             raise ConfigError(f"[evidence] likelihood {lik!r} unknown; use 'white', 'ar1' or 'arP' (P an integer)")

@@ -2,14 +2,22 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from .marginal import marginal_evidence
 from .priors import default_priors
 
-__all__ = ["EVIDENCE_DEFAULTS", "candidate_evidence", "candidate_priors"]
+__all__ = ["EVIDENCE_DEFAULTS", "RESIDUALS", "candidate_affine", "candidate_evidence", "candidate_priors"]
+
+RESIDUALS = ("reconstruction", "innovations")
+"""Residuals the evidence can be built on: the open-loop reconstruction error (the paper's) or
+the one-step-ahead innovations of the errors-in-variables Kalman predictor
+(:func:`bayesnsi.nsi.predictor_reconstruction`)."""
 
 EVIDENCE_DEFAULTS = {
+    "residual": "innovations",
     "likelihood": "ar1",
     "compare": ["white"],
     "n_walkers": 32,
@@ -17,7 +25,7 @@ EVIDENCE_DEFAULTS = {
     "n_burn": 300,
     "reference_force_rms": None,
 }
-"""Settings of ``[evidence]``: primary likelihood, the others reported beside it, emcee sizes,
+"""Settings of ``[evidence]``: residual (see :data:`RESIDUALS`), primary likelihood, the others reported beside it, emcee sizes,
 and the reference force of the default coefficient priors (None: rms of the measured forces)."""
 
 
@@ -32,6 +40,25 @@ def candidate_priors(result, signals, affine, options=EVIDENCE_DEFAULTS, candida
     )
     overrides = {t.name: s for t, s in zip(candidate.terms, candidate.coefficient_prior_scales) if s is not None}
     return default_priors(affine, term_rms, force_ref, overrides=overrides, channel_names=signals.output_names)
+
+
+def candidate_affine(result, signals, residual: str = "innovations"):
+    """The affine model ``ŷ(λ)`` whose residual the evidence scores (SPEC 6).
+
+    ``"reconstruction"``: the open-loop reconstruction (:func:`bayesnsi.nsi.affine_reconstruction`),
+    whose residual is the paper's. ``"innovations"``: the one-step-ahead predictor that accounts
+    for the measurement noise carried into the nonlinear inputs
+    (:func:`bayesnsi.nsi.predictor_reconstruction`); it does not count that propagated noise
+    as misfit, which a spurious superset term would otherwise absorb (SPEC 10).
+    """
+    from ..exceptions import ConfigError
+    from ..nsi import affine_reconstruction, predictor_reconstruction
+
+    if residual == "reconstruction":
+        return affine_reconstruction(result, signals)
+    if residual == "innovations":
+        return predictor_reconstruction(result, signals)
+    raise ConfigError(f"[evidence] residual {residual!r} unknown; use one of {list(RESIDUALS)}")
 
 
 def candidate_evidence(result, signals, options=EVIDENCE_DEFAULTS, seed_sequence=None, candidate=None, **extra):
@@ -55,11 +82,16 @@ def candidate_evidence(result, signals, options=EVIDENCE_DEFAULTS, seed_sequence
     -------
     dict likelihood -> EvidenceResult
     """
-    from ..nsi import affine_reconstruction
-
     seed_sequence = seed_sequence or np.random.SeedSequence(0)
-    affine = affine_reconstruction(result, signals)
+    affine = candidate_affine(result, signals, options.get("residual", "reconstruction"))
     priors = candidate_priors(result, signals, affine, options, candidate)
+    plain = None
+    if options.get("residual", "reconstruction") != "reconstruction":
+        # the paper's plain ranking (Eq. 4) always scores the open-loop reconstruction residual
+        from .likelihood import plain_log_likelihood
+
+        reconstruction = result.reconstruct(signals)
+        plain = plain_log_likelihood(reconstruction.measured - reconstruction.predicted)
     likelihoods = [options["likelihood"]] + [lik for lik in options.get("compare", []) if lik != options["likelihood"]]
     out = {}
     for lik, child in zip(likelihoods, seed_sequence.spawn(len(likelihoods))):
@@ -76,4 +108,6 @@ def candidate_evidence(result, signals, options=EVIDENCE_DEFAULTS, seed_sequence
             n_burn=int(options["n_burn"]),
             **extra,
         )
+    if plain is not None:
+        out = {lik: replace(ev, plain_log_likelihood=plain) for lik, ev in out.items()}
     return out

@@ -2,7 +2,15 @@
 
 from .identify import NSIResult, extended_input, identify, select_order, stabilization
 from .physics import CoefficientEstimate, Mode, coefficient_spectrum, split_poles
-from .reconstruct import AffineReconstruction, Reconstruction, affine_reconstruction, initial_state, nrmse, reconstruct
+from .reconstruct import (
+    AffineReconstruction,
+    Reconstruction,
+    affine_reconstruction,
+    initial_state,
+    nrmse,
+    predictor_reconstruction,
+    reconstruct,
+)
 from .statespace import StateSpaceModel
 from .tables import coefficients_table, modes_table
 
@@ -19,6 +27,7 @@ __all__ = [
     "Reconstruction",
     "AffineReconstruction",
     "affine_reconstruction",
+    "predictor_reconstruction",
     "reconstruct",
     "initial_state",
     "nrmse",

@@ -51,7 +51,7 @@ from ..signals import _DIFFERENTIATORS, Signals
 from ._output_error import refine_output_error
 from .statespace import StateSpaceModel
 
-__all__ = ["input_noise", "refine_prediction_error", "white_noise_std"]
+__all__ = ["input_noise", "kalman_gain", "refine_prediction_error", "white_noise_std"]
 
 _MAX_DIFFERENCE_ORDER = 6
 
@@ -158,7 +158,7 @@ def input_noise(
     return jac, bias
 
 
-def _kalman_gain(A, B_n, C, jac, R):
+def kalman_gain(A, B_n, C, jac, R):
     """Steady-state predictor gain K for the input-noise process noise (see the module notes)."""
     n, l = A.shape[0], C.shape[0]
     q_in = np.zeros((B_n.shape[1], B_n.shape[1]))
@@ -171,10 +171,31 @@ def _kalman_gain(A, B_n, C, jac, R):
     S = B_n @ cross
     # a tiny floor keeps the Riccati equation solvable when Q is rank deficient
     Q = 0.5 * (Q + Q.T) + 1e-12 * (np.trace(Q) / n + 1e-300) * np.eye(n)
-    P = _linalg.solve_discrete_are(A.T, C.T, Q, R, s=S)
+    try:
+        P = _linalg.solve_discrete_are(A.T, C.T, Q, R, s=S)
+    except (np.linalg.LinAlgError, ValueError):  # ill-conditioned pencil: iterate the Riccati recursion
+        P = _riccati_iteration(A, C, Q, R, S)
     innovation = C @ P @ C.T + R
     K = np.linalg.solve(innovation.T, (A @ P @ C.T + S).T).T
     return K, 0.5 * (innovation + innovation.T)
+
+
+def _riccati_iteration(A, C, Q, R, S, max_iter: int = 200_000, rtol: float = 1e-10):
+    """Steady state of the Riccati difference equation of the predictor, started at P = Q.
+
+    The fallback when the Schur method of :func:`scipy.linalg.solve_discrete_are` meets an
+    ill-conditioned pencil (lightly damped modes with a nearly singular Q); it converges for a
+    detectable (A, C), at the rate of the slowest predictor pole.
+    """
+    P = Q.copy()
+    for _ in range(max_iter):
+        gain = np.linalg.solve(C @ P @ C.T + R, (A @ P @ C.T + S).T).T
+        new = A @ P @ A.T + Q - gain @ (A @ P @ C.T + S).T
+        new = 0.5 * (new + new.T)
+        if np.linalg.norm(new - P) <= rtol * max(np.linalg.norm(new), 1e-300):
+            return new
+        P = new
+    raise np.linalg.LinAlgError("the Riccati recursion did not converge")
 
 
 def refine_prediction_error(
@@ -236,7 +257,7 @@ def refine_prediction_error(
     B, D, x0 = refine_output_error(A, C, u, y, dt, zero_feedthrough, output_weights)
     K = np.zeros((A.shape[0], C.shape[0]))
     for _ in range(iterations):
-        K, innovation = _kalman_gain(A, B[:, m_all - q :], C, jac, R)
+        K, innovation = kalman_gain(A, B[:, m_all - q :], C, jac, R)
         F = A - K @ C
         # ξ_{k+1} = F ξ_k + K y_k: the predictor's response to the measured outputs
         predicted = StateSpaceModel(

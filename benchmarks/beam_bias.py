@@ -36,6 +36,7 @@ from bayesnsi.nsi import identify
 from bayesnsi.simulate import simulate_case
 
 METHODS = ("output-error", "prediction-error")
+C_METHODS = ("subspace", "prediction-error")
 CLOSE_PAIR_HZ = (10.105, 10.554)
 
 
@@ -53,7 +54,12 @@ def _row(case, result):
             100 * z_err[np.argmin(gap)] if gap.size and gap.min() < 0.2 else np.nan
         )
     k_err = 100 * (result.coefficient_values / case.true_coefficients - 1)
-    return k_err, close, 100 * np.max(np.abs(z_err[in_band]))
+    f_err = f / exact_f[nearest] - 1
+    return k_err, close, 100 * np.max(np.abs(z_err[in_band])), 100 * np.max(np.abs(f_err[in_band]))
+
+
+def _label(method, band, c_method):
+    return method + (" +poles" if band else "") + (" +C" if c_method != "subspace" else "")
 
 
 def main():
@@ -64,21 +70,32 @@ def main():
     parser.add_argument("--block-rows", type=int, default=40)
     parser.add_argument("--refine-poles", type=float, nargs=2, default=None, metavar=("LOW", "HIGH"))
     parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS)
+    parser.add_argument(
+        "--c-methods", nargs="+", default=["subspace"], choices=C_METHODS,
+        help="identify(c_method=...); 'prediction-error' only with bd_method prediction-error",
+    )
+    parser.add_argument("--only-refined", action="store_true", help="skip the runs without --refine-poles")
     args = parser.parse_args()
-    runs = [(m, None) for m in args.methods]
-    if args.refine_poles:
-        runs += [(m, tuple(args.refine_poles)) for m in args.methods]
+    bands = ([] if args.only_refined else [None]) + ([tuple(args.refine_poles)] if args.refine_poles else [])
+    runs = [
+        (m, band, c)
+        for band in bands
+        for m in args.methods
+        for c in args.c_methods
+        if c == "subspace" or m == "prediction-error"
+    ]
     print(
         f"beam, model 3 {{x13², x13³}}, 1 % noise, 1e5 samples, i = {args.block_rows}, n = 32, band 1-30 Hz"
     )
     print(
-        f"{'seed':>4} {'bd_method':>23} {'k2 %':>7} {'k3 %':>7} {'ζ10.1 %':>8} {'ζ10.6 %':>8} {'max|ζ| %':>9} {'time s':>7}"
+        f"{'seed':>4} {'run':>27} {'k2 %':>7} {'k3 %':>7} {'ζ10.1 %':>8} {'ζ10.6 %':>8} {'max|ζ| %':>9} {'max|f| %':>9} {'time s':>7}"
     )
     worst = {run: 0.0 for run in runs}
     worst_z = {run: 0.0 for run in runs}
+    worst_f = {run: 0.0 for run in runs}
     for seed in args.seeds:
         case = simulate_case("beam", seed=seed)
-        for method, band in runs:
+        for method, band, c_method in runs:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", SpuriousPoleWarning)
                 start = time.perf_counter()
@@ -90,24 +107,28 @@ def main():
                     band_hz=(1.0, 30.0),
                     bd_method=method,
                     refine_poles=band,
+                    c_method=c_method,
                 )
                 elapsed = time.perf_counter() - start
-            k_err, close, z_max = _row(case, result)
-            worst[method, band] = max(worst[method, band], float(np.max(np.abs(k_err))))
-            worst_z[method, band] = max(worst_z[method, band], z_max)
-            label = method + (" +poles" if band else "")
+            k_err, close, z_max, f_max = _row(case, result)
+            run = (method, band, c_method)
+            worst[run] = max(worst[run], float(np.max(np.abs(k_err))))
+            worst_z[run] = max(worst_z[run], z_max)
+            worst_f[run] = max(worst_f[run], f_max)
+            label = _label(method, band, c_method)
             close_txt = " ".join(
                 "       -" if np.isnan(c) else f"{c:8.1f}" for c in close
             )
             print(
-                f"{seed:>4} {label:>23} {k_err[0]:7.2f} {k_err[1]:7.2f} {close_txt} {z_max:9.1f} {elapsed:7.2f}",
+                f"{seed:>4} {label:>27} {k_err[0]:7.2f} {k_err[1]:7.2f} {close_txt} {z_max:9.1f} {f_max:9.3f} {elapsed:7.2f}",
                 flush=True,
             )
-    for method, band in runs:
-        label = method + (f" +poles {band}" if band else "")
+    for run in runs:
+        method, band, c_method = run
+        label = _label(method, band, c_method) + (f" {band}" if band else "")
         print(
-            f"{label}: largest |k error| {worst[method, band]:.2f} %, "
-            f"largest |damping error| (1-80 Hz) {worst_z[method, band]:.1f} %"
+            f"{label}: largest |k error| {worst[run]:.2f} %, "
+            f"largest |damping error| (1-80 Hz) {worst_z[run]:.1f} %, largest |frequency error| {worst_f[run]:.3f} %"
         )
 
 

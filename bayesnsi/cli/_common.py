@@ -75,6 +75,7 @@ def nsi_options(config) -> dict:
         zero_feedthrough=s.zero_feedthrough,
         input_hold=s.input_hold,
         upsample=s.upsample,
+        refine_poles=s.refine_poles,
     )
 
 

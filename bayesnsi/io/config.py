@@ -89,7 +89,7 @@ _DATA_KEYS = (
 _INTEGRATE_KEYS = ("band_hz", "method", "taper", "filter_inputs", "filter_order", "detrend_order")
 _NSI_KEYS = (
     "block_rows", "order", "band_hz", "band", "velocity_method", "bd_method", "max_order", "zero_feedthrough",
-    "input_hold", "upsample",
+    "input_hold", "upsample", "refine_poles",
 )
 _CANDIDATE_KEYS = ("name", "prior", "terms")
 _TERM_KEYS = ("expr", "at", "prior_scale")
@@ -238,6 +238,9 @@ class NSISettings:
     upsample : int
         Identify on a grid this many times finer than the data (``identify(upsample=...)``;
         helps discontinuous terms such as sign(v)); block_rows then counts fine-grid samples.
+    refine_poles : (float, float) or None
+        Band [Hz] whose poles are refined by output error after the subspace step
+        (``identify(refine_poles=...)``; damping biased by noisy nonlinear inputs).
     """
 
     block_rows: int = 40
@@ -249,6 +252,7 @@ class NSISettings:
     zero_feedthrough: bool = True
     input_hold: str = "auto"
     upsample: int = 1
+    refine_poles: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -670,13 +674,17 @@ def _parse_nsi(table: Any, where: _Where, data: DataSpec) -> NSISettings:
         zero_feedthrough=_bool(table, "zero_feedthrough", where, defaults.zero_feedthrough),
         input_hold=_choice(table, "input_hold", where, INPUT_HOLDS, defaults.input_hold),
         upsample=_int(table, "upsample", where, defaults.upsample, minimum=1),
+        refine_poles=_hz_pair(table, "refine_poles", where, data.signal_fs),
     )
 
 
 def _band(table: Mapping, where: _Where, fs: float | None) -> tuple[float, float] | None:
     if "band" in table and "band_hz" in table:
         raise where.problem("band", "band and band_hz are the same setting; keep only band_hz")
-    key = "band" if "band" in table else "band_hz"
+    return _hz_pair(table, "band" if "band" in table else "band_hz", where, fs)
+
+
+def _hz_pair(table: Mapping, key: str, where: _Where, fs: float | None) -> tuple[float, float] | None:
     value = table.get(key)
     if value is None:
         return None

@@ -24,7 +24,7 @@ from ..exceptions import (
 from ..models import CandidateModel, Term
 from ..signals import Signals
 from . import _hankel, _subspace
-from ._eiv import refine_prediction_error, white_noise_std
+from ._eiv import refine_prediction_error, refine_prediction_error_bc, white_noise_std
 from ._output_error import refine_output_error, refine_poles as _refine_poles
 from .physics import CoefficientEstimate, Mode, coefficient_spectrum, default_band, identification_routes, split_poles
 from .statespace import StateSpaceModel
@@ -326,6 +326,7 @@ def identify(
     input_hold: str = "auto",
     upsample: int = 1,
     refine_poles: tuple[float, float] | None = None,
+    c_method: str = "subspace",
 ) -> NSIResult:
     """Identify one candidate model by nonlinear subspace identification (SPEC sections 2-4).
 
@@ -407,6 +408,10 @@ def identify(
         raise InputDataError(f"route must be 'correlation' or 'lq', got {route!r}")
     if bd_method not in ("robust", "output-error", "prediction-error"):
         raise InputDataError(f"bd_method must be 'robust', 'output-error' or 'prediction-error', got {bd_method!r}")
+    if c_method not in ("subspace", "prediction-error"):
+        raise InputDataError(f"c_method must be 'subspace' or 'prediction-error', got {c_method!r}")
+    if c_method == "prediction-error" and bd_method != "prediction-error":
+        raise InputDataError("c_method='prediction-error' needs bd_method='prediction-error'")
     identification_routes(cand.terms, signals.input_dofs, signals.output_dofs)
     if not isinstance(upsample, (int, np.integer)) or upsample < 1:
         raise InputDataError(f"upsample must be an integer >= 1, got {upsample!r}")
@@ -448,6 +453,12 @@ def identify(
         B = B_s / u_scale
         C = C_s * y_scale[:, None]
         D = D_s * y_scale[:, None] / u_scale
+    elif bd_method == "prediction-error" and c_method == "prediction-error":
+        B, C, D, _, _ = refine_prediction_error_bc(
+            A, C_s * y_scale[:, None], u, y, signals.dt, signals, cand.terms, zero_feedthrough,
+            noise_std=white_noise_std(y[:: int(upsample)]),
+            velocity_method=velocity_method, output_weights=y_scale**-2.0,
+        )
     elif bd_method == "prediction-error":
         C = C_s * y_scale[:, None]
         B, D, _, _ = refine_prediction_error(
@@ -498,6 +509,7 @@ def identify(
         input_hold=input_hold,
         upsample=int(upsample),
         refine_poles=None if refine_poles is None else [float(b) for b in refine_poles],
+        c_method=c_method,
         n_samples=int(len(u)) // int(upsample),
         fs=data_fs,
     )

@@ -287,6 +287,8 @@ def main(argv=None) -> int:
     ap.add_argument("--noise", type=float, nargs="+", default=list(NOISE_LEVELS),
                     help="noise levels [%%] cycled over the datasets (default 1 2 5 10; "
                          "issue 3 criterion: --cases two-dof --seeds 20 --noise 2)")
+    ap.add_argument("--residual", default=None, choices=("innovations", "reconstruction"),
+                    help="residual the evidence scores (default: EVIDENCE_DEFAULTS)")
     ap.add_argument("--json", default=None, help="write the per-dataset records and scores here")
     args = ap.parse_args(argv)
     n_seeds = 8 if args.quick else args.seeds
@@ -296,6 +298,8 @@ def main(argv=None) -> int:
         opts["n_steps"] = args.n_steps
     if args.n_burn is not None:
         opts["n_burn"] = args.n_burn
+    if args.residual is not None:
+        opts["residual"] = args.residual
 
     print("bayesnsi calibration study (SPEC 6)")
     print(f"python {platform.python_version()}, numpy {np.__version__}, {os.cpu_count()} CPUs, "

@@ -12,6 +12,10 @@ a gap grid) and default guards. Per case the table gives
 * ``after/before``: median open-loop NRMSE of the final over the declared model;
 * ``nrmse ok``: runs with NRMSE after ≤ NRMSE before / 3, or at the noise floor, i.e. at most
   1.1 × the NRMSE of the true model identified by NSI on the same data (column ``truth``);
+* ``floor``, ``ok/floor``: the NRMSE of the measurement noise itself (noisy against noise-free
+  displacements, median) and the runs with NRMSE after ≤ before / 3 or ≤ 1.1 × that: the
+  stricter reading of "at the noise floor", which the true model itself misses where the
+  model has discretisation error (sign terms at 100 Hz, even upsampled twice);
 * ``false add``: negative controls (and, for the others, additions that are not missing effects);
 * ``s``: mean wall time of one loop.
 
@@ -37,6 +41,7 @@ import numpy as np
 
 from bayesnsi.diagnose import close_the_loop
 from bayesnsi.nsi import identify
+from bayesnsi.nsi.reconstruct import nrmse as _nrmse
 from bayesnsi.simulate.undeclared import UNDECLARED_CASES, undeclared_cases
 
 FLOOR_FACTOR = 1.1  # "at the noise floor": NRMSE after ≤ 1.1 × NRMSE of the true model
@@ -65,6 +70,7 @@ def evaluate(case, loop, nsi=None) -> dict:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         truth = identify(case.signals, case.truth, **(case.nsi if nsi is None else nsi)).reconstruct(case.signals).nrmse
+    noise = _nrmse(case.signals.displacement, case.clean.displacement)[1]
     before = loop.start.reconstruct(case.signals).nrmse
     after = loop.final.reconstruct(case.signals).nrmse
     return dict(
@@ -75,7 +81,9 @@ def evaluate(case, loop, nsi=None) -> dict:
         before=before,
         after=after,
         truth=truth,
+        noise=noise,
         nrmse_ok=after <= before / 3 or after <= FLOOR_FACTOR * truth,
+        noise_ok=after <= before / 3 or after <= FLOOR_FACTOR * noise,
         added=[s.term.name for s in added],
     )
 
@@ -92,7 +100,7 @@ def main() -> None:
     print(f"NSI overrides: bd_method={args.bd_method}, upsample={args.upsample}")
     header = (
         f"{'case':18} {'noise':>5} {'first':>6} {'all':>6} {'coef err med/max':>17} {'within 10%':>10} "
-        f"{'after/before':>12} {'truth':>6} {'nrmse ok':>8} {'false add':>9} {'s':>5}"
+        f"{'after/before':>12} {'truth':>6} {'nrmse ok':>8} {'floor':>6} {'ok/floor':>8} {'false add':>9} {'s':>5}"
     )
     print(header)
     print("-" * len(header))
@@ -135,9 +143,11 @@ def main() -> None:
             err = f"{np.median(errors):.3f}/{np.max(errors):.3f}" if errors else "-"
             within = f"{sum(e <= 0.1 for e in errors)}/{n_missing}" if not control else "-"
             ok = "-" if control else f"{sum(r['nrmse_ok'] for r in rows)}/{n}"
+            ok_noise = "-" if control else f"{sum(r['noise_ok'] for r in rows)}/{n}"
+            noise_nrmse = np.median([r["noise"] for r in rows])
             print(
                 f"{name:18} {noise:5.1f} {first:>6} {allf:>6} {err:>17} {within:>10} {ratio:12.3f} {truth:6.4f} "
-                f"{ok:>8} {f'{false_add}/{n}':>9} {np.mean(times):5.1f}",
+                f"{ok:>8} {noise_nrmse:6.4f} {ok_noise:>8} {f'{false_add}/{n}':>9} {np.mean(times):5.1f}",
                 flush=True,
             )
 

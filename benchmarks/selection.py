@@ -3,7 +3,7 @@
 1. Stage times per candidate, two-DOF case (seed 0, 1e3 samples, block_rows=60, order=4) and beam
    case (seed 0, 1e5 samples, 8 outputs, block_rows=60, order=32, band 1-30 Hz), 3 paper
    candidates each, replaying ``bayesnsi.cli._selection`` (select_all -> candidate_evidence, same
-   seeds): identify, open-loop reconstruction, affine reconstruction (signatures), priors (extended
+   seeds): identify, open-loop reconstruction, affine reconstruction (signatures; the innovations form by default), priors (extended
    input + default_priors); then, for the "ar1" (default) and "white" likelihoods, the timings of
    ``EvidenceResult.settings``: statistics (time_statistics_s), emcee (time_sampling_s), estimators
    = bridge + Laplace + closed form (time_evidence_s), arviz summary (time_summary_s); "other" =
@@ -39,6 +39,7 @@ import numpy as np  # noqa: E402
 from bayesnsi.evidence import EVIDENCE_DEFAULTS  # noqa: E402
 from bayesnsi.evidence import default_priors, marginal_evidence  # noqa: E402
 from bayesnsi.exceptions import BayesNSIError  # noqa: E402
+from bayesnsi.evidence.candidate import EVIDENCE_DEFAULTS, candidate_affine  # noqa: E402
 from bayesnsi.nsi import affine_reconstruction, identify  # noqa: E402
 from bayesnsi.signals import Signals  # noqa: E402
 from bayesnsi.simulate import simulate_case, simulate_cases  # noqa: E402
@@ -95,7 +96,7 @@ def stage_table(name, case):
         try:
             result = timed(t, "identify", identify, sig, cand, **opts)
             timed(t, "recon", result.reconstruct, sig)
-            affine = timed(t, "affine", affine_reconstruction, result, sig)
+            affine = timed(t, "affine", candidate_affine, result, sig, EVIDENCE_DEFAULTS["residual"])
             priors = timed(t, "priors", priors_for, result, affine, sig, cand)
         except BayesNSIError as err:
             rows.append(("-", {}, f"FAILED in {list(t)[-1]}: {type(err).__name__}"))
@@ -149,7 +150,7 @@ def scaling_table(quick):
     for n, sig in records.items():
         t = {}
         result = timed(t, "identify", identify, sig, cand, **NSI["two-dof"])
-        affine = timed(t, "affine", affine_reconstruction, result, sig)
+        affine = timed(t, "affine", candidate_affine, result, sig, EVIDENCE_DEFAULTS["residual"])
         priors = priors_for(result, affine, sig, cand)
         for lik, child in zip(LIKELIHOODS, seed.spawn(len(LIKELIHOODS))):
             ev, te = evidence(affine, priors, lik, child)

@@ -352,7 +352,7 @@ def close_the_loop(
         std = {d: signals.displacement[:, c].std() for c, d in enumerate(signals.output_dofs)}
         gaps = {(d,): default_gaps(s) for d, s in std.items()}
         effects = effect_dictionary(signals.output_dofs, gaps=gaps)
-    seeds = iter(np.random.SeedSequence(seed).spawn(4 * n_tries * max_steps + 1))
+    seeds = _seed_stream(seed)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", BayesNSIWarning)
         current = identify(signals, candidate, **nsi_options)
@@ -388,7 +388,7 @@ def close_the_loop(
             current, current_z = _prune(current, current_z, [step.term], steps, signals, nsi_options, evidence_options, guards)
             if exchange:
                 current, current_z = _exchange(
-                    current, current_z, [step.term], steps, effects, signals, nsi_options, evidence_options, seeds, guards
+                    current, current_z, [step.term], steps, effects, signals, nsi_options, evidence_options, seeds, guards, n_tries
                 )
             continue
         if not (lookahead and pending is not None and len(added) + 2 <= max_steps):
@@ -404,7 +404,7 @@ def close_the_loop(
         current, current_z = _prune(current, current_z, new_terms, steps, signals, nsi_options, evidence_options, guards)
         if exchange:
             current, current_z = _exchange(
-                current, current_z, new_terms, steps, effects, signals, nsi_options, evidence_options, seeds, guards
+                current, current_z, new_terms, steps, effects, signals, nsi_options, evidence_options, seeds, guards, n_tries
             )
     settings = dict(
         threshold=threshold,
@@ -422,6 +422,13 @@ def close_the_loop(
     # accepted steps first (in order), then the rejected ones
     ordered = [s for s in steps if s.accepted] + [s for s in steps if not s.accepted]
     return LoopResult(start=start, final=current, steps=tuple(ordered), scores=tuple(all_scores), settings=settings)
+
+
+def _seed_stream(seed):
+    """Children of ``SeedSequence(seed)``, one at a time, as many as needed."""
+    sequence = np.random.SeedSequence(seed)
+    while True:
+        yield sequence.spawn(1)[0]
 
 
 def _look_ahead(pending, added, ranked, signals, nsi_options, evidence_options, seeds, guards, steps, all_scores, n_tries):
@@ -521,15 +528,16 @@ def _prune(current, current_z, new_terms, steps, signals, nsi_options, evidence_
     return current, current_z
 
 
-def _exchange(current, current_z, new_terms, steps, effects, signals, nsi_options, evidence_options, seeds, guards):
+def _exchange(current, current_z, new_terms, steps, effects, signals, nsi_options, evidence_options, seeds, guards, n_tries):
     """Exchange step: replace an earlier added effect by a better one at the same location.
 
     For every effect the loop added before ``new_terms``, the model without it is enlarged by
     each other dictionary effect at the same location (types other than its own, clearance
-    gaps refined) and scored by Laplace log-evidence. The best replacement is checked like any
+    gaps refined) and scored by Laplace log-evidence. The best ``n_tries`` replacements whose
+    Laplace log-evidence beats the current model's by ``threshold`` are checked in turn like any
     proposed effect (:func:`_check`, full evidence, quality index, stability across record
-    halves) *against the current model*: it replaces the earlier effect only when its log Bayes
-    factor against the current model exceeds ``threshold``. The replacement then takes the
+    halves) *against the current model* (so its log Bayes factor is against the model with the
+    earlier effect); the first that passes replaces the earlier effect. The replacement then takes the
     earlier effect's place in the accepted steps; the earlier step is marked rejected with the
     reason.
 
@@ -558,18 +566,16 @@ def _exchange(current, current_z, new_terms, steps, effects, signals, nsi_option
                 z_current = _laplace(current, signals, evidence_options)
         except (BayesNSIError, np.linalg.LinAlgError):
             continue
-        scored = score_effects(signals, base, alternatives, nsi_options, evidence_options)
-        if not scored or not np.isfinite(scored[0][2]):
-            continue
-        best = scored[0]
-        if clearance_gap(best[0]) is not None:
-            best = refine_gap(signals, base, best, alternatives, nsi_options, evidence_options)
-        if best[2] - z_current <= threshold:
-            continue
-        kind, term, _, trial = best
+        scored = _ranked(signals, base, alternatives, nsi_options, evidence_options, (), n_tries)
         nrmse_before = current.reconstruct(signals).nrmse
-        new, ev, _ = _check(kind, term, trial, nrmse_before, current_z, signals, nsi_options, evidence_options, next(seeds), *guards)
-        if not new.accepted:
+        new = None
+        for kind, term, score, trial in scored[:n_tries]:
+            if not score - z_current > threshold:
+                break
+            new, ev, _ = _check(kind, term, trial, nrmse_before, current_z, signals, nsi_options, evidence_options, next(seeds), *guards)
+            if new.accepted:
+                break
+        if new is None or not new.accepted:
             continue
         steps[index] = replace(
             new,

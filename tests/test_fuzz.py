@@ -122,7 +122,7 @@ _nsi = st.fixed_dictionaries({}, optional={
     "block_rows": st.integers(-1, 200) | _scalars, "order": st.integers(-1, 20) | _scalars,
     "band_hz": st.lists(st.floats(-1, 80), max_size=3) | _values, "band": _values,
     "velocity_method": _scalars, "bd_method": _scalars, "max_order": _scalars, "zero_feedthrough": _scalars,
-    "input_hold": _scalars, "upsample": st.integers(-1, 4) | _scalars, "refine_poles": _values,
+    "input_hold": _scalars, "upsample": st.integers(-1, 4) | _scalars, "refine_poles": _values, "c_method": _scalars,
 })
 _validation = st.fixed_dictionaries(
     {"name": st.text(max_size=4)},

@@ -294,6 +294,7 @@ def test_term_acts_at_unknown_dof(tmp_path):
         (lambda r: r["nsi"].update(block_rows=0), ("[nsi] block_rows", "integer >= 1")),
         (lambda r: r["nsi"].update(upsample=0), ("[nsi] upsample", "integer >= 1")),
         (lambda r: r["nsi"].update(refine_poles=[5.0]), ("[nsi] refine_poles", "[low, high] in Hz")),
+        (lambda r: r["nsi"].update(c_method="prediction-error"), ("c_method", 'needs bd_method = "prediction-error"')),
         (lambda r: r["nsi"].update(velocity_method="fifth"), ("velocity_method", "'central', 'fourth', 'sixth'")),
         (lambda r: r["nsi"].update(band_hz=[1.0, 80.0]), ("band_hz", "Nyquist frequency 50 Hz")),
         (lambda r: r["nsi"].update(band=[1.0, 5.0]), ("band and band_hz",)),

@@ -76,6 +76,7 @@ def nsi_options(config) -> dict:
         input_hold=s.input_hold,
         upsample=s.upsample,
         refine_poles=s.refine_poles,
+        c_method=s.c_method,
     )
 
 

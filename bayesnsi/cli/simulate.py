@@ -39,7 +39,7 @@ def case_config(case, data_table: dict) -> dict:
     nsi = {"block_rows": int(rec.get("block_rows", 40)), "order": rec.get("order", "auto")}
     if rec.get("band_hz") is not None:
         nsi["band_hz"] = [float(b) for b in rec["band_hz"]]
-    for key in ("bd_method", "upsample", "refine_poles"):
+    for key in ("bd_method", "upsample", "refine_poles", "c_method"):
         if rec.get(key) is not None:
             value = rec[key]
             nsi[key] = [float(v) for v in value] if isinstance(value, (tuple, list)) else value

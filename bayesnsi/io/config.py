@@ -77,7 +77,8 @@ __all__ = [
 
 VELOCITY_METHODS = ("central", "fourth", "sixth")
 """Finite-difference stencils for velocities derived from displacements."""
-BD_METHODS = ("robust", "output-error")
+C_METHODS = ("subspace", "prediction-error")
+BD_METHODS = ("robust", "output-error", "prediction-error")
 INPUT_HOLDS = ("auto", "average", "sample")
 """Ways of estimating B and D (SPEC section 3)."""
 
@@ -89,7 +90,7 @@ _DATA_KEYS = (
 _INTEGRATE_KEYS = ("band_hz", "method", "taper", "filter_inputs", "filter_order", "detrend_order")
 _NSI_KEYS = (
     "block_rows", "order", "band_hz", "band", "velocity_method", "bd_method", "max_order", "zero_feedthrough",
-    "input_hold", "upsample", "refine_poles",
+    "input_hold", "upsample", "refine_poles", "c_method",
 )
 _CANDIDATE_KEYS = ("name", "prior", "terms")
 _TERM_KEYS = ("expr", "at", "prior_scale")
@@ -226,8 +227,8 @@ class NSISettings:
         Band [Hz] over which λ_i(ω) is averaged; None: the band holding the identified modes.
     velocity_method : {"central", "fourth", "sixth"}
         Stencil for velocities derived from displacements.
-    bd_method : {"robust", "output-error"}
-        Estimator of B and D.
+    bd_method : {"robust", "output-error", "prediction-error"}
+        Estimator of B and D (see :func:`bayesnsi.nsi.identify`).
     max_order : int
         Largest order considered by "auto" and by the stabilisation diagram.
     zero_feedthrough : bool
@@ -241,6 +242,9 @@ class NSISettings:
     refine_poles : (float, float) or None
         Band [Hz] whose poles are refined by output error after the subspace step
         (``identify(refine_poles=...)``; damping biased by noisy nonlinear inputs).
+    c_method : {"subspace", "prediction-error"}
+        C from the subspace step, or re-estimated with B, D by prediction error
+        (``identify(c_method=...)``; needs ``bd_method = "prediction-error"``).
     """
 
     block_rows: int = 40
@@ -253,6 +257,7 @@ class NSISettings:
     input_hold: str = "auto"
     upsample: int = 1
     refine_poles: tuple[float, float] | None = None
+    c_method: str = "subspace"
 
 
 @dataclass(frozen=True)
@@ -664,7 +669,7 @@ def _parse_nsi(table: Any, where: _Where, data: DataSpec) -> NSISettings:
                 "order", f"at most block_rows x outputs = {block_rows} x {len(data.outputs)} = {limit}", order,
                 "raise block_rows or lower order",
             )
-    return NSISettings(
+    settings = NSISettings(
         block_rows=block_rows,
         order=order,
         band_hz=_band(table, where, data.signal_fs),
@@ -675,7 +680,11 @@ def _parse_nsi(table: Any, where: _Where, data: DataSpec) -> NSISettings:
         input_hold=_choice(table, "input_hold", where, INPUT_HOLDS, defaults.input_hold),
         upsample=_int(table, "upsample", where, defaults.upsample, minimum=1),
         refine_poles=_hz_pair(table, "refine_poles", where, data.signal_fs),
+        c_method=_choice(table, "c_method", where, C_METHODS, defaults.c_method),
     )
+    if settings.c_method == "prediction-error" and settings.bd_method != "prediction-error":
+        raise where.problem("c_method", 'c_method = "prediction-error" needs bd_method = "prediction-error"')
+    return settings
 
 
 def _band(table: Mapping, where: _Where, fs: float | None) -> tuple[float, float] | None:

@@ -311,6 +311,26 @@ def check_block_rows(n_samples: int, block_rows: int, n_channels: int) -> None:
         )
 
 
+def _input_output_matrices(
+    bd_method, c_method, data, A, C_s, u, y, u_scale, y_scale, signals, terms, zero_feedthrough, velocity_method,
+    noise_std,
+):
+    """B, C, D in physical units by the chosen estimator, A fixed (see :func:`identify`)."""
+    C = C_s * y_scale[:, None]
+    if bd_method == "robust":
+        B_s, D_s = _subspace.input_matrices_robust(data, A, C_s, zero_feedthrough)
+        return B_s / u_scale, C, D_s * y_scale[:, None] / u_scale
+    if bd_method == "prediction-error":
+        common = dict(noise_std=noise_std, velocity_method=velocity_method, output_weights=y_scale**-2.0)
+        if c_method == "prediction-error":
+            B, C, D, _, _ = refine_prediction_error_bc(A, C, u, y, signals.dt, signals, terms, zero_feedthrough, **common)
+            return B, C, D
+        B, D, _, _ = refine_prediction_error(A, C, u, y, signals.dt, signals, terms, zero_feedthrough, **common)
+        return B, C, D
+    B, D, _ = refine_output_error(A, C, u, y, signals.dt, zero_feedthrough, output_weights=y_scale**-2.0)
+    return B, C, D
+
+
 def identify(
     signals: Signals,
     candidate=None,
@@ -356,9 +376,8 @@ def identify(
         by prediction error with a Kalman predictor whose process noise is the measurement
         noise propagated through the nonlinear inputs (errors in variables, SPEC 10; see
         :mod:`bayesnsi.nsi._eiv`; noise std estimated from the data). Measured on the beam
-        (SPEC 8.2, 1 % noise, i = 40, n = 32): k2, k3 errors of -5.1/-5.4, -2.3/-0.6, +0.2/+0.7 %
-        (seeds 0-7) with "output-error" (up to 5.6 %) fall to within 0.65 %; 2-5 s more at 1e5
-        samples. A, C (hence damping) are not changed. With ``upsample=2`` (negative-stiffness
+        (SPEC 8.2, 1 % noise, i = 40, n = 32, seeds 0-7): k2, k3 errors of up to 5.6 % with
+        "output-error" fall to within 0.65 %; 2-5 s more at 1e5 samples. A, C (hence damping) are not changed. With ``upsample=2`` (negative-stiffness
         twin, seed 0) α1 was -1.0 %.
     zero_feedthrough : bool
         Impose D = 0 (displacement outputs, SPEC section 2).
@@ -470,29 +489,13 @@ def identify(
             f"(largest |eigenvalue of A| = {radius:.4f}); try another order or number of block rows, "
             "or reconsider the candidate's terms"
         )
+    noise_std = white_noise_std(y[:: int(upsample)])  # at the data's samples the noise is white
     if refine_poles is not None:
-        A, _ = _refine_poles(A, u, y, signals.dt, refine_poles, noise_std=white_noise_std(y))
-    if bd_method == "robust":
-        B_s, D_s = _subspace.input_matrices_robust(data, A, C_s, zero_feedthrough)
-        B = B_s / u_scale
-        C = C_s * y_scale[:, None]
-        D = D_s * y_scale[:, None] / u_scale
-    elif bd_method == "prediction-error" and c_method == "prediction-error":
-        B, C, D, _, _ = refine_prediction_error_bc(
-            A, C_s * y_scale[:, None], u, y, signals.dt, signals, cand.terms, zero_feedthrough,
-            noise_std=white_noise_std(y[:: int(upsample)]),
-            velocity_method=velocity_method, output_weights=y_scale**-2.0,
-        )
-    elif bd_method == "prediction-error":
-        C = C_s * y_scale[:, None]
-        B, D, _, _ = refine_prediction_error(
-            A, C, u, y, signals.dt, signals, cand.terms, zero_feedthrough,
-            noise_std=white_noise_std(y[:: int(upsample)]),  # data-rate samples: the noise is white there
-            velocity_method=velocity_method, output_weights=y_scale**-2.0,
-        )
-    else:
-        C = C_s * y_scale[:, None]
-        B, D, _ = refine_output_error(A, C, u, y, signals.dt, zero_feedthrough, output_weights=y_scale**-2.0)
+        A, _ = _refine_poles(A, u, y, signals.dt, refine_poles, noise_std=noise_std)
+    B, C, D = _input_output_matrices(
+        bd_method, c_method, data, A, C_s, u, y, u_scale, y_scale, signals, cand.terms, zero_feedthrough,
+        velocity_method, noise_std,
+    )
     model = StateSpaceModel(A=A, B=B, C=C, D=D, dt=signals.dt)
     modes, spurious = split_poles(model.poles, signals.dt)
     if not modes:

@@ -95,8 +95,11 @@ def main() -> None:
     parser.add_argument("--cases", nargs="+", default=list(UNDECLARED_CASES), choices=list(UNDECLARED_CASES))
     parser.add_argument("--bd-method", choices=["robust", "output-error", "prediction-error"], help="override B, D method")
     parser.add_argument("--upsample", type=int, help="override the NSI upsampling factor (block rows scaled with it)")
+    parser.add_argument("--residual", choices=["innovations", "reconstruction"],
+                        help="override the evidence residual (default: the loop's, LOOP_EVIDENCE_DEFAULTS)")
     parser.add_argument("--verbose", action="store_true", help="print every run")
     args = parser.parse_args()
+    evidence = {"residual": args.residual} if args.residual else None  # None: the loop's defaults
     print(f"NSI overrides: bd_method={args.bd_method}, upsample={args.upsample}")
     header = (
         f"{'case':18} {'noise':>5} {'first':>6} {'all':>6} {'coef err med/max':>17} {'within 10%':>10} "
@@ -113,7 +116,7 @@ def main() -> None:
                 start = time.perf_counter()
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
-                    loop = close_the_loop(case.signals, case.declared, nsi_options=nsi, seed=case.seed)
+                    loop = close_the_loop(case.signals, case.declared, nsi_options=nsi, evidence_options=evidence, seed=case.seed)
                 times.append(time.perf_counter() - start)
                 row = evaluate(case, loop, nsi)
                 rows.append(row)

@@ -64,7 +64,9 @@ def run_loops(config_path=CONFIG, starts=STARTS, quiet=False) -> dict:
     signals = load_signals(config)
     segments = load_validation(config)
     nsi = nsi_options(config)
-    evidence = evidence_options(config)
+    evidence = {  # the loop's own residual (LOOP_EVIDENCE_DEFAULTS) unless the config sets one
+        k: v for k, v in evidence_options(config).items() if k != "residual" or k in config.evidence_settings
+    }
     by_name = {c.name: c for c in config.candidates}
     out = {"settings": {"config": str(config_path), "nsi": nsi, "evidence": evidence}, "versions": versions(), "loops": []}
     for start in starts:

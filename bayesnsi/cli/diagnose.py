@@ -50,7 +50,10 @@ def run(args) -> int:
         signals,
         results[start].candidate,
         nsi_options=nsi_options(config),
-        evidence_options={k: v for k, v in opts.items() if k != "compare"},
+        # the loop's own residual default (LOOP_EVIDENCE_DEFAULTS) unless the config chose one
+        evidence_options={
+            k: v for k, v in opts.items() if k != "compare" and (k != "residual" or k in config.evidence_settings)
+        },
         threshold=args.threshold,
         max_steps=args.max_steps,
         seed=config.seed,

@@ -4,8 +4,10 @@ For the two-DOF case (declared model 1 {v1|v1|}) and the beam case (declared {x1
 both with nothing missing (the identified models without one of the beam's two terms are
 unstable, so the loop cannot start from them): wall time of a full loop
 (:func:`bayesnsi.diagnose.close_the_loop`, default dictionary and guards), the number of loop
-steps and of effects scored, and the time of one select of a single candidate (NSI +
-reconstruction + evidence). Issue target: a loop step costs no more than one select.
+steps and of effects scored, and the time of one select of a single candidate: the numerical
+part (NSI + reconstruction + AR(1) evidence) and the whole ``bayesnsi select`` command on a
+config holding only that candidate (adds the white-noise evidence, closed-loop checks and the
+report with its figures). Issue target: a loop step costs no more than one select.
 
 Run: ``OMP_NUM_THREADS=1 .venv/bin/python benchmarks/diagnose.py [--quick]`` (``--quick``: two-DOF only)
 """
@@ -37,12 +39,37 @@ CASES = {
 }
 
 
+def cli_select_seconds(case, candidate, nsi) -> float:
+    """Wall time of ``bayesnsi select`` on a one-candidate config of ``case`` (report included)."""
+    import tempfile
+    from pathlib import Path
+
+    from bayesnsi.cli import main as cli_main
+    from bayesnsi.cli.simulate import case_config
+    from bayesnsi.io import dump_config, write_signals_csv
+    from bayesnsi.io.schema import term_record
+
+    with tempfile.TemporaryDirectory() as tmp:
+        csv = Path(tmp) / "data.csv"
+        config = case_config(case, write_signals_csv(csv, case.signals))
+        config["candidates"] = [{"name": candidate.name, "terms": [term_record(t) for t in candidate.terms]}]
+        config["nsi"] = {k: list(v) if isinstance(v, tuple) else v for k, v in nsi.items()}
+        (Path(tmp) / "one.toml").write_text(dump_config(config))
+        start = time.perf_counter()
+        code = cli_main(["select", str(Path(tmp) / "one.toml"), "--out", str(Path(tmp) / "out"), "--quiet"])
+        elapsed = time.perf_counter() - start
+    if code:
+        raise RuntimeError(f"bayesnsi select failed with exit code {code}")
+    return elapsed
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true")
     args = parser.parse_args()
     names = ["two-dof"] if args.quick else list(CASES)
-    print(f"{'case':8} {'select 1 cand [s]':>18} {'loop [s]':>9} {'steps':>6} {'effects':>8} {'s / step':>9}  added")
+    print(f"{'case':8} {'select 1 cand [s]':>18} {'CLI select [s]':>15} {'loop [s]':>9} {'steps':>6} {'effects':>8} "
+          f"{'s / step':>9}  added")
     for name in names:
         case = simulate_case(name, seed=0)
         candidate, nsi = CASES[name]
@@ -53,13 +80,15 @@ def main() -> None:
             result.reconstruct(case.signals)
             candidate_evidence(result, case.signals, {**EVIDENCE_DEFAULTS, "compare": []}, np.random.SeedSequence(0))
             select_time = time.perf_counter() - start
+            cli_time = cli_select_seconds(case, candidate, nsi)
             start = time.perf_counter()
             loop = close_the_loop(case.signals, candidate, nsi_options=nsi, max_steps=2, seed=0)
             loop_time = time.perf_counter() - start
         steps = max(len(loop.scores), 1)
         added = ", ".join(s.term.name for s in loop.added) or "nothing"
         n_effects = loop.settings["n_effects"]
-        print(f"{name:8} {select_time:18.2f} {loop_time:9.1f} {steps:6d} {n_effects:8d} {loop_time / steps:9.1f}  {added}")
+        print(f"{name:8} {select_time:18.2f} {cli_time:15.2f} {loop_time:9.1f} {steps:6d} {n_effects:8d} "
+              f"{loop_time / steps:9.1f}  {added}")
 
 
 if __name__ == "__main__":

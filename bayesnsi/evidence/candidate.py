@@ -25,8 +25,9 @@ EVIDENCE_DEFAULTS = {
     "n_burn": 300,
     "reference_force_rms": None,
 }
-"""Settings of ``[evidence]``: residual (see :data:`RESIDUALS`), primary likelihood, the others reported beside it, emcee sizes,
-and the reference force of the default coefficient priors (None: rms of the measured forces)."""
+"""Settings of ``[evidence]``: residual (see :data:`RESIDUALS`), primary likelihood, the others
+reported beside it, emcee sizes, and the reference force of the default coefficient priors (None:
+rms of the measured forces)."""
 
 
 def candidate_priors(result, signals, affine, options=EVIDENCE_DEFAULTS, candidate=None):
@@ -83,10 +84,11 @@ def candidate_evidence(result, signals, options=EVIDENCE_DEFAULTS, seed_sequence
     dict likelihood -> EvidenceResult
     """
     seed_sequence = seed_sequence or np.random.SeedSequence(0)
-    affine = candidate_affine(result, signals, options.get("residual", "reconstruction"))
+    residual = options.get("residual", EVIDENCE_DEFAULTS["residual"])
+    affine = candidate_affine(result, signals, residual)
     priors = candidate_priors(result, signals, affine, options, candidate)
     plain = None
-    if options.get("residual", "reconstruction") != "reconstruction":
+    if residual != "reconstruction":
         # the paper's plain ranking (Eq. 4) always scores the open-loop reconstruction residual
         from .likelihood import plain_log_likelihood
 

@@ -107,8 +107,10 @@ def _loop_section(report, signals, loop, payload):
 
     blocks = report.section("Closing the loop (SPEC 7)")
     blocks.append(
-        "Each row is the best effect of a step; it is added only if the log Bayes factor exceeds the threshold, "
-        "its quality index |Im|/|Re| is small and its coefficient keeps sign and size on both record halves."
+        "Each row is the best effect of a step; it is added only if the log Bayes factor (Laplace, on the "
+        "residual named in the loop settings) exceeds the threshold, its quality index |Im|/|Re| is small and its "
+        "coefficient keeps sign and size on both record halves. The credible interval ci95 is sampled (emcee) "
+        "for the effects that pass; rejected ones show none."
     )
     rows = payload["loop"] + payload["loop_rejected"]
     if rows:

@@ -229,7 +229,7 @@ class _Score:
     ci95: np.ndarray | None
 
 
-def _check(kind, term, trial, nrmse_before, current_z, signals, nsi_options, evidence_options, seed, *guards):
+def _check(kind, term, trial, z_trial, nrmse_before, current_z, signals, nsi_options, evidence_options, seed, *guards):
     """Log Bayes factor (Laplace) and the guards of one proposed effect.
 
     The decision uses the Laplace log-evidence, within 0.006 nat of exact on affine-Gaussian
@@ -247,8 +247,7 @@ def _check(kind, term, trial, nrmse_before, current_z, signals, nsi_options, evi
         True when the effect passed every guard but the quality index |Im|/|Re|.
     """
     threshold, max_imag_ratio, stability_factor = guards
-    z_trial = _laplace(trial, signals, evidence_options)
-    log_bf = z_trial - current_z
+    log_bf = z_trial - current_z  # z_trial: the Laplace log-evidence the effect was ranked by
     coef = trial.coefficients[-1]
     halves = _halves(signals, trial.candidate, nsi_options)
     stable = all(np.isfinite(halves)) and np.sign(halves[0]) == np.sign(halves[1]) == np.sign(coef.value)
@@ -403,7 +402,7 @@ def close_the_loop(
             if not np.isfinite(score):
                 break
             step, ev, quality_only = _check(
-                kind, term, trial, nrmse_before, current_z, signals, nsi_options, evidence_options, next(seeds), *guards
+                kind, term, trial, score, nrmse_before, current_z, signals, nsi_options, evidence_options, next(seeds), *guards
             )
             steps.append(step)
             if step.accepted:
@@ -477,7 +476,7 @@ def _look_ahead(pending, added, ranked, signals, nsi_options, evidence_options, 
         if not np.isfinite(score):
             break
         step, ev, _ = _check(
-            kind, term, trial, p_step.nrmse_after, p_ev.log_evidence, signals, nsi_options, evidence_options, next(seeds), *guards
+            kind, term, trial, score, p_step.nrmse_after, p_ev.log_evidence, signals, nsi_options, evidence_options, next(seeds), *guards
         )
         first_coef = trial.coefficients[-2]
         if step.accepted and first_coef.imag_ratio >= max_imag_ratio:
@@ -601,7 +600,7 @@ def _exchange(current, current_z, new_terms, steps, effects, signals, nsi_option
         for kind, term, score, trial in scored[:n_tries]:
             if not score - z_current > threshold:
                 break
-            new, ev, _ = _check(kind, term, trial, nrmse_before, current_z, signals, nsi_options, evidence_options, next(seeds), *guards)
+            new, ev, _ = _check(kind, term, trial, score, nrmse_before, current_z, signals, nsi_options, evidence_options, next(seeds), *guards)
             if new.accepted:
                 break
         if new is None or not new.accepted:

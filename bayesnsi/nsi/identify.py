@@ -238,10 +238,14 @@ class NSIResult:
         """``signals`` on the identification grid (band-limited interpolation when upsampled)."""
         return _working_signals(signals, self.upsample)
 
-    def extended_input(self, signals: Signals) -> np.ndarray:
-        """Extended input of this candidate built from ``signals`` (data rate), on the model's grid."""
+    def extended_input(self, signals: Signals, on_grid: bool = False) -> np.ndarray:
+        """Extended input of this candidate on the model's grid.
+
+        ``signals`` are at the data's rate, or already on the model's grid (``on_grid=True``, e.g.
+        from :meth:`working_signals`, which saves interpolating them again).
+        """
         return extended_input(
-            self.working_signals(signals),
+            signals if on_grid else self.working_signals(signals),
             self.terms,
             self.settings.get("velocity_method", "fourth"),
             self.settings.get("input_hold", "auto"),

@@ -123,9 +123,9 @@ def reconstruct(result, signals: Signals, closed_loop: bool = False, n_init: int
         When the closed-loop simulation diverges (a wrong model can be unstable in feedback).
     """
     model = result.model
-    factor = getattr(result, "upsample", 1)  # identified on a finer grid: work there, compare at the data's samples
-    work = result.working_signals(signals) if factor > 1 else signals
-    u = result.extended_input(signals)
+    factor = result.upsample  # identified on a finer grid: work there, compare at the data's samples
+    work = result.working_signals(signals)
+    u = result.extended_input(work, on_grid=True)
     y_work = np.asarray(work.displacement)
     init = len(y_work) if n_init is None and not closed_loop else min((n_init or 50) * factor, len(y_work))
     x0 = initial_state(model, u[:init], y_work[:init])
@@ -232,9 +232,10 @@ def affine_reconstruction(result, signals: Signals) -> AffineReconstruction:
     estimate = result.coefficient_values
     if np.any(estimate == 0):
         raise NotIdentifiableError("a coefficient estimate is exactly zero; its per-unit signature is undefined")
-    factor = getattr(result, "upsample", 1)
-    u = result.extended_input(signals)
-    y_work = np.asarray(result.working_signals(signals).displacement) if factor > 1 else np.asarray(signals.displacement)
+    factor = result.upsample
+    work = result.working_signals(signals)
+    u = result.extended_input(work, on_grid=True)
+    y_work = np.asarray(work.displacement)
     y = np.asarray(signals.displacement)
     x0 = initial_state(model, u, y_work)
     unit_b = model.B[:, m:] / estimate
@@ -303,7 +304,7 @@ def predictor_reconstruction(result, signals: Signals, noise_std=None) -> Affine
     estimate = result.coefficient_values
     if np.any(estimate == 0):
         raise NotIdentifiableError("a coefficient estimate is exactly zero; its per-unit signature is undefined")
-    factor = getattr(result, "upsample", 1)
+    factor = result.upsample
     u = result.extended_input(signals)
     y = np.asarray(signals.displacement, dtype=float)
     n_samples, n_out = y.shape

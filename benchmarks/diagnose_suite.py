@@ -97,6 +97,7 @@ def main() -> None:
     parser.add_argument("--upsample", type=int, help="override the NSI upsampling factor (block rows scaled with it)")
     parser.add_argument("--residual", choices=["innovations", "reconstruction"],
                         help="override the evidence residual (default: the loop's, LOOP_EVIDENCE_DEFAULTS)")
+    parser.add_argument("--exchange", action="store_true", help="turn on the loop's exchange step")
     parser.add_argument("--verbose", action="store_true", help="print every run")
     args = parser.parse_args()
     evidence = {"residual": args.residual} if args.residual else None  # None: the loop's defaults
@@ -116,7 +117,10 @@ def main() -> None:
                 start = time.perf_counter()
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
-                    loop = close_the_loop(case.signals, case.declared, nsi_options=nsi, evidence_options=evidence, seed=case.seed)
+                    loop = close_the_loop(
+                        case.signals, case.declared, nsi_options=nsi, evidence_options=evidence, seed=case.seed,
+                        exchange=args.exchange,
+                    )
                 times.append(time.perf_counter() - start)
                 row = evaluate(case, loop, nsi)
                 rows.append(row)

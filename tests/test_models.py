@@ -94,3 +94,19 @@ def test_candidate_model_validation():
     with pytest.raises(ConfigError, match="prior"):
         CandidateModel.from_terms("m", [("x1", 1)], prior=-1)
     assert issubclass(ExpressionError, BayesNSIError) and issubclass(ExpressionError, ValueError)
+
+
+@pytest.mark.parametrize(
+    "expr, switches",
+    [
+        ("sign(v1)", True),
+        ("x1*sign(v2-v1)", True),
+        ("(x1**2)*sign(v1)", True),
+        ("(((abs(x1)-0.01)*(sign(abs(x1)-0.01)+1))/2)*sign(x1)", False),  # clearance: continuous force
+        ("v1*abs(v1)", False),
+        ("tanh(v1)", False),
+        ("sign(x1)*v1", False),
+    ],
+)
+def test_switches_with_velocity_flags_sign_of_a_velocity(expr, switches):
+    assert parse_expression(expr).switches_with_velocity is switches

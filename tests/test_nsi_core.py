@@ -149,3 +149,49 @@ def test_block_rows_and_order_errors(rng):
         identify(sig, None, block_rows=30)
     with pytest.raises(OrderError, match="impossible"):
         identify(sig, None, block_rows=4, order=50)
+
+
+# --------------------------------------------------------------------------------------------
+# modal simulation against the plain state recursion x_{k+1} = A x_k + B u_k, y_k = C x_k + D u_k
+
+
+def direct_recursion(model, u, x0):
+    x, out = np.array(x0, dtype=float), []
+    for k in range(len(u)):
+        out.append(model.C @ x + model.D @ u[k])
+        x = model.A @ x + model.B @ u[k]
+    return np.array(out)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_modal_simulation_equals_state_recursion(seed):
+    rng = np.random.default_rng(seed)
+    model, _ = random_stable_system(rng)
+    model = StateSpaceModel(model.A, model.B, model.C, rng.standard_normal(model.D.shape), model.dt)
+    # one real mode as well: append a first-order state
+    A = np.block([[model.A, np.zeros((model.order, 1))], [np.zeros((1, model.order)), np.array([[0.7]])]])
+    B = np.vstack([model.B, rng.standard_normal((1, model.B.shape[1]))])
+    C = np.hstack([model.C, rng.standard_normal((model.C.shape[0], 1))])
+    model = StateSpaceModel(A, B, C, model.D, model.dt)
+    u = rng.standard_normal((400, model.B.shape[1]))
+    x0 = rng.standard_normal(model.order)
+    expected = direct_recursion(model, u, x0)
+    scale = np.abs(expected).max()
+    assert np.abs(model.simulate(u, x0) - expected).max() < 1e-10 * scale
+    each = model.simulate_each(u)
+    assert np.abs(each.sum(axis=2) + model.initial_response(x0, len(u)) - expected).max() < 1e-10 * scale
+    for c in range(u.shape[1]):
+        alone = np.zeros_like(u)
+        alone[:, c] = u[:, c]
+        assert np.abs(each[:, :, c] - direct_recursion(model, alone, np.zeros(model.order))).max() < 1e-10 * scale
+
+
+@pytest.mark.parametrize("eigenvalue", [0.999 * np.exp(0.05j), 0.5 + 0.5j, 0.99999 * np.exp(2e-3j), 0.9999995 * np.exp(1e-4j), -0.3])
+def test_modal_filter_matches_complex_recursion(eigenvalue):
+    from scipy import signal
+
+    from bayesnsi.nsi.statespace import modal_filter
+
+    u = np.random.default_rng(0).standard_normal(20000)
+    expected = signal.lfilter([0.0, 1.0], [1.0, -eigenvalue], u.astype(complex))
+    assert np.abs(modal_filter(eigenvalue, u) - expected).max() < 1e-9 * np.abs(expected).max()

@@ -82,6 +82,9 @@ def run(args) -> int:
         "config": str(config.path),
         "selected": start,
         "final_model": [term_record(t) for t in loop.final.terms],
+        "final_coefficients": [
+            {"term": c.term.name, "value": c.value, "imag_ratio": c.imag_ratio} for c in loop.final.coefficients
+        ],
         "candidates": records,
         "loop": [s for s in steps if s["accepted"]],
         "loop_rejected": [s for s in steps if not s["accepted"]],
@@ -123,6 +126,16 @@ def _loop_section(report, signals, loop, payload):
             }
         )
     )
+    if payload["final_coefficients"]:
+        final_nsi = loop.settings.get("final_nsi", {})
+        note = (
+            f" It was re-identified with upsample = {final_nsi['upsample']} because it holds a term that switches "
+            "with velocity (coefficients at the data rate are biased by the switching between samples)."
+            if final_nsi.get("upsample", 1) > 1 and loop.settings.get("nsi", {}).get("upsample", 1) == 1
+            else ""
+        )
+        blocks.append("Coefficients of the final model (NSI estimate; quality index |Im|/|Re|)." + note)
+        blocks.append(pd.DataFrame(payload["final_coefficients"]).set_index("term"))
     for step in loop.steps:
         if step.accepted:
             fig = plot_effect_force(step, signals)

@@ -92,6 +92,13 @@ class Expression:
         """True when the expression reads any velocity."""
         return bool(self.velocity_dofs)
 
+    @property
+    def switches_with_velocity(self) -> bool:
+        """True when a ``sign()`` reads a velocity: the force jumps at velocity reversals
+        (friction-like terms), between samples of the data (SPEC 10: such terms need the
+        interval-mean input and, for accurate coefficients, an upsampled identification grid)."""
+        return _sign_of_velocity(self._tree)
+
     def evaluate(self, x, v):
         """Evaluate n(x, v).
 
@@ -319,6 +326,15 @@ def _collect(node: _Node, xs: set, vs: set) -> None:
         vs.add(node.value)
     for arg in node.args:
         _collect(arg, xs, vs)
+
+
+def _sign_of_velocity(node: _Node) -> bool:
+    if node.kind == "func" and node.value == "sign":
+        xs, vs = set(), set()
+        _collect(node.args[0], xs, vs)
+        if vs:
+            return True
+    return any(_sign_of_velocity(arg) for arg in node.args)
 
 
 def _render(node: _Node) -> str:

@@ -15,6 +15,8 @@ import numpy as np
 from scipy import signal as _signal
 from scipy.linalg import blas as _blas
 
+from .statespace import modal_filter_step
+
 __all__ = ["refine_output_error", "refine_poles"]
 
 _CHUNK = 8192
@@ -29,22 +31,19 @@ def _basis_gram(lam: np.ndarray, u: np.ndarray, y: np.ndarray):
     width = 2 * n * m + 2 * n + m
     gram = np.zeros((width, width), order="F")
     cross = np.zeros((width, y.shape[1]))
-    state = np.zeros((m, n), dtype=complex)
+    state = [[None] * n for _ in range(m)]  # per input and mode, carried across chunks
     step_powers = np.exp(np.arange(_CHUNK)[:, None] * np.log(lam.astype(complex))[None, :])
     chunk_start = np.ones(n, dtype=complex)  # λ^start
-    a = np.array([1.0, 0.0], dtype=complex)
     basis = np.empty((_CHUNK, width), order="F")
-    filtered = np.empty(_CHUNK, dtype=complex)
     for start in range(0, len(u), _CHUNK):
         size = min(_CHUNK, len(u) - start)
         uc = u[start : start + size]
         for c in range(m):
+            column = np.ascontiguousarray(uc[:, c])
             for p, lp in enumerate(lam):
-                a[1] = -lp
-                filtered[:size], zf = _signal.lfilter([0.0, 1.0], a, uc[:, c], zi=state[c, p : p + 1])
-                state[c, p] = zf[0]
-                basis[:size, c * n + p] = filtered[:size].real
-                basis[:size, n * m + c * n + p] = filtered[:size].imag
+                filtered, state[c][p] = modal_filter_step(complex(lp), column, state[c][p])
+                basis[:size, c * n + p] = filtered.real
+                basis[:size, n * m + c * n + p] = filtered.imag if np.iscomplexobj(filtered) else 0.0
         powers = step_powers[:size] * chunk_start
         basis[:size, 2 * n * m : 2 * n * m + n] = powers.real
         basis[:size, 2 * n * m + n : 2 * n * m + 2 * n] = powers.imag

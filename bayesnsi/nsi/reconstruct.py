@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import signal as _signal
 
 from ..exceptions import UnstableModelError
 from ..signals import Signals
@@ -72,32 +73,38 @@ class Reconstruction:
         return np.sqrt(np.mean(self.residual**2, axis=0))
 
 
-def initial_state(model: StateSpaceModel, inputs: np.ndarray, outputs: np.ndarray) -> np.ndarray:
+def initial_state(model: StateSpaceModel, inputs: np.ndarray, outputs: np.ndarray, forced=None) -> np.ndarray:
     """Least-squares initial state for a given input/output record.
 
     Minimises ``Σ_k ‖y_k - ŷ_k^{forced} - C A^k x₀‖²``. The normal matrix
-    ``Σ_k (C A^k)ᵀ C A^k`` is summed in closed form in modal coordinates (geometric series), so
-    the cost is O(N n l), not O(N n² l).
+    ``Σ_k (C A^k)ᵀ C A^k`` is summed in closed form in modal coordinates (geometric series) and
+    the right-hand side ``Σ_k λ_p^k (C v_p)ᴴ r_k`` by one backward first-order recursion per
+    mode (Horner), so the cost is O(N n l), not O(N n² l).
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    inputs : ndarray, shape (N, m)
+    outputs : ndarray, shape (N, l)
+    forced : ndarray, shape (N, l), optional
+        The zero-initial-state response to ``inputs`` when already computed.
     """
-    forced = model.simulate(inputs)
+    if forced is None:
+        forced = model.simulate(inputs)
     residual = np.asarray(outputs, dtype=float) - forced
     lam, vec = np.linalg.eig(model.A)
     vinv = np.linalg.inv(vec)
     cm = model.C @ vec
     n_samples = len(residual)
     prod = lam[:, None] * lam[None, :]
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         series = np.where(np.abs(1 - prod) > 1e-12, (1 - prod**n_samples) / (1 - prod), n_samples)
     normal = (vinv.T @ ((cm.T @ cm) * series) @ vinv).real
-    log_lam = np.log(lam.astype(complex))
-    # Σ_k λ_p^k (r_k · Cm[:, p]) accumulated in chunks to bound memory.
-    weighted = np.zeros(len(lam), dtype=complex)
-    chunk = 16384
-    for start in range(0, n_samples, chunk):
-        stop = min(start + chunk, n_samples)
-        powers = np.exp(np.arange(start, stop)[:, None] * log_lam[None, :])
-        weighted += np.sum(powers * (residual[start:stop] @ cm), axis=0)
-    rhs = (vinv.T @ weighted).real
+    # Σ_k λ_p^k r_k · C v_p by Horner backwards, one mode of each conjugate pair (real data)
+    lam_half, vec_half, vinv_half, weight = model._modal_half()
+    projected = residual[::-1] @ (model.C @ vec_half)
+    weighted = np.array([_signal.lfilter([1.0], [1.0, -lp], projected[:, p])[-1] for p, lp in enumerate(lam_half)])
+    rhs = (vinv_half.T @ (weighted * weight)).real
     return np.linalg.lstsq(normal, rhs, rcond=None)[0]
 
 
@@ -237,16 +244,15 @@ def affine_reconstruction(result, signals: Signals) -> AffineReconstruction:
     u = result.extended_input(work, on_grid=True)
     y_work = np.asarray(work.displacement)
     y = np.asarray(signals.displacement)
-    x0 = initial_state(model, u, y_work)
-    unit_b = model.B[:, m:] / estimate
-    force_model = StateSpaceModel(model.A, model.B[:, :m], model.C, model.D[:, :m], model.dt)
-    baseline = force_model.simulate(u[:, :m], x0)[::factor]
-    term_model = StateSpaceModel(model.A, unit_b, model.C, model.D[:, m:] / estimate, model.dt)
-    q = u.shape[1] - m
-    signatures = np.empty(y.shape + (q,))
-    for i in range(q):
-        single = StateSpaceModel(model.A, unit_b[:, i : i + 1], model.C, term_model.D[:, i : i + 1], model.dt)
-        signatures[:, :, i] = single.simulate(u[:, m + i : m + i + 1])[::factor]
+    unit = np.concatenate([np.ones(m), estimate])  # per-unit columns for the terms
+    per_unit = StateSpaceModel(model.A, model.B / unit, model.C, model.D / unit, model.dt)
+    each = per_unit.simulate_each(u)  # (N_work, l, m + q): forces and unit terms, zero state
+    forced_by_force = each[:, :, :m].sum(axis=2)
+    forced = forced_by_force + each[:, :, m:] @ estimate
+    x0 = initial_state(model, u, y_work, forced=forced)
+    free = model.initial_response(x0, len(u))
+    baseline = (forced_by_force + free)[::factor]
+    signatures = np.ascontiguousarray(each[::factor, :, m:])
     return AffineReconstruction(
         measured=y, baseline=baseline, signatures=signatures, estimate=estimate, names=tuple(t.name for t in result.terms)
     )

@@ -15,7 +15,63 @@ from scipy import signal as _signal
 
 from ..exceptions import UnstableModelError
 
-__all__ = ["StateSpaceModel", "modal_parameters_from_poles"]
+__all__ = ["StateSpaceModel", "modal_filter", "modal_filter_chunks", "modal_filter_step", "modal_parameters_from_poles"]
+
+
+def modal_filter(eigenvalue: complex, signal: np.ndarray):
+    """``z_{k+1} = λ z_k + u_k``, ``z_0 = 0`` for a real signal (along axis 0), in real arithmetic.
+
+    ``1/(z - λ) = (z⁻¹ - λ̄ z⁻²) / (1 - 2 Re λ z⁻¹ + |λ|² z⁻²)``: one real second-order
+    recursion ``w`` gives ``Re z_k = w_{k-1} - Re λ w_{k-2}`` and ``Im z_k = Im λ w_{k-2}``,
+    about 4× faster than the complex first-order recursion (``scipy.signal.lfilter``). Near
+    ``z = 1`` (``|1 - λ| < 1e-3``) the second-order form loses digits (1e-10 at 1e-3), so the complex
+    recursion is used there.
+
+    Parameters
+    ----------
+    eigenvalue : complex
+    signal : ndarray, real, shape (N, ...)
+
+    Returns
+    -------
+    ndarray, complex (or real for a real eigenvalue), shape (N, ...)
+    """
+    out, _ = modal_filter_step(complex(eigenvalue), np.asarray(signal, dtype=float), None)
+    return out
+
+
+def modal_filter_chunks(eigenvalue: complex, chunks):
+    """:func:`modal_filter` of a signal given as consecutive chunks; yields the filtered chunks."""
+    state = None
+    lam = complex(eigenvalue)
+    for chunk in chunks:
+        out, state = modal_filter_step(lam, np.asarray(chunk, dtype=float), state)
+        yield out
+
+
+def modal_filter_step(lam: complex, u: np.ndarray, state):
+    """One chunk of :func:`modal_filter`: ``(filtered, state)``; pass ``state`` back with the next
+    chunk (None: at rest)."""
+    if lam.imag == 0.0 or abs(1.0 - lam) < 1e-3:
+        real = lam.imag == 0.0
+        coef = lam.real if real else lam
+        data = u if real else u.astype(complex)
+        zi = np.zeros((1,) + u.shape[1:], dtype=data.dtype) if state is None else state
+        out, zf = _signal.lfilter([0.0, 1.0], [1.0, -coef], data, axis=0, zi=zi)
+        return out, zf
+    denominator = [1.0, -2.0 * lam.real, abs(lam) ** 2]
+    if state is None:
+        zi = np.zeros((2,) + u.shape[1:])
+        previous = np.zeros((2,) + u.shape[1:])  # w_{-2}, w_{-1}
+    else:
+        zi, previous = state
+    w, zf = _signal.lfilter([1.0, 0.0, 0.0], denominator, u, axis=0, zi=zi)
+    extended = np.concatenate([previous, w], axis=0)  # w_{-2}, w_{-1}, w_0, ...
+    n = len(u)
+    out = np.empty(u.shape, dtype=complex)
+    out.real = extended[1 : n + 1] - lam.real * extended[:n]
+    out.imag = lam.imag * extended[:n]
+    return out, (zf, extended[-2:].copy())
 
 
 def modal_parameters_from_poles(poles_continuous: np.ndarray):
@@ -105,6 +161,32 @@ class StateSpaceModel:
         ac = (vec * (np.log(lam.astype(complex)) / self.dt)) @ vinv
         return ac.real
 
+    def _modal_half(self):
+        """One eigenvalue of each complex-conjugate pair plus the real ones, with weights.
+
+        A real system's conjugate modes respond to a real input with conjugate states, so
+        ``y = Σ_p w_p Re(C v_p z_p)`` over the kept modes with ``w = 2`` for a pair and 1 for a
+        real mode: half the recursions of the full modal sum.
+        """
+        lam, vec, vinv = self._modal()
+        upper, lower, real = lam.imag > 0, lam.imag < 0, lam.imag == 0
+        if np.count_nonzero(upper) != np.count_nonzero(lower) or not np.allclose(
+            np.sort_complex(lam[upper]), np.sort_complex(np.conj(lam[lower]))
+        ):
+            return lam, vec, vinv, np.ones(len(lam))  # not in exact conjugate pairs: full sum
+        keep = upper | real
+        return lam[keep], vec[:, keep], vinv[keep], np.where(real[keep], 1.0, 2.0)
+
+    def _modal_states(self, drive, lam, zi=None):
+        """``z_{k+1} = λ_p z_k + drive_k`` per mode p (last axis), ``z_0 = zi``; any leading shape."""
+        states = np.empty(drive.shape, dtype=complex)
+        for p, lp in enumerate(lam):
+            if zi is None:
+                states[..., p] = modal_filter(lp, drive[..., p].real) + 1j * modal_filter(lp, drive[..., p].imag)
+            else:
+                states[..., p] = _signal.lfilter([0.0, 1.0], [1.0, -lp], drive[..., p], axis=0, zi=[zi[p]])[0]
+        return states
+
     def simulate(self, inputs, x0=None) -> np.ndarray:
         """Response to an input sequence.
 
@@ -119,21 +201,59 @@ class StateSpaceModel:
         ndarray, shape (n_samples, n_outputs)
         """
         u = np.asarray(inputs, dtype=float)
-        lam, vec, vinv = self._modal()
+        lam, vec, vinv, weight = self._modal_half()
         with np.errstate(over="ignore", invalid="ignore"):  # divergence is reported below
-            drive = u @ (vinv @ self.B).T  # (N, n) modal inputs
-            states = np.empty_like(drive, dtype=complex)
-            for p, lp in enumerate(lam):
-                # z[k+1] = λ z[k] + drive[k], z[0] = 0
-                states[:, p] = _signal.lfilter([0.0, 1.0], [1.0, -lp], drive[:, p])
-            y = (states @ (self.C @ vec).T).real + u @ self.D.T
-            if x0 is not None:
-                modal_x0 = vinv @ np.asarray(x0, dtype=float)
-                powers = np.exp(np.arange(len(u))[:, None] * np.log(lam.astype(complex))[None, :])
-                y += ((powers * modal_x0) @ (self.C @ vec).T).real
+            drive = u @ (vinv @ self.B).T  # (N, kept modes)
+            zi = None if x0 is None else vinv @ np.asarray(x0, dtype=float)
+            states = self._modal_states(drive, lam, zi)
+            y = (states @ (self.C @ vec * weight).T).real + u @ self.D.T
         if not np.all(np.isfinite(y)):
             raise UnstableModelError("simulation diverged: the model is unstable")
         return y
+
+    def simulate_each(self, inputs) -> np.ndarray:
+        """Response to each input column on its own (zero initial state).
+
+        Parameters
+        ----------
+        inputs : ndarray, shape (n_samples, n_inputs)
+
+        Returns
+        -------
+        ndarray, shape (n_samples, n_outputs, n_inputs)
+            ``[:, :, c]`` is the response to column c alone (the sum over c is :meth:`simulate`).
+        """
+        u = np.asarray(inputs, dtype=float)
+        lam, vec, vinv, weight = self._modal_half()
+        modal_b, cm = vinv @ self.B, self.C @ vec * weight  # (k, inputs), (l, k)
+        k = len(lam)
+        y = np.empty((u.shape[0], self.C.shape[0], u.shape[1]))
+        basis = np.empty((u.shape[0], 2 * k), order="F")  # [Re F, Im F] of one input column, F = 1/(z - λ)
+        with np.errstate(over="ignore", invalid="ignore"):
+            for c in range(u.shape[1]):  # one column at a time: memory O(N n), not O(N n m)
+                for p, lp in enumerate(lam):
+                    filtered = modal_filter(lp, u[:, c])
+                    basis[:, p] = filtered.real
+                    basis[:, k + p] = filtered.imag if np.iscomplexobj(filtered) else 0.0
+                gain = cm * modal_b[:, c]  # Re(g F) = Re g Re F - Im g Im F
+                y[:, :, c] = basis @ np.vstack([gain.real.T, -gain.imag.T])
+                y[:, :, c] += u[:, c : c + 1] * self.D[:, c]
+        if not np.all(np.isfinite(y)):
+            raise UnstableModelError("simulation diverged: the model is unstable")
+        return y
+
+    def initial_response(self, x0, n_samples: int) -> np.ndarray:
+        """Free response ``C A^k x₀`` for k = 0..n_samples-1, shape (n_samples, n_outputs)."""
+        lam, vec, vinv, weight = self._modal_half()
+        impulse = np.zeros(n_samples)
+        impulse[0] = 1.0
+        modal_x0 = vinv @ np.asarray(x0, dtype=float)
+        states = np.empty((n_samples, len(lam)), dtype=complex)
+        for p, lp in enumerate(lam):
+            # λ^k = λ · (response of 1/(z - λ) to a unit impulse at k = 0)[k] for k >= 1
+            states[:, p] = modal_filter(lp, impulse) * (lp * modal_x0[p])
+            states[0, p] = modal_x0[p]
+        return (states @ (self.C @ vec * weight).T).real
 
     def free_response(self, n_samples: int) -> np.ndarray:
         """Matrix mapping an initial state to the free response, shape (n_samples·l, n).

@@ -9,7 +9,8 @@ part (NSI + reconstruction + AR(1) evidence) and the whole ``bayesnsi select`` c
 config holding only that candidate (adds the white-noise evidence, closed-loop checks and the
 report with its figures). Issue target: a loop step costs no more than one select.
 
-Run: ``OMP_NUM_THREADS=1 .venv/bin/python benchmarks/diagnose.py [--quick]`` (``--quick``: two-DOF only)
+Run: ``OMP_NUM_THREADS=1 .venv/bin/python benchmarks/diagnose.py [--quick] [--jobs N]`` (``--quick``: two-DOF
+only; ``--jobs N``: the loop scores each step's effects in N worker processes)
 """
 
 from __future__ import annotations
@@ -66,8 +67,10 @@ def cli_select_seconds(case, candidate, nsi) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--jobs", type=int, default=1, help="score each step's effects in N worker processes")
     args = parser.parse_args()
     names = ["two-dof"] if args.quick else list(CASES)
+    print(f"loop effects scored in {args.jobs} worker process(es)")
     print(f"{'case':8} {'select 1 cand [s]':>18} {'CLI select [s]':>15} {'loop [s]':>9} {'steps':>6} {'effects':>8} "
           f"{'s / step':>9}  added")
     for name in names:
@@ -82,7 +85,7 @@ def main() -> None:
             select_time = time.perf_counter() - start
             cli_time = cli_select_seconds(case, candidate, nsi)
             start = time.perf_counter()
-            loop = close_the_loop(case.signals, candidate, nsi_options=nsi, max_steps=2, seed=0)
+            loop = close_the_loop(case.signals, candidate, nsi_options=nsi, max_steps=2, seed=0, jobs=args.jobs)
             loop_time = time.perf_counter() - start
         steps = max(len(loop.scores), 1)
         added = ", ".join(s.term.name for s in loop.added) or "nothing"

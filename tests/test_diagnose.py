@@ -187,3 +187,13 @@ def test_loop_from_a_candidate_object_keeps_declared_terms(coulomb):
     case, loop = coulomb
     assert isinstance(loop.final.candidate, CandidateModel)
     assert loop.final.terms[: case.declared.n_terms] == case.declared.terms
+
+
+def test_loop_is_identical_with_two_workers():
+    # the effects of a step scored in two local worker processes (joblib) give the same loop
+    case = undeclared_case("quadratic-damping", seed=0, noise_percent=1.0)
+    serial = run_loop(case, max_steps=1)
+    parallel = run_loop(case, max_steps=1, jobs=2)
+    assert [(k, t.name, s) for k, t, s in serial.scores[0]] == [(k, t.name, s) for k, t, s in parallel.scores[0]]
+    assert [s.term.name for s in serial.added] == [s.term.name for s in parallel.added] == ["v1*abs(v1)@1"]
+    assert serial.added[0].ci95 == parallel.added[0].ci95

@@ -190,8 +190,14 @@ def test_modal_simulation_equals_state_recursion(seed):
 def test_modal_filter_matches_complex_recursion(eigenvalue):
     from scipy import signal
 
-    from bayesnsi.nsi.statespace import modal_filter
+    from bayesnsi.nsi.statespace import modal_filter, modal_filter_step
 
     u = np.random.default_rng(0).standard_normal(20000)
     expected = signal.lfilter([0.0, 1.0], [1.0, -eigenvalue], u.astype(complex))
     assert np.abs(modal_filter(eigenvalue, u) - expected).max() < 1e-9 * np.abs(expected).max()
+    # chunk by chunk with the carried state: the same signal
+    state, parts = None, []
+    for chunk in np.array_split(u, 7):
+        out, state = modal_filter_step(complex(eigenvalue), chunk, state)
+        parts.append(out)
+    assert np.abs(np.concatenate(parts) - expected).max() < 1e-9 * np.abs(expected).max()

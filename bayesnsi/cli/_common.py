@@ -18,10 +18,10 @@ def add_run_arguments(parser) -> None:
     )
     parser.add_argument("--quiet", action="store_true", help="no progress messages")
     parser.add_argument("--no-figures", action="store_true", help="skip the report and its figures")
-    parser.add_argument("--jobs", type=int, default=1, help="candidates run in N local worker processes (default 1)")
+    parser.add_argument("--jobs", type=int, default=1, help="candidates (and the effects of each diagnose step) run in N local worker processes (default 1)")
     parser.add_argument(
         "--scheduler", metavar="ADDRESS", default=None,
-        help="run the candidates on a Dask cluster, e.g. tcp://10.0.0.5:8786 (overrides --jobs)",
+        help="run the candidates (and diagnose effects) on a Dask cluster, e.g. tcp://10.0.0.5:8786 (overrides --jobs)",
     )
     parser.add_argument(
         "--no-cache", action="store_true",

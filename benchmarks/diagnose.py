@@ -9,8 +9,9 @@ part (NSI + reconstruction + AR(1) evidence) and the whole ``bayesnsi select`` c
 config holding only that candidate (adds the white-noise evidence, closed-loop checks and the
 report with its figures). Issue target: a loop step costs no more than one select.
 
-Run: ``OMP_NUM_THREADS=1 .venv/bin/python benchmarks/diagnose.py [--quick] [--jobs N]`` (``--quick``: two-DOF
-only; ``--jobs N``: the loop scores each step's effects in N worker processes)
+Run: ``OMP_NUM_THREADS=1 .venv/bin/python benchmarks/diagnose.py [--quick] [--jobs N] [--no-screen]``
+(``--quick``: two-DOF only; ``--jobs N``: the loop scores each step's effects in N worker processes;
+``--no-screen``: every effect re-identified, as before the frequency-domain screen)
 """
 
 from __future__ import annotations
@@ -68,9 +69,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--jobs", type=int, default=1, help="score each step's effects in N worker processes")
+    parser.add_argument("--no-screen", action="store_true", help="re-identify every effect (close_the_loop screen=None)")
     args = parser.parse_args()
     names = ["two-dof"] if args.quick else list(CASES)
-    print(f"loop effects scored in {args.jobs} worker process(es)")
+    screen = None if args.no_screen else 6
+    print(f"loop effects scored in {args.jobs} worker process(es); screen: {screen or 'off (every effect re-identified)'}")
     print(f"{'case':8} {'select 1 cand [s]':>18} {'CLI select [s]':>15} {'loop [s]':>9} {'steps':>6} {'effects':>8} "
           f"{'s / step':>9}  added")
     for name in names:
@@ -85,7 +88,7 @@ def main() -> None:
             select_time = time.perf_counter() - start
             cli_time = cli_select_seconds(case, candidate, nsi)
             start = time.perf_counter()
-            loop = close_the_loop(case.signals, candidate, nsi_options=nsi, max_steps=2, seed=0, jobs=args.jobs)
+            loop = close_the_loop(case.signals, candidate, nsi_options=nsi, max_steps=2, seed=0, jobs=args.jobs, screen=screen)
             loop_time = time.perf_counter() - start
         steps = max(len(loop.scores), 1)
         added = ", ".join(s.term.name for s in loop.added) or "nothing"

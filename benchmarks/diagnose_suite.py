@@ -24,7 +24,7 @@ NSI settings: the case's recommended ones (:attr:`UndeclaredCase.nsi`), overridd
 samples); the true model of column ``truth`` is identified with the same settings.
 
 Run: ``OMP_NUM_THREADS=1 .venv/bin/python benchmarks/diagnose_suite.py [--seeds 5] [--noise 1 5]
-[--cases NAME ...] [--bd-method METHOD] [--upsample R] [--verbose]``
+[--cases NAME ...] [--bd-method METHOD] [--upsample R] [--duration S] [--no-screen] [--verbose]``
 """
 
 from __future__ import annotations
@@ -99,9 +99,12 @@ def main() -> None:
                         help="override the evidence residual (default: the loop's, LOOP_EVIDENCE_DEFAULTS)")
     parser.add_argument("--exchange", action="store_true", help="turn on the loop's exchange step")
     parser.add_argument("--verbose", action="store_true", help="print every run")
+    parser.add_argument("--duration", type=float, default=30.0, help="record length [s] (default 30)")
+    parser.add_argument("--no-screen", action="store_true", help="re-identify every effect (close_the_loop screen=None)")
     args = parser.parse_args()
     evidence = {"residual": args.residual} if args.residual else None  # None: the loop's defaults
-    print(f"NSI overrides: bd_method={args.bd_method}, upsample={args.upsample}")
+    print(f"NSI overrides: bd_method={args.bd_method}, upsample={args.upsample}; records of {args.duration:g} s; "
+          f"screen {'off' if args.no_screen else 'on'}")
     header = (
         f"{'case':18} {'noise':>5} {'first':>6} {'all':>6} {'coef err med/max':>17} {'within 10%':>10} "
         f"{'after/before':>12} {'truth':>6} {'nrmse ok':>8} {'floor':>6} {'ok/floor':>8} {'false add':>9} {'s':>5}"
@@ -110,7 +113,7 @@ def main() -> None:
     print("-" * len(header))
     for name in args.cases:
         for noise in args.noise:
-            cases = undeclared_cases(name, range(args.seeds), noise)
+            cases = undeclared_cases(name, range(args.seeds), noise, duration=args.duration)
             rows, times = [], []
             for case in cases:
                 nsi = nsi_settings(case, args.bd_method, args.upsample)
@@ -120,6 +123,7 @@ def main() -> None:
                     loop = close_the_loop(
                         case.signals, case.declared, nsi_options=nsi, evidence_options=evidence, seed=case.seed,
                         exchange=args.exchange,
+                        screen=None if args.no_screen else 6,
                     )
                 times.append(time.perf_counter() - start)
                 row = evaluate(case, loop, nsi)

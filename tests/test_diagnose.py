@@ -16,7 +16,7 @@ import pytest
 from bayesnsi import CandidateModel
 from bayesnsi.diagnose import close_the_loop, refine_gap, score_effects
 from bayesnsi.evidence import EVIDENCE_DEFAULTS
-from bayesnsi.models import effect_dictionary
+from bayesnsi.models import default_gaps, effect_dictionary
 from bayesnsi.models.dictionary import clearance_effect, clearance_gap, effect_base_type
 from bayesnsi.nsi import identify
 from bayesnsi.simulate.undeclared import (
@@ -131,6 +131,40 @@ def test_coulomb_nrmse_after_is_a_third_or_at_noise_floor(coulomb):
     assert_nrmse_criterion(*coulomb)
 
 
+def test_accepted_step_reports_closed_loop_errors_and_residual_force(coulomb):
+    # SPEC 7.5: error before and after in open and closed loop, residual force at the location
+    case, loop = coulomb
+    step = loop.added[0]
+    assert step.closed_loop_nrmse_after < step.closed_loop_nrmse_before
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        truth = identify(case.signals, case.truth, **case.nsi).reconstruct(case.signals, closed_loop=True).nrmse
+    assert step.closed_loop_nrmse_after <= FLOOR_FACTOR * truth  # the true model simulated alike
+    rf = step.residual_force
+    assert rf.location == (2,)
+    assert len(rf.before) == len(rf.after) == case.signals.n_samples
+    # the model with sign(v2) leaves a residual force several times smaller at DOF 2 ...
+    assert np.std(rf.after) < 0.5 * np.std(rf.before)
+    # ... and the data's force there (effect + residual) follows the effect: a step against v2
+    v = rf.velocity
+    assert np.median(rf.component_plus_residual[v > 0.1]) > 0.5 * step.coefficient
+    assert np.median(rf.component_plus_residual[v < -0.1]) < -0.5 * step.coefficient
+    rejected = [s for s in loop.steps if not s.accepted]
+    assert all(s.residual_force is None and np.isnan(s.closed_loop_nrmse_after) for s in rejected)
+
+
+def test_simulate_command_writes_an_undeclared_case_with_what_is_missing(tmp_path):
+    from bayesnsi.cli import main
+    from bayesnsi.io import load_config
+
+    csv = tmp_path / "coulomb.csv"
+    assert main(["simulate", "coulomb-dof2", "--seed", "1", "--out", str(csv), "--quiet"]) == 0
+    config = load_config(csv.with_suffix(".toml"))
+    assert [c.name for c in config.candidates] == ["declared"]
+    assert [t.name for t in config.candidates[0].terms] == ["v1*abs(v1)@1"]
+    assert config.raw["meta"]["missing"] == [{"type": "sign(v)", "expr": "sign(v2)", "at": [2], "coefficient": 1.0}]
+
+
 def test_clearance_gap_is_refined_off_the_grid():
     case = undeclared_case("clearance", seed=1, noise_percent=1.0)
     loop = run_loop(case, max_steps=2)
@@ -197,3 +231,56 @@ def test_loop_is_identical_with_two_workers():
     assert [(k, t.name, s) for k, t, s in serial.scores[0]] == [(k, t.name, s) for k, t, s in parallel.scores[0]]
     assert [s.term.name for s in serial.added] == [s.term.name for s in parallel.added] == ["v1*abs(v1)@1"]
     assert serial.added[0].ci95 == parallel.added[0].ci95
+
+
+@pytest.mark.parametrize("name", ["quadratic-damping", "coulomb-dof2", "clearance", "cubic-pair"])
+def test_screen_ranks_the_missing_effect_among_the_best_three(name):
+    # truth: the effect left out of the declared candidate by the simulation
+    from bayesnsi.diagnose.screen import screen_effects
+
+    case = undeclared_case(name, seed=0, noise_percent=2.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        start = identify(case.signals, case.declared, **case.nsi)
+    std = {d: case.signals.displacement[:, c].std() for c, d in enumerate(case.signals.output_dofs)}
+    effects = effect_dictionary(case.signals.output_dofs, gaps={(d,): default_gaps(s) for d, s in std.items()})
+    ranked = screen_effects(
+        case.signals, case.declared, effects, max_frequency_hz=1.6 * max(m.frequency_hz for m in start.modes)
+    )
+    assert len(ranked) == len(effects) - case.declared.n_terms
+    # close_the_loop re-identifies the best 6; on cubic-pair, x|x| across the pair ranks above x³
+    best = [(kind, term) for kind, term, _ in ranked[:3]]
+    assert any(case.missing[0].matches(kind, term) for kind, term in best), [t.name for _, t in best]
+    assert all(score > 0 for _, _, score in ranked[:3])
+
+
+def test_screen_refuses_a_record_too_short_for_its_groups():
+    from bayesnsi.diagnose.screen import screen_effects
+    from bayesnsi.exceptions import BayesNSIError
+
+    case = undeclared_case("quadratic-damping", seed=0, noise_percent=2.0)
+    short = case.signals.segment(0, 30)
+    with pytest.raises(BayesNSIError, match="too few to screen"):
+        screen_effects(short, case.declared, effect_dictionary(short.output_dofs), max_frequency_hz=5.0)
+
+
+def test_screened_loop_adds_what_the_full_loop_adds():
+    # the screen only chooses which effects are re-identified: same decision, same numbers
+    case = undeclared_case("quadratic-damping", seed=1, noise_percent=2.0)
+    screened = run_loop(case, max_steps=1)
+    full = run_loop(case, max_steps=1, screen=None)
+    assert [s.term.name for s in screened.added] == [s.term.name for s in full.added] == ["v1*abs(v1)@1"]
+    assert screened.added[0].log_bayes_factor == pytest.approx(full.added[0].log_bayes_factor, rel=1e-9)
+    assert screened.final.coefficient_values == pytest.approx(full.final.coefficient_values, rel=1e-9)
+    scored = [s for _, _, s in screened.scores[0]]
+    assert sum(np.isfinite(scored)) <= 6 and np.isnan(scored[-1])  # the rest were screened out
+    assert len(scored) == len(full.scores[0])
+
+
+@pytest.mark.parametrize("screen", [0, -2, 2.5, True])
+def test_loop_refuses_a_screen_that_is_not_a_positive_count(screen):
+    from bayesnsi.exceptions import InputDataError
+
+    case = undeclared_case("quadratic-damping", seed=0, noise_percent=2.0)
+    with pytest.raises(InputDataError, match="screen must be a positive number"):
+        close_the_loop(case.signals, case.declared, nsi_options=case.nsi, screen=screen)

@@ -51,6 +51,40 @@ def test_hankel_gram_equals_explicit_product(rng, block_rows):
     np.testing.assert_allclose(_hankel.hankel_gram(z, block_rows), H @ H.T, rtol=1e-12, atol=1e-9)
 
 
+@pytest.mark.parametrize("old", [[0, 1, 3], [1, 2], [0, 3]])
+def test_extended_lagged_products_equal_the_full_pass(rng, old):
+    # reference: the one-pass products of all channels (lagged_products), checked above against H Hᵀ
+    z = rng.standard_normal((9000, 4))  # > 2 chunks of 4096 samples
+    old = np.array(old)
+    partial = _hankel.lagged_products(z[:, old], 10)
+    np.testing.assert_allclose(
+        _hankel.extend_lagged_products(partial, z, old), _hankel.lagged_products(z, 10), rtol=1e-12, atol=1e-9
+    )
+
+
+def test_identify_with_shared_correlations_equals_the_full_computation():
+    # a candidate plus one term, from the products of the candidate (closing the loop's fast path)
+    from bayesnsi.nsi import hankel_correlations
+    from bayesnsi.simulate import simulate_case
+
+    case = simulate_case("two-dof", seed=0)
+    base = CandidateModel.from_terms("base", [("v1*abs(v1)", 1)])
+    larger = base.with_term(Term("x1**3", 1))
+    shared = hankel_correlations(case.signals, base, block_rows=30)
+    fast = identify(case.signals, larger, block_rows=30, order=4, correlations=shared)
+    full = identify(case.signals, larger, block_rows=30, order=4)
+    np.testing.assert_allclose(fast.singular_values, full.singular_values, rtol=1e-9)
+    np.testing.assert_allclose(fast.coefficient_values, full.coefficient_values, rtol=1e-7)
+    # products of another candidate, or other settings, are ignored rather than misused
+    other = hankel_correlations(case.signals, CandidateModel.from_terms("c", [("sign(v1)", 1)]), block_rows=30)
+    unrelated = identify(case.signals, larger, block_rows=30, order=4, correlations=other)
+    np.testing.assert_allclose(unrelated.coefficient_values, full.coefficient_values, rtol=1e-12)
+    mismatched = identify(case.signals, larger, block_rows=20, order=4, correlations=shared)
+    np.testing.assert_allclose(
+        mismatched.coefficient_values, identify(case.signals, larger, block_rows=20, order=4).coefficient_values, rtol=1e-12
+    )
+
+
 def test_gram_and_lq_factors_agree(rng):
     z = rng.standard_normal((2000, 4))
     L1 = _hankel.gram_factor(z, 6, 1)

@@ -262,3 +262,20 @@ def test_dictionary_sweep_identical_serial_joblib_and_dask(sweep, config, tmp_pa
     reference = tmp_path / "serial"
     assert main(["identify", str(config), "--out", str(reference), "--no-figures", "--quiet"]) == 0
     assert _numbers(out) == _numbers(reference)
+
+
+def test_ctrl_c_during_sampling_is_raised_after_the_emcee_run():
+    # emcee prints a traceback for any exception inside the log-probability function: a Ctrl-C
+    # is held until the run ends, then raised as KeyboardInterrupt (no emcee traceback)
+    import os
+
+    from bayesnsi.evidence.sampling import _interrupt_after
+
+    reached_end = False
+    with pytest.raises(KeyboardInterrupt):
+        with _interrupt_after():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)  # a pending signal would be delivered here
+            reached_end = True
+    assert reached_end
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

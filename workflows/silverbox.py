@@ -92,9 +92,13 @@ def run_loops(config_path=CONFIG, starts=STARTS, quiet=False) -> dict:
 
 
 def table(results: dict) -> str:
-    """Markdown comparison table (mV), ours before/after each loop and the references."""
+    """Markdown comparison table, ours before/after each loop and the references.
+
+    Each cell is the RMS error [mV] with the NRMSE in parentheses: open-loop reconstruction on the
+    estimation data, closed-loop simulation on the test sets (published figures: RMS only).
+    """
     names = [t["name"] for t in results["loops"][0]["before"]["tests"]]
-    head = "| model | estimation NRMSE (open loop) | " + " | ".join(f"{n} [mV]" for n in names) + " |"
+    head = "| model | estimation, open loop [mV] (NRMSE) | " + " | ".join(f"{n} [mV] (NRMSE)" for n in names) + " |"
     lines = [head, "|" + " --- |" * (2 + len(names))]
     for loop in results["loops"]:
         for when in ("before", "after"):
@@ -102,8 +106,11 @@ def table(results: dict) -> str:
             label = f"loop from {loop['start']}, {when}"
             if when == "after":
                 label += ": " + (", ".join(loop["final_terms"]) or "linear")
-            cells = [f"{t['rmse_mv']:.2f}" if t["rmse_mv"] is not None else "failed" for t in errs["tests"]]
-            lines.append(f"| {label} | {errs['estimation_nrmse']:.4f} | " + " | ".join(cells) + " |")
+            cells = [
+                f"{t['rmse_mv']:.2f} ({t['nrmse']:.4f})" if t["rmse_mv"] is not None else "failed" for t in errs["tests"]
+            ]
+            estimation = f"{errs['estimation_rmse_mv']:.2f} ({errs['estimation_nrmse']:.4f})"
+            lines.append(f"| {label} | {estimation} | " + " | ".join(cells) + " |")
     for name, values in REFERENCES.items():
         lines.append(f"| {name} | - | " + " | ".join(f"{v:.2f}" for v in values) + " |")
     return "\n".join(lines) + "\n"

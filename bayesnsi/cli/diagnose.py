@@ -29,6 +29,12 @@ def add_parser(sub) -> None:
     p.add_argument("--start", default=None, help="candidate to start from (default: the selected one)")
     p.add_argument("--max-steps", type=int, default=3, help="most effects to add (default 3)")
     p.add_argument("--threshold", type=float, default=float(np.log(100.0)), help="log Bayes factor to accept (default log 100)")
+    p.add_argument(
+        "--screen",
+        type=int,
+        default=6,
+        help="re-identify only the N effects ranked best by the frequency-domain screen (default 6; 0: every effect)",
+    )
     p.set_defaults(run=run)
 
 
@@ -56,6 +62,7 @@ def run(args) -> int:
         },
         threshold=args.threshold,
         max_steps=args.max_steps,
+        screen=args.screen or None,
         seed=config.seed,
         jobs=getattr(args, "jobs", 1),
         scheduler=getattr(args, "scheduler", None),
@@ -76,6 +83,8 @@ def run(args) -> int:
                 "bayes_factor_log": step.log_bayes_factor,
                 "nrmse_before": step.nrmse_before,
                 "nrmse_after": step.nrmse_after,
+                "closed_loop_nrmse_before": step.closed_loop_nrmse_before,
+                "closed_loop_nrmse_after": step.closed_loop_nrmse_after,
             }
         )
         progress(f"{'added' if step.accepted else 'rejected'} {step.term.name}: {step.reason}", args.quiet)
@@ -115,7 +124,9 @@ def _loop_section(report, signals, loop, payload):
         "Each row is the best effect of a step; it is added only if the log Bayes factor (Laplace, on the "
         "residual named in the loop settings) exceeds the threshold, its quality index |Im|/|Re| is small and its "
         "coefficient keeps sign and size on both record halves. The credible interval ci95 is sampled (emcee) "
-        "for the effects that pass; rejected ones show none."
+        "for the effects that pass; rejected ones show none. nrmse_before/after: open-loop reconstruction of the "
+        "estimation data; closed_loop_nrmse_before/after: closed-loop simulation of it (NaN where the simulation "
+        "diverges, e.g. chaotic responses, SPEC 10)."
     )
     rows = payload["loop"] + payload["loop_rejected"]
     if rows:
@@ -141,5 +152,9 @@ def _loop_section(report, signals, loop, payload):
     for step in loop.steps:
         if step.accepted:
             fig = plot_effect_force(step, signals)
-            fig.set_label(f"Force of the added effect {step.term.name} against displacement and velocity at its location")
+            fig.set_label(
+                f"Restoring-force view at the location of {step.term.name}: the residual of the model before the "
+                "step as a force (top), and after it the residual (blue), the effect's force (black) and their sum "
+                "(red), against displacement and velocity"
+            )
             blocks.append(fig)

@@ -14,16 +14,21 @@ __all__ = ["add_parser", "run", "case_config"]
 
 def add_parser(sub) -> None:
     """Register the subcommand."""
-    from ..simulate import CASES
+    from ..simulate import CASES, UNDECLARED_CASES
 
     p = sub.add_parser(
         "simulate",
-        help="simulate a reference case (SPEC 8) to CSV + config",
+        help="simulate a reference case (SPEC 8) or an undeclared-effect case (SPEC 7) to CSV + config",
         description="Simulate a reference case of the paper and write FILE.csv and, beside it, FILE.toml: "
-        "an experiment config with the paper's candidate set, ready for `bayesnsi identify`/`select`.",
-        epilog="example: bayesnsi simulate two-dof --seed 3 --noise 2 --out data/two_dof.csv",
+        "an experiment config with the paper's candidate set, ready for `bayesnsi identify`/`select`. "
+        "The undeclared-effect cases (" + ", ".join(sorted(UNDECLARED_CASES)) + ") hold an effect that the "
+        "config's one candidate does not declare (or, for the controls, nothing missing): data to try "
+        "`bayesnsi diagnose` on; the config's [meta] names what is missing.",
+        epilog="examples: bayesnsi simulate two-dof --seed 3 --noise 2 --out data/two_dof.csv\n"
+        "          bayesnsi simulate coulomb-dof2 --seed 1 --out data/coulomb.csv && "
+        "bayesnsi diagnose data/coulomb.toml --out out/loop",
     )
-    p.add_argument("case", choices=sorted(CASES), help="reference case")
+    p.add_argument("case", choices=sorted(CASES) + sorted(UNDECLARED_CASES), help="reference or undeclared-effect case")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--noise", type=float, default=None, help="output noise in %% of each signal's std")
     p.add_argument("--duration", type=float, default=None, help="record length [s] (default: the paper's)")
@@ -78,10 +83,24 @@ def run(args) -> int:
         if path.exists() and not args.force:
             raise InputDataError(f"{path} exists; pass --force to overwrite it or choose another --out")
     csv_path.parent.mkdir(parents=True, exist_ok=True)
+    from ..simulate import UNDECLARED_CASES, undeclared_case
+
     kwargs = {} if args.duration is None else {"duration": args.duration}
     progress(f"simulating {args.case} (seed {args.seed}) ...", args.quiet)
-    case = simulate_case(args.case, seed=args.seed, noise_percent=args.noise, **kwargs)
+    missing = None
+    if args.case in UNDECLARED_CASES:
+        noise = 2.0 if args.noise is None else args.noise
+        undeclared = undeclared_case(args.case, seed=args.seed, noise_percent=noise, **kwargs)
+        case, missing = undeclared.reference, undeclared.missing
+    else:
+        case = simulate_case(args.case, seed=args.seed, noise_percent=args.noise, **kwargs)
     data_table = write_signals_csv(csv_path, case.signals)
-    atomic_write_text(toml_path, dump_config(case_config(case, data_table)))
+    config = case_config(case, data_table)
+    if missing is not None:
+        config["meta"]["missing"] = [
+            {"type": e.effect_type, "expr": e.term.expr.text, "at": list(e.term.at), "coefficient": e.coefficient}
+            for e in missing
+        ]
+    atomic_write_text(toml_path, dump_config(config))
     progress(f"wrote {csv_path} ({case.signals.n_samples} samples) and {toml_path}", args.quiet)
     return 0

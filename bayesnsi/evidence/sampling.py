@@ -11,7 +11,10 @@ Array convention: posterior draws are ``(chain, draw, ...)`` with one chain per 
 
 from __future__ import annotations
 
+import signal
+import threading
 from collections.abc import Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -243,9 +246,10 @@ def _sample(
     sampler = emcee.EnsembleSampler(
         n_walkers, ndim, target.log_posterior, vectorize=True, moves=_moves(moves, mode, cov)
     )
-    sampler.run_mcmc(
-        emcee.State(p0, random_state=random_state), n_steps, progress=False, skip_initial_state_check=True
-    )
+    with _interrupt_after():
+        sampler.run_mcmc(
+            emcee.State(p0, random_state=random_state), n_steps, progress=False, skip_initial_state_check=True
+        )
     chain = sampler.get_chain(discard=n_burn)  # (draw, walker, param)
     log_post = sampler.get_log_prob(discard=n_burn)  # (draw, walker)
     tau, reliable = _autocorr(chain)
@@ -271,6 +275,30 @@ def _sample(
             "moves": moves,
         },
     )
+
+
+@contextmanager
+def _interrupt_after():
+    """Hold a Ctrl-C (SIGINT) until the block ends, then raise KeyboardInterrupt.
+
+    emcee prints a traceback of any exception raised inside the log-probability function before
+    re-raising it, so a Ctrl-C that lands there would spill a traceback on the user's terminal.
+    A run takes about half a second at the default settings, so deferring the interrupt to its
+    end costs nothing noticeable. Only on the main thread, and only while Python's default
+    handler is installed (a caller's own handler is left alone).
+    """
+    main_thread = threading.current_thread() is threading.main_thread()
+    if not main_thread or signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        yield
+        return
+    received = []
+    signal.signal(signal.SIGINT, lambda signum, frame: received.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    if received:
+        raise KeyboardInterrupt
 
 
 def _moves(kind: str, mode: np.ndarray, cov: np.ndarray):

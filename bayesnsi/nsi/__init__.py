@@ -1,6 +1,6 @@
 """Nonlinear subspace identification (SPEC sections 2-5); numpy/scipy only."""
 
-from .identify import NSIResult, extended_input, identify, select_order, stabilization
+from .identify import HankelCorrelations, NSIResult, extended_input, hankel_correlations, identify, select_order, stabilization
 from .physics import CoefficientEstimate, Mode, coefficient_spectrum, split_poles
 from .reconstruct import (
     AffineReconstruction,
@@ -16,6 +16,8 @@ from .tables import coefficients_table, modes_table
 
 __all__ = [
     "identify",
+    "hankel_correlations",
+    "HankelCorrelations",
     "NSIResult",
     "extended_input",
     "select_order",

@@ -13,7 +13,15 @@ from __future__ import annotations
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-__all__ = ["ScaledStack", "hankel_gram", "gram_factor", "lq_factor", "grouped_order"]
+__all__ = [
+    "ScaledStack",
+    "extend_lagged_products",
+    "grouped_order",
+    "gram_factor",
+    "hankel_gram",
+    "lagged_products",
+    "lq_factor",
+]
 
 _CHUNK = 4096
 
@@ -67,7 +75,67 @@ def _as_stack(z) -> ScaledStack:
     return ScaledStack(z, np.zeros((len(z), 0)))
 
 
-def hankel_gram(z, block_rows: int) -> np.ndarray:
+def lagged_products(z, n_lags: int) -> np.ndarray:
+    """``T_d = Σ_{t<j} z_t z_{t+d}ᵀ`` for ``d < n_lags``, ``j = N - n_lags + 1``; shape (n_lags, k, k).
+
+    One pass over the data in chunks (O(n_lags k² N) flops, memory independent of N).
+    """
+    stack = _as_stack(z)
+    n, k = stack.shape
+    j = n - n_lags + 1
+    base = np.zeros((k, n_lags * k))
+    for start in range(0, j, _CHUNK):
+        stop = min(start + _CHUNK, j)
+        chunk = stack.rows(start, stop + n_lags - 1)
+        block = sliding_window_view(chunk, (n_lags, k))[:, 0].reshape(stop - start, n_lags * k)
+        base += chunk[: stop - start].T @ block
+    return base.reshape(k, n_lags, k).transpose(1, 0, 2)
+
+
+def extend_lagged_products(lagged: np.ndarray, z, old_channels: np.ndarray) -> np.ndarray:
+    """Lagged products of ``z`` from those of a subset of its channels (O(n_lags k N) per new channel).
+
+    Parameters
+    ----------
+    lagged : ndarray, shape (n_lags, k0, k0)
+        :func:`lagged_products` of the channels ``old_channels`` of ``z`` (same scaling).
+    z : ndarray, shape (N, k), or ScaledStack
+    old_channels : ndarray of int, shape (k0,)
+        Where the old channels sit among the k channels of ``z``.
+
+    Returns
+    -------
+    ndarray, shape (n_lags, k, k)
+        Equal to ``lagged_products(z, n_lags)``; only the products that involve a new channel
+        are computed (the closing-the-loop search adds one effect at a time to a fixed model).
+    """
+    stack = _as_stack(z)
+    n, k = stack.shape
+    n_lags = lagged.shape[0]
+    j = n - n_lags + 1
+    new = np.setdiff1d(np.arange(k), old_channels)
+    out = np.zeros((n_lags, k, k))
+    out[np.ix_(np.arange(n_lags), old_channels, old_channels)] = lagged
+    if not len(new):
+        return out
+    leading = np.zeros((n_lags, len(new), k))  # Σ_t z_t[new] z_{t+d}ᵀ
+    trailing = np.zeros((n_lags, k, len(new)))  # Σ_t z_t z_{t+d}[new]ᵀ
+    for start in range(0, j, _CHUNK):
+        stop = min(start + _CHUNK, j)
+        size = stop - start
+        chunk = stack.rows(start, stop + n_lags - 1)
+        head = np.ascontiguousarray(chunk[:size, new])
+        body = chunk[:size]
+        for d in range(n_lags):
+            lagged_rows = chunk[d : d + size]
+            leading[d] += head.T @ lagged_rows
+            trailing[d] += body.T @ lagged_rows[:, new]
+    out[:, new, :] = leading
+    out[:, :, new] = trailing
+    return out
+
+
+def hankel_gram(z, block_rows: int, lagged: np.ndarray | None = None) -> np.ndarray:
     """Gram matrix of the interleaved block Hankel matrix from lagged correlations.
 
     Parameters
@@ -76,6 +144,8 @@ def hankel_gram(z, block_rows: int) -> np.ndarray:
         Stacked signals ``[u, y]``.
     block_rows : int
         i; the Hankel matrix has 2i block rows and ``j = n_samples - 2i + 1`` columns.
+    lagged : ndarray, shape (2i, k, k), optional
+        :func:`lagged_products` of ``z`` when already computed.
 
     Returns
     -------
@@ -85,21 +155,15 @@ def hankel_gram(z, block_rows: int) -> np.ndarray:
     Notes
     -----
     One pass over the data in chunks computes ``T_d = Σ_{t<j} z_t z_{t+d}ᵀ`` for all lags
-    ``d < 2i`` (O(i k² N) flops, memory independent of N: the scaled rows are built chunk by
-    chunk); block ``(r, r+d)`` of the Gram matrix then follows exactly from
+    ``d < 2i`` (:func:`lagged_products`; O(i k² N) flops, memory independent of N: the scaled
+    rows are built chunk by chunk); block ``(r, r+d)`` of the Gram matrix then follows exactly from
     ``S_{r,d} = T_d + Σ_{s<r} (z_{s+j} z_{s+j+d}ᵀ - z_s z_{s+d}ᵀ)`` (O(i³ k²), vectorised).
     """
     stack = _as_stack(z)
     n, k = stack.shape
     two_i = 2 * block_rows
     j = n - two_i + 1
-    base = np.zeros((k, two_i * k))
-    for start in range(0, j, _CHUNK):
-        stop = min(start + _CHUNK, j)
-        chunk = stack.rows(start, stop + two_i - 1)
-        block = sliding_window_view(chunk, (two_i, k))[:, 0].reshape(stop - start, two_i * k)
-        base += chunk[: stop - start].T @ block
-    base = base.reshape(k, two_i, k).transpose(1, 0, 2)  # base[d] = T_d, (k, k)
+    base = lagged_products(stack, two_i) if lagged is None else lagged
     # Edge corrections for every (r, d) at once: S_{r,d} = T_d + Σ_{s<r} (tail_s,d - head_s,d).
     head_rows = stack.rows(0, 2 * two_i - 2)
     tail_rows = stack.rows(j, j + 2 * two_i - 2)
@@ -117,17 +181,18 @@ def hankel_gram(z, block_rows: int) -> np.ndarray:
     return full.transpose(0, 2, 1, 3).reshape(two_i * k, two_i * k)
 
 
-def gram_factor(z, block_rows: int, n_inputs: int) -> np.ndarray:
+def gram_factor(z, block_rows: int, n_inputs: int, lagged: np.ndarray | None = None) -> np.ndarray:
     """Square-root factor of the grouped, normalised Hankel Gram matrix (fast route).
 
     Returns lower-triangular ``L`` with ``L Lᵀ = H Hᵀ / j``, rows ``[U_f; U_p; Y_p; Y_f]``.
     A tiny diagonal load (relative 1e-12, raised until Cholesky succeeds) guards against rows
-    that are exactly dependent, e.g. an input that is a delayed copy of another.
+    that are exactly dependent, e.g. an input that is a delayed copy of another. ``lagged``:
+    :func:`lagged_products` of ``z`` with ``2i`` lags, when already computed.
     """
     n, k = z.shape
     j = n - 2 * block_rows + 1
     perm = grouped_order(block_rows, n_inputs, k - n_inputs)
-    gram = hankel_gram(z, block_rows)[np.ix_(perm, perm)] / j
+    gram = hankel_gram(z, block_rows, lagged)[np.ix_(perm, perm)] / j
     scale = np.trace(gram) / len(gram)
     load = 0.0
     for exponent in range(-14, -5):

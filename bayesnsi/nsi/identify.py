@@ -29,7 +29,15 @@ from ._output_error import refine_output_error, refine_poles as _refine_poles
 from .physics import CoefficientEstimate, Mode, coefficient_spectrum, default_band, identification_routes, split_poles
 from .statespace import StateSpaceModel
 
-__all__ = ["NSIResult", "identify", "extended_input", "select_order", "stabilization"]
+__all__ = [
+    "HankelCorrelations",
+    "NSIResult",
+    "extended_input",
+    "hankel_correlations",
+    "identify",
+    "select_order",
+    "stabilization",
+]
 
 _BAND_POINTS = 512
 
@@ -335,6 +343,82 @@ def _input_output_matrices(
     return B, C, D
 
 
+@dataclass(frozen=True)
+class HankelCorrelations:
+    """Lagged products of one candidate's scaled ``[u, y]``, reusable by candidates that add terms.
+
+    Made by :func:`hankel_correlations`; passed to :func:`identify` (``correlations=``) for a
+    candidate whose terms start with these, it saves the products among the shared channels:
+    only those of the added terms' inputs are computed (:func:`_hankel.extend_lagged_products`).
+    The closing-the-loop search identifies one fixed model plus each effect in turn: on the beam
+    (8 outputs, i = 40) this takes the Hankel products of an identification from 0.16 s to
+    about 0.02 s.
+
+    Attributes
+    ----------
+    term_names : tuple of str
+    key : tuple
+        ``(n_samples, block_rows, input_hold, velocity_method, upsample)`` they were built with.
+    scales : ndarray, shape (k,)
+        Channel scales of ``[u, y]``.
+    lagged : ndarray, shape (2i, k, k)
+    """
+
+    term_names: tuple[str, ...]
+    key: tuple
+    scales: np.ndarray
+    lagged: np.ndarray
+
+    def extended(self, terms, key, stack) -> np.ndarray | None:
+        """Lagged products of ``stack`` (the channels of ``terms``) or None when these do not apply.
+
+        They apply when ``terms`` start with this candidate's terms, the settings ``key`` are
+        the same and the shared channels have the same scales.
+        """
+        n_old_terms = len(self.term_names)
+        if key != self.key or tuple(t.name for t in terms[:n_old_terms]) != self.term_names:
+            return None
+        n_outputs = stack.y.shape[1]
+        scales = np.concatenate([stack.u_scale, stack.y_scale])
+        n_shared_inputs = len(self.scales) - n_outputs
+        old = np.concatenate([np.arange(n_shared_inputs), len(scales) - n_outputs + np.arange(n_outputs)])
+        if len(old) != len(self.scales) or not np.array_equal(scales[old], self.scales):
+            return None
+        return _hankel.extend_lagged_products(self.lagged, stack, old)
+
+
+def hankel_correlations(
+    signals: Signals,
+    candidate=None,
+    *,
+    block_rows: int = 40,
+    velocity_method: str = "fourth",
+    input_hold: str = "auto",
+    upsample: int = 1,
+) -> HankelCorrelations:
+    """Lagged products of ``candidate``'s scaled ``[u, y]`` for reuse by :func:`identify`.
+
+    Parameters are those of :func:`identify` (the others do not change the products).
+    """
+    cand = _as_terms(candidate)
+    work = _working_signals(signals, int(upsample))
+    hold = resolve_input_hold(input_hold, cand.terms)
+    u = extended_input(work, cand.terms, velocity_method, hold)
+    y = np.asarray(work.displacement)
+    check_block_rows(len(u), block_rows, u.shape[1] + y.shape[1])
+    stack = _hankel.ScaledStack(u, y, u.std(axis=0), y.std(axis=0))
+    return HankelCorrelations(
+        term_names=tuple(t.name for t in cand.terms),
+        key=_correlation_key(len(u), block_rows, hold, velocity_method, upsample),
+        scales=np.concatenate([stack.u_scale, stack.y_scale]),
+        lagged=_hankel.lagged_products(stack, 2 * block_rows),
+    )
+
+
+def _correlation_key(n_samples, block_rows, input_hold, velocity_method, upsample) -> tuple:
+    return (int(n_samples), int(block_rows), input_hold, velocity_method, int(upsample))
+
+
 def identify(
     signals: Signals,
     candidate=None,
@@ -351,6 +435,7 @@ def identify(
     upsample: int = 1,
     refine_poles: tuple[float, float] | None = None,
     c_method: str = "subspace",
+    correlations: HankelCorrelations | None = None,
 ) -> NSIResult:
     """Identify one candidate model by nonlinear subspace identification (SPEC sections 2-4).
 
@@ -432,6 +517,11 @@ def identify(
         unchanged: A is kept). Adding ``refine_poles=(1, 15)`` there helps only on long records
         (100 s: largest damping error 3.2 → 2.4 %; 10 s: mean largest damping error 4.4 → 10.2 %).
         Cost: + 5 s on the beam (1e5 samples, n = 32).
+    correlations : HankelCorrelations, optional
+        Lagged products of a candidate whose terms this one's start with
+        (:func:`hankel_correlations`, same data and settings): only the products of the added
+        terms' inputs are computed. The result is the same (to rounding); ignored when they do
+        not apply or with ``route="lq"``.
 
     Returns
     -------
@@ -472,8 +562,15 @@ def identify(
 
     u_scale, y_scale = u.std(axis=0), y.std(axis=0)
     z = _hankel.ScaledStack(u, y, u_scale, y_scale)
-    factor_fn = _hankel.gram_factor if route == "correlation" else _hankel.lq_factor
-    data = _subspace.SubspaceData(factor_fn(z, block_rows, n_in), block_rows, n_in, n_out)
+    if route == "correlation":
+        lagged = None
+        if correlations is not None:
+            key = _correlation_key(len(u), block_rows, input_hold, velocity_method, upsample)
+            lagged = correlations.extended(cand.terms, key, z)
+        factor = _hankel.gram_factor(z, block_rows, n_in, lagged)
+    else:
+        factor = _hankel.lq_factor(z, block_rows, n_in)
+    data = _subspace.SubspaceData(factor, block_rows, n_in, n_out)
     left, singular_values = _subspace.oblique_svd(data)
 
     limit = block_rows * n_out - 1

@@ -107,7 +107,38 @@ def plot_traces(posterior, max_params: int = 4):
 
 
 def plot_effect_force(step, signals, max_points: int = 4000):
-    """Restoring-force view of an added effect: λ·n(x, v) against x and v at its location (SPEC 7.5)."""
+    """Restoring-force view of an added effect at its location, before and after (SPEC 7.5).
+
+    With the step's :class:`~bayesnsi.diagnose.forces.ResidualForce` (accepted steps of
+    :func:`bayesnsi.diagnose.close_the_loop`): top row, the residual of the model without the
+    effect as a force at the location; bottom row, the residual after (blue), the effect's force
+    λ·n through the same filter (black) and their sum, the component-plus-residual (red),
+    against the displacement and the velocity at the location. Without it, λ·n(x, v) alone.
+    """
+    rf = getattr(step, "residual_force", None)
+    if rf is None:
+        return _plot_effect_curve(step, signals, max_points)
+    pick = np.linspace(0, len(rf.after) - 1, min(max_points, len(rf.after))).astype(int)
+    pair = len(rf.location) == 2
+    labels = ("relative displacement", "relative velocity") if pair else (f"x{rf.location[0]}", f"v{rf.location[0]}")
+    fig, axes = plt.subplots(2, 2, figsize=(8.0, 6.0), layout="constrained", sharey="row")
+    for col, abscissa in enumerate((rf.displacement, rf.velocity)):
+        top, bottom = axes[0, col], axes[1, col]
+        top.plot(abscissa[pick], rf.before[pick], ".", ms=2, color="0.45")
+        bottom.plot(abscissa[pick], rf.component_plus_residual[pick], ".", ms=2, color="C3", alpha=0.5,
+                    label="effect + residual after")
+        bottom.plot(abscissa[pick], rf.effect[pick], ".", ms=1.5, color="k", label="effect λ·n (filtered)")
+        bottom.plot(abscissa[pick], rf.after[pick], ".", ms=2, color="C0", alpha=0.6, label="residual after")
+        bottom.set_xlabel(labels[col])
+    axes[0, 0].set_ylabel("residual force before [N]")
+    axes[1, 0].set_ylabel("force after [N]")
+    axes[1, 0].legend(fontsize=7, markerscale=4, loc="best")
+    fig.suptitle(f"{step.term.name}: λ = {step.coefficient:.4g}; residual as a force at the location", fontsize=10)
+    return fig
+
+
+def _plot_effect_curve(step, signals, max_points):
+    """λ·n(x, v) of an effect against x and v at its location."""
     x, v = signals.state_rows(step.term.expr.displacement_dofs, step.term.expr.velocity_dofs)
     force = step.coefficient * step.term.evaluate(x, v)
     j = step.term.at[0]

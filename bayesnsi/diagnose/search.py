@@ -206,6 +206,17 @@ def _score_task(context, kind, term):
     return _score_one(context[0], context[1], kind, term, context[2], context[3], context[4])
 
 
+def _new_effects(candidate, effects, exclude=()) -> list:
+    """The effects not in ``candidate`` whose (base type, location) is not in ``exclude``."""
+    present = {t.name for t in candidate.terms}
+    exclude = set(exclude)
+    return [
+        (kind, term)
+        for kind, term in effects
+        if term.name not in present and (effect_base_type(kind), tuple(term.at)) not in exclude
+    ]
+
+
 def score_effects(signals, candidate, effects, nsi_options, evidence_options, exclude=(), jobs: int = 1, scheduler=None):
     """Identify ``candidate + effect`` for every effect and score it by Laplace log-evidence.
 
@@ -227,13 +238,7 @@ def score_effects(signals, candidate, effects, nsi_options, evidence_options, ex
     """
     from ..run import dispatch
 
-    present = {t.name for t in candidate.terms}
-    exclude = set(exclude)
-    tasks = [
-        (kind, term)
-        for kind, term in effects
-        if term.name not in present and (effect_base_type(kind), tuple(term.at)) not in exclude
-    ]
+    tasks = _new_effects(candidate, effects, exclude)
     scored = [None] * len(tasks)
     context = (signals, candidate, nsi_options, evidence_options, _shared_correlations(signals, candidate, nsi_options))
     for index, value in dispatch(_score_task, tasks, context=context, jobs=jobs, scheduler=scheduler):
@@ -413,13 +418,7 @@ def _screened(signals, candidate, effects, nsi_options, exclude, screen):
     (screened out, not re-identified), in screen order.
     """
     count, max_frequency_hz = screen
-    present = {t.name for t in candidate.terms}
-    exclude = set(exclude)
-    effects = [
-        (kind, term)
-        for kind, term in effects
-        if term.name not in present and (effect_base_type(kind), tuple(term.at)) not in exclude
-    ]
+    effects = _new_effects(candidate, effects, exclude)
     if len(effects) <= count:
         return effects, []
     try:

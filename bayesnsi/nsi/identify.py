@@ -351,8 +351,8 @@ class HankelCorrelations:
     candidate whose terms start with these, it saves the products among the shared channels:
     only those of the added terms' inputs are computed (:func:`_hankel.extend_lagged_products`).
     The closing-the-loop search identifies one fixed model plus each effect in turn: on the beam
-    (8 outputs, i = 40) this takes the Hankel products of an identification from 0.16 s to
-    about 0.02 s.
+    (1e5 samples, 8 outputs + 4 inputs, i = 40) the lagged products of an identification take
+    0.035 s instead of 0.12-0.13 s (two runs on this 2-core machine).
 
     Attributes
     ----------

@@ -93,3 +93,20 @@ def test_twin_innovations_are_white():
     e = e - e.mean()
     acf = np.array([np.dot(e[k:], e[:-k]) / np.dot(e, e) for k in range(1, 6)])
     assert np.all(np.abs(acf) < 0.05), acf
+
+
+def test_prediction_error_on_an_upsampled_record_with_friction():
+    # An upsampled record's noise is band-limited to the data's Nyquist frequency, so the
+    # displacement-velocity consistency fit meets empty spectral bins: it must fall back to the
+    # difference estimate instead of failing (it raised LinAlgError, with LAPACK messages).
+    # Reference: the simulated coefficients of the undeclared-effect case (quadratic damping 20,
+    # Coulomb 1 N at DOF 2).
+    from bayesnsi.nsi._eiv import measured_noise_std
+    from bayesnsi.preprocess import upsample
+    from bayesnsi.simulate.undeclared import undeclared_case
+
+    case = undeclared_case("coulomb-dof2", seed=0, noise_percent=2.0)
+    disp, vel = measured_noise_std(upsample(case.signals, 2))
+    assert np.all(np.isfinite(disp)) and np.all(disp > 0) and np.all(np.isfinite(vel))
+    result = _identify(case.signals, case.truth, block_rows=120, order=4, upsample=2, bd_method="prediction-error")
+    np.testing.assert_allclose(result.coefficient_values, [20.0, 1.0], rtol=0.1)

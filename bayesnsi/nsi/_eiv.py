@@ -135,15 +135,34 @@ def measured_noise_std(signals: Signals):
     variance = density[1:-1] * signals.fs / 2.0  # per-sample variance density: σ_v² + ω² σ_x²
     design = np.column_stack([np.ones(len(variance)), (2.0 * np.pi * freqs[1:-1]) ** 2])
     for c in range(x.shape[1]):
-        target = variance[:, c]
-        coef = np.linalg.lstsq(design / target[:, None], np.ones(len(target)), rcond=None)[0]
-        for _ in range(30):  # relative least squares: weights from the current fit
-            fitted = np.maximum(design @ coef, np.finfo(float).tiny)
-            coef = np.linalg.lstsq(design / fitted[:, None], target / fitted, rcond=None)[0]
-        if np.all(np.isfinite(coef)) and coef[1] > 0:
+        coef = _relative_line_fit(design, variance[:, c])
+        if coef is not None and coef[1] > 0:
             disp[c] = np.sqrt(coef[1])
             vel[c] = np.sqrt(max(coef[0], 0.0)) or 1e-6 * v[:, c].std()
     return disp, vel
+
+
+def _relative_line_fit(design: np.ndarray, target: np.ndarray, passes: int = 30):
+    """Coefficients minimising Σ ((design @ c - target) / fit)², or None when the fit fails.
+
+    It fails on a spectrum with (numerically) empty bins, e.g. a record interpolated onto a finer
+    grid (``identify(upsample=R)``), whose noise is band-limited to the data's Nyquist frequency.
+    """
+    with np.errstate(all="ignore"):
+        scaled = design / target[:, None]
+        if not np.all(np.isfinite(scaled)) or not np.all(target > 0):
+            return None
+        try:
+            coef = np.linalg.lstsq(scaled, np.ones(len(target)), rcond=None)[0]
+            for _ in range(passes):  # relative least squares: weights from the current fit
+                fitted = np.maximum(design @ coef, np.finfo(float).tiny)
+                lhs, rhs = design / fitted[:, None], target / fitted
+                if not (np.all(np.isfinite(lhs)) and np.all(np.isfinite(rhs))):
+                    return None
+                coef = np.linalg.lstsq(lhs, rhs, rcond=None)[0]
+        except np.linalg.LinAlgError:
+            return None
+    return coef if np.all(np.isfinite(coef)) else None
 
 
 def _channel_noise(signals: Signals, noise_std, velocity_method: str):

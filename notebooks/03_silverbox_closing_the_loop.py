@@ -182,9 +182,10 @@ if HAVE_DATA:
 # %% [markdown]
 # ## 4. Close the loop from the linear model
 #
-# `close_the_loop` adds, in turn, each effect of a dictionary (x², x|x|, x³, sign(v), v|v|,
-# v³, x²·sign(v) and clearances at the measured DOF) to the current model, identifies it by NSI
-# and scores it by its Laplace log-evidence; the best is checked with the full evidence and kept
+# `close_the_loop` ranks each effect of a dictionary (x², x|x|, x³, sign(v), v|v|, v³,
+# x²·sign(v) and clearances at the measured DOF) by a frequency-domain screen (how much of the
+# output its input explains), adds the best six in turn to the current model, identifies each by
+# NSI and scores it by its Laplace log-evidence; the best is checked with the full evidence and kept
 # only if the log Bayes factor exceeds log 100, its quality index |Im λ|/|Re λ| is below 0.3 and
 # its coefficient keeps sign and size on both halves of the record. It repeats from the enlarged
 # model (up to three effects here). The test segments play no part in it.
@@ -218,6 +219,8 @@ if HAVE_DATA:
                 "log Bayes factor": step.log_bayes_factor,
                 "NRMSE before": step.nrmse_before,
                 "NRMSE after": step.nrmse_after,
+                "closed-loop NRMSE before": step.closed_loop_nrmse_before,
+                "closed-loop NRMSE after": step.closed_loop_nrmse_after,
             }
             for step in loop.steps
         ]
@@ -226,7 +229,8 @@ if HAVE_DATA:
     display(steps)
 
 # %% [markdown]
-# The Laplace scores of the first step, best first (log-evidence relative to the best effect):
+# The Laplace scores of the first step, best first (log-evidence relative to the best effect;
+# NaN for the effects the screen left out):
 
 # %%
 if HAVE_DATA:
@@ -239,9 +243,11 @@ if HAVE_DATA:
 # ## 5. Before and after
 #
 # Closed-loop errors on the test segments of the starting (linear) and the final model, beside
-# the hand-picked cubic model and the published networks, then the restoring force of each
-# added effect and the closed-loop error on the full arrow segment (the amplitude grows with
-# time, beyond the range of the estimation data near the end).
+# the hand-picked cubic model and the published networks, then for each added effect the
+# residual of the model before and after it as a force against displacement and velocity (a
+# restoring-force view: before, what the linear model could not absorb; after, a flat cloud
+# about zero) and the closed-loop error on the full arrow segment (the amplitude grows with time,
+# beyond the range of the estimation data near the end).
 
 # %%
 if HAVE_DATA:

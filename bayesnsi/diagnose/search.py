@@ -565,7 +565,7 @@ def close_the_loop(
         warnings.simplefilter("ignore", BayesNSIWarning)
         current = identify(signals, candidate, **nsi_options)
     start = current
-    current_z = _laplace(current, signals, evidence_options)[0]
+    current_z, current_nrmse = _laplace(current, signals, evidence_options)  # NRMSE NaN: not known yet
     guards = (threshold, max_imag_ratio, stability_factor)
     steps, all_scores, added = [], [], []
     half_cache = {}  # Hankel products of the record halves, per base model (stability guard)
@@ -578,7 +578,7 @@ def close_the_loop(
         all_scores.append([(e.kind, e.term, e.score) for e in scored])
         if not scored or not np.isfinite(scored[0][2]):
             break
-        nrmse_before = current.reconstruct(signals).nrmse
+        nrmse_before = current_nrmse if np.isfinite(current_nrmse) else current.reconstruct(signals).nrmse
         accepted, pending = None, None
         for kind, term, score, trial, nrmse_after in scored[:n_tries]:
             if not np.isfinite(score):
@@ -596,14 +596,15 @@ def close_the_loop(
         if accepted is not None:
             step, trial, ev = accepted
             steps[next(i for i, s in enumerate(steps) if s is step)] = step = _documented(step, current, trial, signals)
-            current = trial
-            current_z = ev.log_evidence
+            current, current_z, current_nrmse = trial, ev.log_evidence, step.nrmse_after
             added.append((effect_base_type(step.effect_type), tuple(step.term.at)))
+            kept = current
             current, current_z = _prune(current, current_z, [step.term], steps, signals, nsi_options, evidence_options, guards)
             if exchange:
                 current, current_z = _exchange(
                     current, current_z, [step.term], steps, effects, signals, nsi_options, evidence_options, seeds, guards, n_tries
                 )
+            current_nrmse = current_nrmse if current is kept else np.nan
             continue
         if not (lookahead and pending is not None and len(added) + 2 <= max_steps):
             break
@@ -616,16 +617,17 @@ def close_the_loop(
         first = _documented(first, current, pending[1], signals)
         second_index = next(i for i, s in enumerate(steps) if s is second)
         steps[second_index] = second = _documented(second, pending[1], pair_model, signals)
-        current = pair_model
-        current_z = ev.log_evidence
+        current, current_z, current_nrmse = pair_model, ev.log_evidence, second.nrmse_after
         steps[next(i for i, s in enumerate(steps) if s is pending[0])] = first
         added += [(effect_base_type(s.effect_type), tuple(s.term.at)) for s in (first, second)]
         new_terms = [first.term, second.term]
+        kept = current
         current, current_z = _prune(current, current_z, new_terms, steps, signals, nsi_options, evidence_options, guards)
         if exchange:
             current, current_z = _exchange(
                 current, current_z, new_terms, steps, effects, signals, nsi_options, evidence_options, seeds, guards, n_tries
             )
+        current_nrmse = current_nrmse if current is kept else np.nan
     final_nsi = dict(nsi_options)
     if refine_final and int(nsi_options.get("upsample", 1)) == 1 and any(t.expr.switches_with_velocity for t in current.terms):
         fine = {**nsi_options, "upsample": int(refine_final), "block_rows": int(nsi_options.get("block_rows", 40)) * int(refine_final)}

@@ -43,10 +43,10 @@ class ResidualForce:
         At the location (relative, ``x_j - x_k``, for an element).
     before, after : ndarray, shape (N,)
         Restoring force equivalent to the open-loop residual of the model without / with the
-        effect [N] (minus the force that would produce the residual: the effect acts on the
-        structure as ``-λ n``).
+        effect, in the units of the measured force (minus the force that would produce the
+        residual: the effect acts on the structure as ``-λ n``).
     effect : ndarray, shape (N,)
-        The added effect's force ``λ n(x, v)`` through the same filter [N].
+        The added effect's force ``λ n(x, v)`` through the same filter.
     """
 
     location: tuple[int, ...]

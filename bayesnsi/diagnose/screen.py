@@ -1,16 +1,16 @@
 """Cheap screening of candidate effects before they are re-identified (SPEC section 7, step 3).
 
-Re-identifying the model with every effect of the dictionary costs one NSI run per effect
-(0.67 s each on the beam: 80 effects, 54 s a loop step). The screen ranks all of them at a
-fraction of that cost from the data alone, so that only the best few are re-identified and
-scored by evidence.
+Re-identifying the model with every effect of the dictionary costs one NSI run and one
+reconstruction per effect (about 0.55 s each on the beam, whose dictionary holds 80 effects: 44 s
+a loop step, ``benchmarks/diagnose.py --no-screen``). The screen ranks all of them from the data
+alone in 0.3 s, so that only the best few are re-identified and scored by evidence.
 
 The screen is a frequency-domain regression of the outputs on the extended input
 (``Y(ω) = H_E(ω) U(ω)``, paper Eq. 8 in the frequency domain; the nonlinear-feedback idea of
 NSI estimated nonparametrically, as in "nonlinear identification through feedback of the
 outputs", Adams & Allemang 2000). Over each group of ``group_bins`` adjacent DFT bins the
 extended FRF is taken as constant and a constant absorbs the leakage of the record's ends
-(a local polynomial of degree 0, Pintelon & Schoukens 2012, ch. 7). Nothing is assumed about the
+(the local polynomial method of Pintelon & Schoukens, with degree 0). Nothing is assumed about the
 underlying linear model, so an effect that a fixed-pole model would miss because the missing
 nonlinearity has already shifted the identified poles is still seen. With the residual power
 ``RSS_{g,o}`` of group g and output channel o (complex Gaussian errors, a variance per group

@@ -130,8 +130,8 @@ def plot_effect_force(step, signals, max_points: int = 4000):
         bottom.plot(abscissa[pick], rf.effect[pick], ".", ms=1.5, color="k", label="effect λ·n (filtered)")
         bottom.plot(abscissa[pick], rf.after[pick], ".", ms=2, color="C0", alpha=0.6, label="residual after")
         bottom.set_xlabel(labels[col])
-    axes[0, 0].set_ylabel("residual force before [N]")
-    axes[1, 0].set_ylabel("force after [N]")
+    axes[0, 0].set_ylabel("residual force before")
+    axes[1, 0].set_ylabel("force after")
     axes[1, 0].legend(fontsize=7, markerscale=4, loc="best")
     fig.suptitle(f"{step.term.name}: λ = {step.coefficient:.4g}; residual as a force at the location", fontsize=10)
     return fig

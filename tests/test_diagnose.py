@@ -284,3 +284,17 @@ def test_loop_refuses_a_screen_that_is_not_a_positive_count(screen):
     case = undeclared_case("quadratic-damping", seed=0, noise_percent=2.0)
     with pytest.raises(InputDataError, match="screen must be a positive number"):
         close_the_loop(case.signals, case.declared, nsi_options=case.nsi, screen=screen)
+
+
+def test_look_alike_taken_first_is_exchanged_once_its_partner_is_in():
+    # two-missing, seed 8, 1 % noise: a clearance at DOF 1 fits the first misfit best while the
+    # Coulomb friction at DOF 2 is missing; with the friction in, x1³ (the simulated effect) beats
+    # it by 1105 nat (Laplace) and replaces it. Reference: the simulation's missing effects.
+    case = undeclared_cases("two-missing", [8], 1.0)[0]
+    loop = run_loop(case)
+    assert [s.term.name for s in loop.added] == ["x1**3@1", "sign(v2)@2"]
+    assert loop.added[0].reason.startswith("accepted in exchange for")
+    assert loop.added[0].residual_force is not None
+    exchanged = [s for s in loop.steps if s.reason.startswith("exchanged for x1**3@1")]
+    assert len(exchanged) == 1 and exchanged[0].effect_type.startswith("clearance")
+    assert_found(case, loop)

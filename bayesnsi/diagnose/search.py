@@ -93,8 +93,10 @@ class LoopStep:
         The enlarged candidate.
     closed_loop_nrmse_before, closed_loop_nrmse_after : float
         NRMSE of the closed-loop simulation (SPEC 5) on the estimation data of the model without
-        and with the effect; NaN when that simulation diverges (chaotic or unstable in feedback,
-        SPEC 10) and for rejected effects (not computed).
+        and with the effect (for an effect accepted in exchange, "without" is the model holding
+        the effect it replaced, as for ``nrmse_before`` and ``log_bayes_factor``); NaN when that
+        simulation diverges (chaotic or unstable in feedback, SPEC 10) and for rejected effects
+        (not computed).
     residual_force : ResidualForce or None
         The residual of the models without and with the effect as a force at its location
         (:func:`bayesnsi.diagnose.forces.residual_force`); accepted steps only.
@@ -840,13 +842,8 @@ def _exchange(
             reason=f"accepted in exchange for {step.term.name} once {', '.join(t.name for t in new_terms)} was added "
             f"(log Bayes factor against the model with it {new.log_bayes_factor:.2f})",
         )
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", BayesNSIWarning)
-                new = _documented(new, identify(signals, base, **nsi_options), trial, signals)
-        except (BayesNSIError, np.linalg.LinAlgError):
-            pass  # no closed-loop errors or residual force for it: the step itself stands
-        steps[index] = new
+        # "before" is the model it replaces, as for its Bayes factor and open-loop NRMSE
+        steps[index] = _documented(new, current, trial, signals)
         steps.append(replace(step, accepted=False, reason=f"exchanged for {term.name} once {', '.join(t.name for t in new_terms)} was added"))
         current, current_z = trial, ev.log_evidence
     return current, current_z

@@ -72,8 +72,8 @@ def main() -> None:
     parser.add_argument("--no-screen", action="store_true", help="re-identify every effect (close_the_loop screen=None)")
     args = parser.parse_args()
     names = ["two-dof"] if args.quick else list(CASES)
-    screen = None if args.no_screen else 6
-    print(f"loop effects scored in {args.jobs} worker process(es); screen: {screen or 'off (every effect re-identified)'}")
+    screen = {"screen": None} if args.no_screen else {}  # {}: close_the_loop's default screen
+    print(f"loop effects scored in {args.jobs} worker process(es); screen {'off (every effect re-identified)' if screen else 'on'}")
     print(f"{'case':8} {'select 1 cand [s]':>18} {'CLI select [s]':>15} {'loop [s]':>9} {'steps':>6} {'effects':>8} "
           f"{'s / step':>9}  added")
     for name in names:
@@ -88,7 +88,7 @@ def main() -> None:
             select_time = time.perf_counter() - start
             cli_time = cli_select_seconds(case, candidate, nsi)
             start = time.perf_counter()
-            loop = close_the_loop(case.signals, candidate, nsi_options=nsi, max_steps=2, seed=0, jobs=args.jobs, screen=screen)
+            loop = close_the_loop(case.signals, candidate, nsi_options=nsi, max_steps=2, seed=0, jobs=args.jobs, **screen)
             loop_time = time.perf_counter() - start
         steps = max(len(loop.scores), 1)
         added = ", ".join(s.term.name for s in loop.added) or "nothing"

@@ -123,7 +123,7 @@ def main() -> None:
                     loop = close_the_loop(
                         case.signals, case.declared, nsi_options=nsi, evidence_options=evidence, seed=case.seed,
                         exchange=args.exchange,
-                        screen=None if args.no_screen else 6,
+                        **({"screen": None} if args.no_screen else {}),
                     )
                 times.append(time.perf_counter() - start)
                 row = evaluate(case, loop, nsi)

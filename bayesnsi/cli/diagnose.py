@@ -32,8 +32,9 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--screen",
         type=int,
-        default=6,
-        help="re-identify only the N effects ranked best by the frequency-domain screen (default 6; 0: every effect)",
+        default=None,
+        help="re-identify only the N effects ranked best by the frequency-domain screen (default: close_the_loop's, "
+        "6; 0: every effect)",
     )
     p.set_defaults(run=run)
 
@@ -62,7 +63,7 @@ def run(args) -> int:
         },
         threshold=args.threshold,
         max_steps=args.max_steps,
-        screen=args.screen or None,
+        **({} if args.screen is None else {"screen": args.screen or None}),
         seed=config.seed,
         jobs=getattr(args, "jobs", 1),
         scheduler=getattr(args, "scheduler", None),

@@ -219,7 +219,10 @@ def _new_effects(candidate, effects, exclude=()) -> list:
     ]
 
 
-def score_effects(signals, candidate, effects, nsi_options, evidence_options, exclude=(), jobs: int = 1, scheduler=None):
+def score_effects(
+    signals, candidate, effects, nsi_options, evidence_options, exclude=(), jobs: int = 1, scheduler=None,
+    correlations=None,
+):
     """Identify ``candidate + effect`` for every effect and score it by Laplace log-evidence.
 
     Parameters
@@ -232,6 +235,9 @@ def score_effects(signals, candidate, effects, nsi_options, evidence_options, ex
     jobs, scheduler
         Local worker processes or a Dask scheduler (:func:`bayesnsi.run.dispatch`); the scores
         do not depend on them.
+    correlations : HankelCorrelations, optional
+        :func:`bayesnsi.nsi.hankel_correlations` of ``candidate`` with these NSI settings, when
+        already computed (computed here otherwise).
 
     Returns
     -------
@@ -242,14 +248,16 @@ def score_effects(signals, candidate, effects, nsi_options, evidence_options, ex
 
     tasks = _new_effects(candidate, effects, exclude)
     scored = [None] * len(tasks)
-    context = (signals, candidate, nsi_options, evidence_options, _shared_correlations(signals, candidate, nsi_options))
+    if correlations is None:
+        correlations = _shared_correlations(signals, candidate, nsi_options)
+    context = (signals, candidate, nsi_options, evidence_options, correlations)
     for index, value in dispatch(_score_task, tasks, context=context, jobs=jobs, scheduler=scheduler):
         scored[index] = value
     scored.sort(key=lambda item: item[2], reverse=True)
     return scored
 
 
-def refine_gap(signals, candidate, entry, effects, nsi_options, evidence_options, points: int = 9):
+def refine_gap(signals, candidate, entry, effects, nsi_options, evidence_options, points: int = 9, correlations=None):
     """Refine the gap of a clearance effect between its neighbours on the dictionary's grid.
 
     SPEC 7 offers clearances "on a grid of g"; the coefficient of a clearance spring is only
@@ -260,12 +268,14 @@ def refine_gap(signals, candidate, entry, effects, nsi_options, evidence_options
 
     Parameters
     ----------
-    entry : (str, Term, float, NSIResult)
+    entry : (str, Term, float, NSIResult, float)
         A clearance entry of :func:`score_effects`.
+    correlations : HankelCorrelations, optional
+        As in :func:`score_effects`.
 
     Returns
     -------
-    (str, Term, float, NSIResult)
+    (str, Term, float, NSIResult, float)
         The best entry found (``entry`` itself when nothing beats it).
     """
     kind, term = entry[0], entry[1]
@@ -276,7 +286,8 @@ def refine_gap(signals, candidate, entry, effects, nsi_options, evidence_options
     lower = max((g for g in grid if g < gap), default=0.5 * gap)
     upper = min((g for g in grid if g > gap), default=1.5 * gap)
     best = entry
-    correlations = _shared_correlations(signals, candidate, nsi_options)
+    if correlations is None:
+        correlations = _shared_correlations(signals, candidate, nsi_options)
     for _ in range(2):
         for g in np.linspace(lower, upper, points):
             if g <= 0:
@@ -445,9 +456,12 @@ def _ranked(signals, candidate, effects, nsi_options, evidence_options, exclude,
     kept, rest = effects, []
     if screen is not None:
         kept, rest = _screened(signals, candidate, effects, nsi_options, exclude, screen)
-    scored = score_effects(signals, candidate, kept, nsi_options, evidence_options, exclude, jobs, scheduler)
+    correlations = _shared_correlations(signals, candidate, nsi_options)
+    scored = score_effects(
+        signals, candidate, kept, nsi_options, evidence_options, exclude, jobs, scheduler, correlations
+    )
     head = [
-        refine_gap(signals, candidate, entry, effects, nsi_options, evidence_options)
+        refine_gap(signals, candidate, entry, effects, nsi_options, evidence_options, correlations=correlations)
         if np.isfinite(entry[2]) and clearance_gap(entry[0]) is not None
         else entry
         for entry in scored[:n_tries]
@@ -571,7 +585,7 @@ def close_the_loop(
         warnings.simplefilter("ignore", BayesNSIWarning)
         current = identify(signals, candidate, **nsi_options)
     start = current
-    current_z, current_nrmse = _laplace(current, signals, evidence_options)  # NRMSE NaN: not known yet
+    current_z = _laplace(current, signals, evidence_options)[0]
     guards = (threshold, max_imag_ratio, stability_factor)
     steps, all_scores, added = [], [], []
     half_cache = {}  # Hankel products of the record halves, per base model (stability guard)
@@ -584,7 +598,7 @@ def close_the_loop(
         all_scores.append([(e.kind, e.term, e.score) for e in scored])
         if not scored or not np.isfinite(scored[0][2]):
             break
-        nrmse_before = current_nrmse if np.isfinite(current_nrmse) else current.reconstruct(signals).nrmse
+        nrmse_before = current.reconstruct(signals).nrmse
         accepted, pending = None, None
         for kind, term, score, trial, nrmse_after in scored[:n_tries]:
             if not np.isfinite(score):
@@ -602,15 +616,13 @@ def close_the_loop(
         if accepted is not None:
             step, trial, ev = accepted
             steps[next(i for i, s in enumerate(steps) if s is step)] = step = _documented(step, current, trial, signals)
-            current, current_z, current_nrmse = trial, ev.log_evidence, step.nrmse_after
+            current, current_z = trial, ev.log_evidence
             added.append((effect_base_type(step.effect_type), tuple(step.term.at)))
-            kept = current
             current, current_z = _prune(current, current_z, [step.term], steps, signals, nsi_options, evidence_options, guards)
             if exchange:
                 current, current_z = _exchange(
                     current, current_z, [step.term], steps, effects, signals, nsi_options, evidence_options, seeds, guards, n_tries
                 )
-            current_nrmse = current_nrmse if current is kept else np.nan
             continue
         if not (lookahead and pending is not None and len(added) + 2 <= max_steps):
             break
@@ -623,11 +635,10 @@ def close_the_loop(
         first = _documented(first, current, pending[1], signals)
         second_index = next(i for i, s in enumerate(steps) if s is second)
         steps[second_index] = second = _documented(second, pending[1], pair_model, signals)
-        current, current_z, current_nrmse = pair_model, ev.log_evidence, second.nrmse_after
+        current, current_z = pair_model, ev.log_evidence
         steps[next(i for i, s in enumerate(steps) if s is pending[0])] = first
         added += [(effect_base_type(s.effect_type), tuple(s.term.at)) for s in (first, second)]
         new_terms = [first.term, second.term]
-        kept = current
         current, current_z = _prune(current, current_z, new_terms, steps, signals, nsi_options, evidence_options, guards)
         # the pair's first effect was chosen while the second was missing: re-examine it against
         # the other effects at its location in the model that holds the second (all earlier
@@ -636,7 +647,6 @@ def close_the_loop(
             current, current_z, [second.term], steps, effects, signals, nsi_options, evidence_options, seeds, guards,
             n_tries, examine=None if exchange else [first.term],
         )
-        current_nrmse = current_nrmse if current is kept else np.nan
     final_nsi = dict(nsi_options)
     if refine_final and int(nsi_options.get("upsample", 1)) == 1 and any(t.expr.switches_with_velocity for t in current.terms):
         fine = {**nsi_options, "upsample": int(refine_final), "block_rows": int(nsi_options.get("block_rows", 40)) * int(refine_final)}

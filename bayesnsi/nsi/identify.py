@@ -382,7 +382,7 @@ class HankelCorrelations:
         scales = np.concatenate([stack.u_scale, stack.y_scale])
         n_shared_inputs = len(self.scales) - n_outputs
         old = np.concatenate([np.arange(n_shared_inputs), len(scales) - n_outputs + np.arange(n_outputs)])
-        if len(old) != len(self.scales) or not np.array_equal(scales[old], self.scales):
+        if not np.array_equal(scales[old], self.scales):
             return None
         return _hankel.extend_lagged_products(self.lagged, stack, old)
 

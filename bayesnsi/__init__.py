@@ -7,15 +7,16 @@ responses, with Bayesian model selection. The top-level namespace holds the nume
 
 Example
 -------
->>> from bayesnsi import identify, simulate_case
+>>> from bayesnsi import NSIOptions, identify, simulate_case
 >>> case = simulate_case("two-dof", seed=0)
->>> result = identify(case.signals, case.candidates[0], block_rows=60, order=4)
+>>> result = identify(case.signals, case.candidates[0], NSIOptions(block_rows=60, order=4))
 >>> round(result.coefficients[0].value)
 20
 """
 
 from .exceptions import BayesNSIError
 from .models import CandidateModel, Term, parse_expression
+from .options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions
 from .nsi import NSIResult, affine_reconstruction, identify, reconstruct
 from .signals import Signals, differentiate
 from .simulate import simulate_case
@@ -30,6 +31,10 @@ __all__ = [
     "Signals",
     "differentiate",
     "identify",
+    "NSIOptions",
+    "EvidenceOptions",
+    "LoopOptions",
+    "ExecutionOptions",
     "NSIResult",
     "reconstruct",
     "affine_reconstruction",

@@ -108,16 +108,7 @@ def main():
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", SpuriousPoleWarning)
                 start = time.perf_counter()
-                result = identify(
-                    case.signals,
-                    case.candidate("model 3"),
-                    block_rows=args.block_rows,
-                    order=32,
-                    band_hz=(1.0, 30.0),
-                    bd_method=method,
-                    refine_poles=band,
-                    c_method=c_method,
-                )
+                result = identify(case.signals, case.candidate("model 3"), NSIOptions(block_rows=args.block_rows, order=32, band_hz=(1.0, 30.0), bd_method=method, refine_poles=band, c_method=c_method))
                 elapsed = time.perf_counter() - start
             k_err, close, z_max, f_max = _row(case, result)
             run = (method, band, c_method)

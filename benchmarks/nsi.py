@@ -150,7 +150,7 @@ def two_dof_reference():
     for route in ("correlation", "lq"):
         stamps = [time.perf_counter()]
         for _ in range(5):
-            identify(case.signals, case.candidates[0], block_rows=60, order=4, route=route)
+            identify(case.signals, case.candidates[0], NSIOptions(block_rows=60, order=4, route=route))
             stamps.append(time.perf_counter())
         out.append(f"{route} {np.diff(stamps).min() * 1e3:.0f} ms")
     return "two-DOF reference (1e3 samples, block_rows=60, order=4, best of 5): " + ", ".join(out)

@@ -50,7 +50,7 @@ def main() -> None:
         for factor, rows in [(r, i) for r, i in SETTINGS if r in args.factors]:
             start = time.perf_counter()
             fits = {
-                name: identify(case.signals, case.candidate(name), block_rows=rows, order=2, band_hz=(5.0, 20.0), upsample=factor, bd_method=args.bd_method)
+                name: identify(case.signals, case.candidate(name), NSIOptions(block_rows=rows, order=2, band_hz=(5.0, 20.0), upsample=factor, bd_method=args.bd_method))
                 for name in ("model 2", "model 4")
             }
             seconds = (time.perf_counter() - start) / 2

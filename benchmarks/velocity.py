@@ -40,7 +40,7 @@ def main() -> None:
                 sig = Signals(sig.force, sig.displacement, sig.fs, sig.input_dofs, sig.output_dofs)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                res = identify(sig, case.candidates[0], block_rows=60, order=4, velocity_method=source if source != "measured" else "fourth")
+                res = identify(sig, case.candidates[0], NSIOptions(block_rows=60, order=4, velocity_method=source if source != "measured" else "fourth"))
             alpha.append(res.coefficient_values[0] / case.true_coefficients[0] - 1)
             z = np.array([m.damping_ratio for m in res.modes])
             zeta.append(z / case.exact_damping_ratios - 1)

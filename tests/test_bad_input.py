@@ -1,5 +1,6 @@
 """Catalogue of bad inputs: each gets its own error class and a message that says what to do."""
 
+from bayesnsi.options import EvidenceOptions, NSIOptions
 import re
 import warnings
 
@@ -54,19 +55,19 @@ def _signals():
 
 def test_identification_errors():
     with pytest.raises(BlockRowsError, match="too few.*use fewer block rows"):
-        identify(_signals(), None, block_rows=100)
+        identify(_signals(), None, NSIOptions(block_rows=100))
     with pytest.raises(OrderError, match="lower the order or raise block_rows"):
-        identify(_signals(), None, block_rows=5, order=11)
+        identify(_signals(), None, NSIOptions(block_rows=5, order=11))
     with pytest.raises(NotIdentifiableError, match="not measured"):
-        identify(_signals(), [("x3**3", 1)], block_rows=5, order=2)
+        identify(_signals(), [("x3**3", 1)], NSIOptions(block_rows=5, order=2))
     with pytest.raises(NotIdentifiableError, match="cannot be identified"):
-        identify(Signals(F, X, 100.0, [1], [1, 2]), [("x1**3", 3)], block_rows=5, order=2)
+        identify(Signals(F, X, 100.0, [1], [1, 2]), [("x1**3", 3)], NSIOptions(block_rows=5, order=2))
     with pytest.raises(NotIdentifiableError, match="constant"):
-        identify(_signals(), [("x1 - x1", 1)], block_rows=5, order=2)
+        identify(_signals(), [("x1 - x1", 1)], NSIOptions(block_rows=5, order=2))
     with pytest.raises(InputDataError, match="Signals object"):
         identify(np.zeros((10, 2)), None)
     with pytest.raises(InputDataError, match="route"):
-        identify(_signals(), None, block_rows=5, route="qr")
+        identify(_signals(), None, NSIOptions(block_rows=5, route="qr"))
 
 
 def test_unstable_identified_model_is_refused():
@@ -74,7 +75,7 @@ def test_unstable_identified_model_is_refused():
     t = np.arange(400)[:, None]
     growing = np.exp(0.02 * t) * np.c_[np.sin(0.3 * t), np.cos(0.21 * t)] + 1e-3 * X
     with pytest.raises(UnstableModelError, match="unstable"):
-        identify(Signals(F, growing, 100.0, [1], [1, 2]), None, block_rows=5, order=2)
+        identify(Signals(F, growing, 100.0, [1], [1, 2]), None, NSIOptions(block_rows=5, order=2))
 
 
 def test_unstable_simulation_is_reported():
@@ -198,7 +199,7 @@ def test_empty_candidate_list_in_the_api():
 def test_no_physical_modes():
     # white-noise outputs at order 2: the identified poles are real, none is a structural mode
     with pytest.raises(UnstableModelError, match="no physical mode.*check the order"):
-        identify(_signals(), None, block_rows=5, order=2)
+        identify(_signals(), None, NSIOptions(block_rows=5, order=2))
 
 
 def test_unconverged_mcmc_warns_with_advice():
@@ -208,8 +209,8 @@ def test_unconverged_mcmc_warns_with_advice():
 
     case = simulate_case("two-dof", seed=0, duration=5.0)
     case_signals = case.signals
-    result = identify(case_signals, case.candidates[0], block_rows=20, order=4)
-    options = {"likelihood": "white", "compare": [], "n_walkers": 8, "n_steps": 20, "n_burn": 5, "reference_force_rms": None}
+    result = identify(case_signals, case.candidates[0], NSIOptions(block_rows=20, order=4))
+    options = EvidenceOptions(likelihood="white", compare=(), n_walkers=8, n_steps=20, n_burn=5)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         candidate_evidence(result, case_signals, options)

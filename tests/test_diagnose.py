@@ -15,7 +15,7 @@ import pytest
 
 from bayesnsi import CandidateModel
 from bayesnsi.diagnose import close_the_loop, refine_gap, score_effects
-from bayesnsi.evidence import EVIDENCE_DEFAULTS
+from bayesnsi.options import EvidenceOptions
 from bayesnsi.models import default_gaps, effect_dictionary
 from bayesnsi.models.dictionary import clearance_effect, clearance_gap, effect_base_type
 from bayesnsi.nsi import identify
@@ -38,7 +38,7 @@ def run_loop(case, **kwargs):
 def truth_nrmse(case):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return identify(case.signals, case.truth, **case.nsi).reconstruct(case.signals).nrmse
+        return identify(case.signals, case.truth, case.nsi).reconstruct(case.signals).nrmse
 
 
 def final_coefficient(loop, effect):
@@ -138,7 +138,7 @@ def test_accepted_step_reports_closed_loop_errors_and_residual_force(coulomb):
     assert step.closed_loop_nrmse_after < step.closed_loop_nrmse_before
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        truth = identify(case.signals, case.truth, **case.nsi).reconstruct(case.signals, closed_loop=True).nrmse
+        truth = identify(case.signals, case.truth, case.nsi).reconstruct(case.signals, closed_loop=True).nrmse
     assert step.closed_loop_nrmse_after <= FLOOR_FACTOR * truth  # the true model simulated alike
     rf = step.residual_force
     assert rf.location == (2,)
@@ -175,7 +175,7 @@ def test_clearance_gap_is_refined_off_the_grid():
 
 def test_refine_gap_moves_towards_the_true_gap():
     case = undeclared_case("clearance", seed=2, noise_percent=1.0, duration=15.0)
-    options = {**EVIDENCE_DEFAULTS, "compare": []}
+    options = EvidenceOptions(compare=())
     coarse = [clearance_effect(2, g) for g in (0.008, 0.024)]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -241,7 +241,7 @@ def test_screen_ranks_the_missing_effect_among_the_best_three(name):
     case = undeclared_case(name, seed=0, noise_percent=2.0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        start = identify(case.signals, case.declared, **case.nsi)
+        start = identify(case.signals, case.declared, case.nsi)
     std = {d: case.signals.displacement[:, c].std() for c, d in enumerate(case.signals.output_dofs)}
     effects = effect_dictionary(case.signals.output_dofs, gaps={(d,): default_gaps(s) for d, s in std.items()})
     ranked = screen_effects(

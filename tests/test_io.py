@@ -15,7 +15,6 @@ import pytest
 from bayesnsi.exceptions import BayesNSIError, ConfigError, InputDataError, OutputExistsError
 from bayesnsi.io import (
     ExperimentConfig,
-    NSISettings,
     atomic_write_json,
     atomic_write_text,
     dump_config,
@@ -29,6 +28,7 @@ from bayesnsi.io import (
     versions,
     write_signals_csv,
 )
+from bayesnsi.options import EvidenceOptions, NSIOptions
 from bayesnsi.signals import Signals
 
 FS = 100.0
@@ -53,7 +53,7 @@ def _base_config() -> dict:
             {"name": "both", "terms": [{"expr": "v1*abs(v1)", "at": 1}, {"expr": "sign(v1)", "at": [1, 2]}]},
         ],
         "validation": [{"name": "tail", "start": 150, "stop": 200}],
-        "evidence": {"n_walkers": 32, "likelihood": "ar", "sigma_range": [1e-6, 1.0]},
+        "evidence": {"n_walkers": 32, "likelihood": "ar2"},
     }
 
 
@@ -105,13 +105,13 @@ def test_load_config_fields(experiment):
     assert list(config.data.inputs.items()) == [("f2", 2)]
     assert list(config.data.outputs.items()) == [("x1", 1), ("x2", 2)]
     assert config.data.estimation == (0, 150)
-    assert config.nsi == NSISettings(block_rows=10, order=4, band_hz=(1.0, 10.0))
+    assert config.nsi == NSIOptions(block_rows=10, order=4, band_hz=(1.0, 10.0))
     assert [c.name for c in config.candidates] == ["quadratic damping", "friction", "both"]
     assert config.candidates[0].coefficient_prior_scales == (50.0,)
     assert config.candidates[1].prior == 2.0
     assert config.candidates[2].terms[1].at == (1, 2)
     assert config.validation[0].name == "tail" and (config.validation[0].start, config.validation[0].stop) == (150, 200)
-    assert config.evidence_settings == {"n_walkers": 32, "likelihood": "ar", "sigma_range": [1e-6, 1.0]}
+    assert config.evidence == EvidenceOptions(n_walkers=32, likelihood="ar2")
     assert config.seed == 7
     assert config.raw == _base_config()
     with pytest.raises(dataclasses.FrozenInstanceError):
@@ -123,10 +123,10 @@ def test_defaults(tmp_path):
     raw = _base_config()
     del raw["nsi"], raw["validation"], raw["evidence"], raw["seed"], raw["data"]["estimation"]
     config = load_config(_write_config(tmp_path, raw))
-    assert config.nsi == NSISettings()
+    assert config.nsi == NSIOptions()
     assert config.nsi.block_rows == 40 and config.nsi.order == "auto" and config.nsi.zero_feedthrough
     assert config.data.estimation is None and config.data.remove_mean is False
-    assert config.validation == () and config.evidence_settings == {} and config.seed == 0
+    assert config.validation == () and config.evidence == EvidenceOptions() and config.seed == 0
 
 
 def test_seed_in_evidence_section(tmp_path):
@@ -135,7 +135,7 @@ def test_seed_in_evidence_section(tmp_path):
     del raw["seed"]
     raw["evidence"]["seed"] = 11
     config = load_config(_write_config(tmp_path, raw))
-    assert config.seed == 11 and "seed" not in config.evidence_settings
+    assert config.seed == 11 and config.evidence == EvidenceOptions(n_walkers=32, likelihood="ar2")
 
 
 def test_dump_config_round_trip(experiment):
@@ -289,10 +289,10 @@ def test_term_acts_at_unknown_dof(tmp_path):
         (lambda r: r["data"].update(accelerations={"x1": 1}), ("accelerations", "'x1' is already used as outputs")),
         (lambda r: r["data"].update(fs="100"), ("[data] fs", "a finite number", "'100' (a string)")),
         (lambda r: r["data"].update(estimation=[10, 5]), ("[data] estimation", "0 <= start < stop")),
-        (lambda r: r["nsi"].update(order="4"), ("[nsi] order", 'positive integer or "auto"')),
+        (lambda r: r["nsi"].update(order="4"), ("[nsi] order", 'an integer in [1, 10000] or "auto"')),
         (lambda r: r["nsi"].update(order=30), ("[nsi] order", "block_rows x outputs = 10 x 2 = 20")),
-        (lambda r: r["nsi"].update(block_rows=0), ("[nsi] block_rows", "integer >= 1")),
-        (lambda r: r["nsi"].update(upsample=0), ("[nsi] upsample", "integer >= 1")),
+        (lambda r: r["nsi"].update(block_rows=0), ("[nsi] block_rows", "an integer in [1, 100000]")),
+        (lambda r: r["nsi"].update(upsample=0), ("[nsi] upsample", "an integer in [1, 64]")),
         (lambda r: r["nsi"].update(refine_poles=[5.0]), ("[nsi] refine_poles", "[low, high] in Hz")),
         (lambda r: r["nsi"].update(c_method="prediction-error"), ("c_method", 'needs bd_method = "prediction-error"')),
         (lambda r: r["nsi"].update(velocity_method="fifth"), ("velocity_method", "'central', 'fourth', 'sixth'")),
@@ -303,7 +303,16 @@ def test_term_acts_at_unknown_dof(tmp_path):
         (lambda r: r["candidates"][0]["terms"][0].pop("at"), ("terms[1] at", "add at = <DOF>")),
         (lambda r: r["candidates"][0]["terms"][0].update(at=[1, 1]), ("terms[1]", "two different DOFs")),
         (lambda r: r["candidates"][0]["terms"][0].update(prior_scale=0), ("prior_scale", "positive")),
-        (lambda r: r["evidence"].update(proposal={"a": 1}), ("[evidence] proposal", "flat array")),
+        (lambda r: r["evidence"].update(proposal={"a": 1}), ("[evidence]", "'proposal'")),
+        # issue 13 item 8: [evidence] numbers checked at load, not when every candidate has failed
+        (lambda r: r["evidence"].update(n_burn=2000), ("[evidence] n_burn (2000) must be smaller than n_steps (1500)",)),
+        (lambda r: r["evidence"].update(n_steps=-5), ("[evidence] n_steps", "an integer in [2, 10000000]")),
+        (lambda r: r["evidence"].update(n_walkers=10**9), ("[evidence] n_walkers", "an integer in [4, 10000]")),
+        (lambda r: r["evidence"].update(reference_force_rms=-1.0), ("[evidence] reference_force_rms",)),
+        (lambda r: r["evidence"].update(likelihood="ar0"), ("likelihood 'ar0' unknown",)),
+        (lambda r: r["nsi"].update(block_rows=10**12), ("[nsi] block_rows", "an integer in [1, 100000]")),
+        (lambda r: r.update(diagnose={"threshold": -1.0}), ("[diagnose] threshold", ">= 0")),
+        (lambda r: r.update(diagnose={"screen": 0}), ("[diagnose] screen", "an integer in [1, 100000]")),
         (lambda r: r["evidence"].update(seed=8), ("seed = 7 disagrees with [evidence] seed = 8",)),
         (lambda r: r.update(seed=-1), ("seed", "integer >= 0")),
         (lambda r: r["validation"].append({"name": "tail", "start": 160, "stop": 170}), ("'tail' is used twice",)),

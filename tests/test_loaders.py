@@ -6,6 +6,8 @@ Signals as the CSV and give the same identification (coefficients equal to 1e-9 
 
 from __future__ import annotations
 
+from bayesnsi.options import NSIOptions
+
 import gc
 import warnings
 from pathlib import Path
@@ -155,10 +157,10 @@ def test_every_format_loads_the_same_signals_and_identification(tmp_path, case, 
         assert (signals.fs, signals.input_dofs, signals.output_dofs) == (FS, (2,), (1, 2)), fmt
     np.testing.assert_array_equal(reference.displacement, case.signals.displacement)
 
-    expected = identify(reference, case.candidates[0], block_rows=60, order=4)
+    expected = identify(reference, case.candidates[0], NSIOptions(block_rows=60, order=4))
     assert expected.coefficient_values[0] == pytest.approx(20.0, rel=0.1)
     for fmt, signals in loaded.items():
-        result = identify(signals, case.candidates[0], block_rows=60, order=4)
+        result = identify(signals, case.candidates[0], NSIOptions(block_rows=60, order=4))
         np.testing.assert_allclose(result.coefficient_values, expected.coefficient_values, rtol=1e-9, err_msg=fmt)
         np.testing.assert_allclose(
             [m.frequency_hz for m in result.modes], [m.frequency_hz for m in expected.modes], rtol=1e-9, err_msg=fmt

@@ -4,6 +4,7 @@ Reference values are independent computations: explicit Hankel products (numpy),
 zero-order-hold discretisation (scipy.linalg.expm) of chains whose poles are eig(A_c).
 """
 
+from bayesnsi.options import NSIOptions
 import numpy as np
 import pytest
 
@@ -70,18 +71,18 @@ def test_identify_with_shared_correlations_equals_the_full_computation():
     case = simulate_case("two-dof", seed=0)
     base = CandidateModel.from_terms("base", [("v1*abs(v1)", 1)])
     larger = base.with_term(Term("x1**3", 1))
-    shared = hankel_correlations(case.signals, base, block_rows=30)
-    fast = identify(case.signals, larger, block_rows=30, order=4, correlations=shared)
-    full = identify(case.signals, larger, block_rows=30, order=4)
+    shared = hankel_correlations(case.signals, base, NSIOptions(block_rows=30))
+    fast = identify(case.signals, larger, NSIOptions(block_rows=30, order=4), correlations=shared)
+    full = identify(case.signals, larger, NSIOptions(block_rows=30, order=4))
     np.testing.assert_allclose(fast.singular_values, full.singular_values, rtol=1e-9)
     np.testing.assert_allclose(fast.coefficient_values, full.coefficient_values, rtol=1e-7)
     # products of another candidate, or other settings, are ignored rather than misused
-    other = hankel_correlations(case.signals, CandidateModel.from_terms("c", [("sign(v1)", 1)]), block_rows=30)
-    unrelated = identify(case.signals, larger, block_rows=30, order=4, correlations=other)
+    other = hankel_correlations(case.signals, CandidateModel.from_terms("c", [("sign(v1)", 1)]), NSIOptions(block_rows=30))
+    unrelated = identify(case.signals, larger, NSIOptions(block_rows=30, order=4), correlations=other)
     np.testing.assert_allclose(unrelated.coefficient_values, full.coefficient_values, rtol=1e-12)
-    mismatched = identify(case.signals, larger, block_rows=20, order=4, correlations=shared)
+    mismatched = identify(case.signals, larger, NSIOptions(block_rows=20, order=4), correlations=shared)
     np.testing.assert_allclose(
-        mismatched.coefficient_values, identify(case.signals, larger, block_rows=20, order=4).coefficient_values, rtol=1e-12
+        mismatched.coefficient_values, identify(case.signals, larger, NSIOptions(block_rows=20, order=4)).coefficient_values, rtol=1e-12
     )
 
 
@@ -102,7 +103,7 @@ def test_random_systems_both_routes_recover_poles_and_frf(seed):
     freqs = np.linspace(0.5, 25, 50)
     exact_frf = model.frf(freqs)
     results = {
-        route: identify(sig, None, block_rows=8, order=6, route=route, input_hold="sample")
+        route: identify(sig, None, NSIOptions(block_rows=8, order=6, route=route, input_hold="sample"))
         for route in ("correlation", "lq")
     }
     for res in results.values():
@@ -118,7 +119,7 @@ def test_auto_order_finds_true_order(rng):
     u = rng.standard_normal((3000, 2))
     y = model.simulate(u) * (1 + 0 * u[:, :1])
     sig = Signals(u, y + 1e-6 * rng.standard_normal(y.shape), 1 / model.dt, [1, 2], [1, 2, 3])
-    assert identify(sig, None, block_rows=10, input_hold="sample").order == 4
+    assert identify(sig, None, NSIOptions(block_rows=10, input_hold="sample")).order == 4
     assert select_order(np.array([10.0, 9.0, 1.0, 0.9, 1e-3, 1e-3]), 5) == 4
 
 
@@ -156,7 +157,7 @@ def _discrete_feedback_chain(term_expr, at, coefficient, force_dofs, output_dofs
 )
 def test_exact_discrete_feedback_recovers_coefficient(expr, at, coef, forces, outputs):
     sig, poles, term = _discrete_feedback_chain(expr, at, coef, forces, outputs)
-    res = identify(sig, CandidateModel("true", (term,)), block_rows=10, order=4, input_hold="sample")
+    res = identify(sig, CandidateModel("true", (term,)), NSIOptions(block_rows=10, order=4, input_hold="sample"))
     assert match_poles(res.model.poles, poles) < TIGHT
     # λ(ω) is exactly constant: real part = λ, imaginary part = 0
     assert res.coefficients[0].value == pytest.approx(coef, rel=TIGHT)
@@ -172,17 +173,17 @@ def test_unidentifiable_coefficient_is_reported():
     sig, _, _ = _discrete_feedback_chain("x1**3", 1, 1e5, [2], [1, 2], n_samples=800)
     one_output = Signals(sig.force, sig.displacement[:, :1], sig.fs, [2], [1], velocity=sig.velocity[:, :1])
     with pytest.raises(NotIdentifiableError, match="cannot be identified"):
-        identify(one_output, [("x1**3", 1)], block_rows=8, order=2)
+        identify(one_output, [("x1**3", 1)], NSIOptions(block_rows=8, order=2))
     with pytest.raises(NotIdentifiableError, match="not measured"):
-        identify(one_output, [("x2**3", 2)], block_rows=8, order=2)
+        identify(one_output, [("x2**3", 2)], NSIOptions(block_rows=8, order=2))
 
 
 def test_block_rows_and_order_errors(rng):
     sig = Signals(rng.standard_normal((100, 1)), rng.standard_normal((100, 2)), 100.0, [1], [1, 2])
     with pytest.raises(BlockRowsError, match="too few"):
-        identify(sig, None, block_rows=30)
+        identify(sig, None, NSIOptions(block_rows=30))
     with pytest.raises(OrderError, match="impossible"):
-        identify(sig, None, block_rows=4, order=50)
+        identify(sig, None, NSIOptions(block_rows=4, order=50))
 
 
 # --------------------------------------------------------------------------------------------

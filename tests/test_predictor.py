@@ -1,5 +1,6 @@
 """Innovations (one-step-ahead predictor) form of the affine reconstruction, SPEC 6 and 10."""
 
+from bayesnsi.options import NSIOptions
 import warnings
 
 import numpy as np
@@ -10,16 +11,16 @@ from bayesnsi.nsi import affine_reconstruction, identify, predictor_reconstructi
 from bayesnsi.simulate import simulate_case
 
 
-def _identify(signals, candidate, **kw):
+def _identify(signals, candidate, options=None):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SpuriousPoleWarning)
-        return identify(signals, candidate, **kw)
+        return identify(signals, candidate, options)
 
 
 @pytest.fixture(scope="module")
 def two_dof():
     case = simulate_case("two-dof", seed=3, duration=30.0)
-    return case, _identify(case.signals, case.candidate("model 1"), block_rows=60, order=4)
+    return case, _identify(case.signals, case.candidate("model 1"), NSIOptions(block_rows=60, order=4))
 
 
 def test_innovations_are_white_at_the_measurement_noise_level(two_dof):
@@ -50,7 +51,7 @@ def test_innovations_are_affine_in_the_coefficients(two_dof):
 def test_without_nonlinear_inputs_the_predictor_is_the_open_loop_reconstruction(two_dof):
     """No term carries measurement noise into the state (Q = 0): K = 0, innovations = open-loop residual."""
     case, _ = two_dof
-    linear = _identify(case.signals, None, block_rows=60, order=4)
+    linear = _identify(case.signals, None, NSIOptions(block_rows=60, order=4))
     predictor = predictor_reconstruction(linear, case.signals)
     open_loop = affine_reconstruction(linear, case.signals)
     scale = np.abs(open_loop.measured).max()
@@ -59,7 +60,7 @@ def test_without_nonlinear_inputs_the_predictor_is_the_open_loop_reconstruction(
 
 def test_upsampled_result_predicts_at_the_data_samples():
     case = simulate_case("negative-stiffness", seed=1, duration=20.0)
-    result = _identify(case.signals, case.candidate("model 2"), block_rows=40, order=2, band_hz=(5.0, 20.0), upsample=2)
+    result = _identify(case.signals, case.candidate("model 2"), NSIOptions(block_rows=40, order=2, band_hz=(5.0, 20.0), upsample=2))
     affine = predictor_reconstruction(result, case.signals)
     assert affine.measured.shape == case.signals.displacement.shape
     innovations = affine.measured - affine.predict(affine.estimate)
@@ -87,7 +88,7 @@ def test_twin_innovations_are_white():
     true twin model (Table 8 model 2, upsample 4) leaves white innovations (measured: lag 1-5
     autocorrelation within ±0.03; with the difference-based velocity noise it was -0.08 at lags 1-3)."""
     case = simulate_case("negative-stiffness", seed=0)
-    result = _identify(case.signals, case.candidate("model 2"), **case.recommended)
+    result = _identify(case.signals, case.candidate("model 2"), case.recommended)
     affine = predictor_reconstruction(result, case.signals)
     e = (affine.measured - affine.predict(affine.estimate))[100:, 0]
     e = e - e.mean()
@@ -108,5 +109,5 @@ def test_prediction_error_on_an_upsampled_record_with_friction():
     case = undeclared_case("coulomb-dof2", seed=0, noise_percent=2.0)
     disp, vel = measured_noise_std(upsample(case.signals, 2))
     assert np.all(np.isfinite(disp)) and np.all(disp > 0) and np.all(np.isfinite(vel))
-    result = _identify(case.signals, case.truth, block_rows=120, order=4, upsample=2, bd_method="prediction-error")
+    result = _identify(case.signals, case.truth, NSIOptions(block_rows=120, order=4, upsample=2, bd_method="prediction-error"))
     np.testing.assert_allclose(result.coefficient_values, [20.0, 1.0], rtol=0.1)

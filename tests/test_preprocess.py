@@ -13,6 +13,8 @@ Measured numbers (seed 0, recorded when the tests were written):
 
 from __future__ import annotations
 
+from bayesnsi.options import NSIOptions
+
 import numpy as np
 import pytest
 from scipy import signal as sp_signal
@@ -242,7 +244,7 @@ def test_accelerations_only_identify_two_dof(acceleration_case, method):
     np.testing.assert_allclose(signals.force, band_filter(case.clean.force, 100.0, (1.0, 40.0), method=method),
                                rtol=1e-12, atol=1e-12 * np.abs(case.clean.force).max())
 
-    result = identify(signals, case.candidates[0], block_rows=60, order=4)
+    result = identify(signals, case.candidates[0], NSIOptions(block_rows=60, order=4))
     freqs = np.array([m.frequency_hz for m in result.modes])
     np.testing.assert_allclose(freqs, case.exact_frequencies_hz, rtol=0.01)
     assert result.coefficient_values[0] == pytest.approx(20.0, rel=0.10)

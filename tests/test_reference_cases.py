@@ -4,6 +4,7 @@ Exact references: modal parameters of the simulators' M, C, K (eig of the state 
 the true coefficients used in the simulation. Tolerances are the issue's acceptance criteria.
 """
 
+from bayesnsi.options import EvidenceOptions, NSIOptions
 import warnings
 
 import numpy as np
@@ -16,10 +17,10 @@ from bayesnsi.simulate import simulate_case, simulate_cases
 N_SEEDS = 20
 
 
-def _identify(signals, candidate, **kw):
+def _identify(signals, candidate, options=None):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SpuriousPoleWarning)
-        return identify(signals, candidate, **kw)
+        return identify(signals, candidate, options)
 
 
 def _modal_errors(result, case):
@@ -34,14 +35,14 @@ def _modal_errors(result, case):
 @pytest.fixture(scope="module")
 def two_dof_10s():
     cases = simulate_cases("two-dof", range(N_SEEDS))
-    results = [[_identify(c.signals, cand, block_rows=60, order=4) for cand in c.candidates] for c in cases]
+    results = [[_identify(c.signals, cand, NSIOptions(block_rows=60, order=4)) for cand in c.candidates] for c in cases]
     return cases, results
 
 
 @pytest.fixture(scope="module")
 def two_dof_100s():
     cases = simulate_cases("two-dof", range(N_SEEDS), duration=100.0)
-    results = [[_identify(c.signals, cand, block_rows=60, order=4) for cand in c.candidates[:2]] for c in cases]
+    results = [[_identify(c.signals, cand, NSIOptions(block_rows=60, order=4)) for cand in c.candidates[:2]] for c in cases]
     return cases, results
 
 
@@ -90,9 +91,7 @@ def beam():
     results = {}
     for cand in case.candidates:
         try:
-            results[cand.name] = _identify(
-                case.signals, cand, block_rows=60, order=32, band_hz=(1.0, 30.0), bd_method="output-error"
-            )
+            results[cand.name] = _identify(case.signals, cand, NSIOptions(block_rows=60, order=32, band_hz=(1.0, 30.0), bd_method="output-error"))
         except BayesNSIError as err:
             results[cand.name] = err
     return case, results
@@ -126,10 +125,10 @@ def test_beam_evidence_selects_the_true_model(beam):
     """Issue 3, criterion 2: on the beam, candidate {x13², x13³} (model 3) gets posterior > 0.95
     under the marginal evidence (AR(1), emcee + bridge sampling); models 1 and 2 are either
     rejected as unstable (their reason kept) or scored."""
-    from bayesnsi.evidence import EVIDENCE_DEFAULTS, candidate_evidence, compare_evidence
+    from bayesnsi.evidence import candidate_evidence, compare_evidence
 
     case, results = beam
-    options = {**EVIDENCE_DEFAULTS, "compare": []}
+    options = EvidenceOptions(compare=())
     evidences = {}
     for (name, res), seed in zip(results.items(), np.random.SeedSequence(0).spawn(len(results))):
         if isinstance(res, BayesNSIError):
@@ -143,14 +142,14 @@ def test_beam_evidence_selects_the_true_model(beam):
     assert table.loc["model 3", "p_ar1"] > 0.95, table
 
 
-BEAM_SETTINGS = {
-    "block_rows": 40,
-    "order": 32,
-    "band_hz": (1.0, 30.0),
-    "bd_method": "prediction-error",
-    "refine_poles": (1.5, 85.0),
-    "c_method": "prediction-error",
-}
+BEAM_SETTINGS = NSIOptions(
+    block_rows=40,
+    order=32,
+    band_hz=(1.0, 30.0),
+    bd_method="prediction-error",
+    refine_poles=(1.5, 85.0),
+    c_method="prediction-error",
+)
 
 
 def _assert_beam_criterion(result, case):
@@ -170,7 +169,7 @@ def test_beam_damping_and_coefficients(beam):
     (c_method, bd_method "prediction-error"). benchmarks/beam_bias.py, seeds 0-7: k within 0.49 %,
     damping within 3.6 %, frequencies within 0.099 %."""
     case, _ = beam
-    _assert_beam_criterion(_identify(case.signals, case.candidate("model 3"), **BEAM_SETTINGS), case)
+    _assert_beam_criterion(_identify(case.signals, case.candidate("model 3"), BEAM_SETTINGS), case)
 
 
 @pytest.mark.slow
@@ -178,14 +177,11 @@ def test_beam_damping_and_coefficients(beam):
 def test_beam_damping_and_coefficients_seeds(seed):
     """The same criterion on further seeds (benchmarks/beam_bias.py)."""
     case = simulate_case("beam", seed=seed)
-    _assert_beam_criterion(_identify(case.signals, case.candidate("model 3"), **BEAM_SETTINGS), case)
+    _assert_beam_criterion(_identify(case.signals, case.candidate("model 3"), BEAM_SETTINGS), case)
 
 
 def _beam_prediction_error(case, block_rows=40):
-    return _identify(
-        case.signals, case.candidate("model 3"), block_rows=block_rows, order=32, band_hz=(1.0, 30.0),
-        bd_method="prediction-error",
-    )
+    return _identify(case.signals, case.candidate("model 3"), NSIOptions(block_rows=block_rows, order=32, band_hz=(1.0, 30.0), bd_method="prediction-error"))
 
 
 def test_beam_coefficients_prediction_error(beam):
@@ -213,10 +209,7 @@ def test_beam_damping_refined_poles(beam):
     5 % criterion). The 10.55 Hz mode is still missed. k2, k3 need c_method="prediction-error" with it
     (test_beam_damping_and_coefficients)."""
     case, _ = beam
-    result = _identify(
-        case.signals, case.candidate("model 3"), block_rows=40, order=32, band_hz=(1.0, 30.0),
-        bd_method="output-error", refine_poles=(1.5, 85.0),
-    )
+    result = _identify(case.signals, case.candidate("model 3"), NSIOptions(block_rows=40, order=32, band_hz=(1.0, 30.0), bd_method="output-error", refine_poles=(1.5, 85.0)))
     f, f_err, z_err, nearest = _modal_errors(result, case)
     in_band = (f > 1.0) & (f < 80.0)
     assert len(set(nearest[in_band])) >= 14
@@ -228,7 +221,7 @@ def test_beam_damping_refined_poles(beam):
 def test_negative_stiffness_twin_model_2(seed):
     """Table 8 model 2: k1 (static FRF), k2, k3, α1, α2 within 3 %."""
     case = simulate_case("negative-stiffness", seed=seed)
-    result = _identify(case.signals, case.candidate("model 2"), block_rows=40, order=2, band_hz=(5.0, 20.0))
+    result = _identify(case.signals, case.candidate("model 2"), NSIOptions(block_rows=40, order=2, band_hz=(5.0, 20.0)))
     k1 = 1.0 / result.underlying_frf([0.0])[0, 0, 0].real
     assert k1 == pytest.approx(case.K[0, 0], rel=0.03)
     np.testing.assert_allclose(result.coefficient_values, case.true_coefficients, rtol=0.03)
@@ -239,8 +232,8 @@ def test_negative_stiffness_twin_upsampled_identification():
     Table 8 model 2 within 1 % (against the simulator's exact values; the default sampled
     identification gives α1 -2.1 %, benchmarks/upsample.py), reconstructed at the data's samples."""
     case = simulate_case("negative-stiffness", seed=0)
-    sampled = _identify(case.signals, case.candidate("model 2"), block_rows=40, order=2, band_hz=(5.0, 20.0))
-    fine = _identify(case.signals, case.candidate("model 2"), block_rows=80, order=2, band_hz=(5.0, 20.0), upsample=4)
+    sampled = _identify(case.signals, case.candidate("model 2"), NSIOptions(block_rows=40, order=2, band_hz=(5.0, 20.0)))
+    fine = _identify(case.signals, case.candidate("model 2"), NSIOptions(block_rows=80, order=2, band_hz=(5.0, 20.0), upsample=4))
     np.testing.assert_allclose(fine.coefficient_values, case.true_coefficients, rtol=0.01)
     assert abs(fine.coefficient_values[2] / case.true_coefficients[2] - 1) < 0.5 * abs(
         sampled.coefficient_values[2] / case.true_coefficients[2] - 1

@@ -223,13 +223,12 @@ def _digest(outcomes):
 
 @pytest.fixture(scope="module")
 def sweep(config):
-    from bayesnsi.cli._common import nsi_options
     from bayesnsi.io import load_config, load_signals
     from bayesnsi.run import dictionary_candidates
 
     cfg = load_config(config)
     candidates = dictionary_candidates([1, 2], types=["x^3", "v|v|", "sign(v)"], max_terms=1)
-    return load_signals(cfg), candidates, nsi_options(cfg)
+    return load_signals(cfg), candidates, cfg.nsi
 
 
 def test_dictionary_sweep_identical_serial_joblib_and_dask(sweep, config, tmp_path):

@@ -9,7 +9,8 @@ import warnings
 
 import numpy as np
 
-from bayesnsi.evidence import EVIDENCE_DEFAULTS, candidate_evidence, compare_evidence
+from bayesnsi.evidence import candidate_evidence, compare_evidence
+from bayesnsi.options import EvidenceOptions
 from bayesnsi.models import Term
 from bayesnsi.nsi import identify
 from bayesnsi.simulate import simulate_cases
@@ -17,7 +18,7 @@ from bayesnsi.simulate import simulate_cases
 
 def test_evidence_prefers_smaller_nested_model():
     cases = simulate_cases("two-dof", range(10))
-    options = {**EVIDENCE_DEFAULTS, "compare": []}
+    options = EvidenceOptions(compare=())
     evidence_small, plain_big = 0, 0
     for case in cases:
         small = case.candidates[0]
@@ -27,7 +28,7 @@ def test_evidence_prefers_smaller_nested_model():
         for cand, seed in zip((small, big), seeds):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                res = identify(case.signals, cand, block_rows=60, order=4)
+                res = identify(case.signals, cand, NSIOptions(block_rows=60, order=4))
                 evidences[cand.name] = list(candidate_evidence(res, case.signals, options, seed).values())
         table = compare_evidence(evidences)
         evidence_small += table.loc[small.name, "p_ar1"] > 0.5
@@ -48,12 +49,12 @@ def test_negative_stiffness_twin_true_model_ranked_first():
     from bayesnsi.simulate import simulate_case
 
     case = simulate_case("negative-stiffness", seed=0)
-    options = {**EVIDENCE_DEFAULTS, "compare": []}
+    options = EvidenceOptions(compare=())
     evidences = {}
     for cand, seed in zip(case.candidates, np.random.SeedSequence(0).spawn(len(case.candidates))):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            res = identify(case.signals, cand, **case.recommended)
+            res = identify(case.signals, cand, case.recommended)
             evidences[cand.name] = list(candidate_evidence(res, case.signals, options, seed).values())
     log_z = {name: ev[0].log_evidence for name, ev in evidences.items()}
     assert max(log_z, key=log_z.get) == "model 2", log_z

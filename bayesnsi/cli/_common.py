@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-__all__ = ["add_run_arguments", "identify_all", "nsi_options", "progress", "progress_bar", "run_options", "start_run"]
+__all__ = ["add_run_arguments", "identify_all", "progress", "progress_bar", "run_options", "start_run"]
 
 
 def add_run_arguments(parser) -> None:
@@ -62,24 +62,6 @@ def progress_bar(total: int, description: str, quiet: bool):
     return tqdm(total=total, desc=description, unit="candidate", file=sys.stderr, disable=quiet or None, leave=False)
 
 
-def nsi_options(config) -> dict:
-    """Keyword arguments of :func:`bayesnsi.nsi.identify` from the config's [nsi] table."""
-    s = config.nsi
-    return dict(
-        block_rows=s.block_rows,
-        order=s.order,
-        max_order=s.max_order,
-        band_hz=s.band_hz,
-        velocity_method=s.velocity_method,
-        bd_method=s.bd_method,
-        zero_feedthrough=s.zero_feedthrough,
-        input_hold=s.input_hold,
-        upsample=s.upsample,
-        refine_poles=s.refine_poles,
-        c_method=s.c_method,
-    )
-
-
 def run_options(args, out) -> dict:
     """Keyword arguments of :func:`identify_all` from the command line: backend and cache.
 
@@ -124,7 +106,7 @@ def identify_all(config, signals, quiet=False, jobs: int = 1, evidence_options=N
             bar.update()
 
         outcomes = run_candidates(
-            signals, config.candidates, nsi_options(config), evidence_options, config.seed,
+            signals, config.candidates, config.nsi, evidence_options, config.seed,
             jobs=jobs, scheduler=scheduler, cache=cache, on_result=report,
         )
     results, records, evidences = {}, [], {}
@@ -151,6 +133,6 @@ def _report_progress(k, total, candidate, outcome, evidence_options, quiet, cach
         return
     text = f"[{k}/{total}] {candidate.name}: order {result.order}, NRMSE {record['nrmse']:.4f}"
     if evidence:
-        primary = evidence[evidence_options["likelihood"]]
+        primary = evidence[evidence_options.likelihood]
         text += f", log Z ({primary.likelihood}) = {primary.log_evidence:.2f} ± {primary.log_evidence_se:.2f}"
     progress(f"{text} ({origin})", quiet)

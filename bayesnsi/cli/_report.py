@@ -104,8 +104,8 @@ def selection_sections(report, signals, results, evidences, table, opts, selecte
 
     head = report.section("Model selection (paper Eqs. 1-4 and marginal evidence)")
     head.append(
-        f"Selected: {selected} (posterior under the marginal evidence with an {opts['likelihood']} model of the "
-        f"{_RESIDUAL_TEXT.get(opts.get('residual'), opts.get('residual'))}). "
+        f"Selected: {selected} (posterior under the marginal evidence with an {opts.likelihood} model of the "
+        f"{_RESIDUAL_TEXT.get(opts.residual, opts.residual)}). "
         "The plain ranking is the paper's Gaussian likelihood of the open-loop reconstruction residual with "
         "σ̂² = mean squared residual; the evidence integrates the coefficients and the noise scale over stated "
         "proper priors (emcee + bridge sampling)."
@@ -122,7 +122,7 @@ def selection_sections(report, signals, results, evidences, table, opts, selecte
     head.append(fig)
     post = report.section("Coefficient posteriors (arviz summaries)")
     for name, by_lik in evidences.items():
-        ev = by_lik[opts["likelihood"]]
+        ev = by_lik[opts.likelihood]
         post.append(f"{name} - priors: {ev.priors_text.replace(chr(10), '; ')}")
         post.append(ev.summary)
         for message in ev.warnings:

@@ -4,30 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..exceptions import ConfigError
-from ..evidence.candidate import EVIDENCE_DEFAULTS, RESIDUALS
 from ._common import identify_all
 
-__all__ = ["evidence_options", "select_all"]
-
-
-def evidence_options(config) -> dict:
-    """The ``[evidence]`` table merged over :data:`EVIDENCE_DEFAULTS` (unknown keys refused)."""
-    raw = dict(config.evidence_settings or {})
-    unknown = sorted(set(raw) - set(EVIDENCE_DEFAULTS))
-    if unknown:
-        raise ConfigError(
-            f"{config.path}: [evidence] has unknown key(s) {unknown}; allowed: {sorted(EVIDENCE_DEFAULTS)}"
-        )
-    opts = {**EVIDENCE_DEFAULTS, **raw}
-    compare = opts["compare"]
-    opts["compare"] = [compare] if isinstance(compare, str) else list(compare)
-    if opts["residual"] not in RESIDUALS:
-        raise ConfigError(f"[evidence] residual {opts['residual']!r} unknown; use one of {list(RESIDUALS)}")
-    for lik in [opts["likelihood"], *opts["compare"]]:
-        if lik not in ("white", "ar1") and not (lik.startswith("ar") and lik[2:].isdigit()):
-            raise ConfigError(f"[evidence] likelihood {lik!r} unknown; use 'white', 'ar1' or 'arP' (P an integer)")
-    return opts
+__all__ = ["select_all"]
 
 
 def select_all(config, signals, quiet=False, jobs: int = 1, **run_options):
@@ -41,11 +20,11 @@ def select_all(config, signals, quiet=False, jobs: int = 1, **run_options):
     records : list of dict (results.json candidate records with evidence fields)
     evidences : dict name -> dict likelihood -> EvidenceResult
     table : pandas.DataFrame (plain ranking and posterior probabilities side by side)
-    opts : dict (evidence settings used)
+    opts : EvidenceOptions (evidence settings used)
     """
     from ..evidence import compare_evidence
 
-    opts = evidence_options(config)
+    opts = config.evidence
     results, records, evidences = identify_all(
         config, signals, quiet=quiet, jobs=jobs, evidence_options=opts, **run_options
     )
@@ -54,7 +33,7 @@ def select_all(config, signals, quiet=False, jobs: int = 1, **run_options):
         priors=[c.prior for c in config.candidates],
         rng=np.random.default_rng(np.random.SeedSequence(config.seed).spawn(len(config.candidates) + 1)[-1]),
     )
-    lik = opts["likelihood"]
+    lik = opts.likelihood
     for record in records:
         name = record["name"]
         row = table.loc[name]

@@ -6,7 +6,7 @@ import numpy as np
 
 from ..io import RESULTS_FILENAME, atomic_write_json, load_validation, to_jsonable, versions
 from ..io.schema import term_record
-from ._common import add_run_arguments, nsi_options, progress, run_options, start_run
+from ._common import add_run_arguments, progress, run_options, start_run
 from ._report import identification_report, selection_sections
 from ._selection import select_all
 from .select import validate
@@ -53,17 +53,17 @@ def run(args) -> int:
     if start not in results:
         raise ConfigError(f"--start {start!r} is not an identified candidate; choose one of {sorted(results)}")
     progress(f"closing the loop from {start!r} ...", args.quiet)
+    loop_options = config.loop.replace(threshold=args.threshold, max_steps=args.max_steps)
+    if args.screen is not None:
+        loop_options = loop_options.replace(screen=args.screen or None)
     loop = close_the_loop(
         signals,
         results[start].candidate,
-        nsi_options=nsi_options(config),
-        # the loop's own residual default (LOOP_EVIDENCE_DEFAULTS) unless the config chose one
-        evidence_options={
-            k: v for k, v in opts.items() if k != "compare" and (k != "residual" or k in config.evidence_settings)
-        },
-        threshold=args.threshold,
-        max_steps=args.max_steps,
-        **({} if args.screen is None else {"screen": args.screen or None}),
+        nsi_options=config.nsi,
+        evidence_options=opts.replace(residual=loop_options.residual, compare=()),
+        threshold=loop_options.threshold,
+        max_steps=loop_options.max_steps,
+        screen=loop_options.screen,
         seed=config.seed,
         jobs=getattr(args, "jobs", 1),
         scheduler=getattr(args, "scheduler", None),
@@ -102,7 +102,7 @@ def run(args) -> int:
         "loop_rejected": [s for s in steps if not s["accepted"]],
         "validation_before": validate(loop.start, validation),
         "validation": validate(loop.final, validation),
-        "settings": {"config": config.raw, "seed": config.seed, "evidence": opts, "loop": to_jsonable(loop.settings)},
+        "settings": {"config": config.raw, "seed": config.seed, "evidence": opts.to_dict(), "loop": to_jsonable(loop.settings)},
         "versions": versions(),
     }
     path = atomic_write_json(out / RESULTS_FILENAME, to_jsonable(payload))

@@ -42,11 +42,11 @@ def run(args) -> int:
         "config": str(config.path),
         "selected": selected,
         "selected_gaussian": max(records, key=lambda r: r.get("posterior_gaussian") or 0.0)["name"] if ranked else None,
-        "likelihood": opts["likelihood"],
+        "likelihood": opts.likelihood,
         "candidates": records,
         "validation": next((r["validation"] for r in records if r["name"] == selected), []),
         "ranking": to_jsonable(table.reset_index().to_dict(orient="records")),
-        "settings": {"config": config.raw, "seed": config.seed, "evidence": opts},
+        "settings": {"config": config.raw, "seed": config.seed, "evidence": opts.to_dict()},
         "versions": versions(),
     }
     path = atomic_write_json(out / RESULTS_FILENAME, to_jsonable(payload))

@@ -41,13 +41,9 @@ def add_parser(sub) -> None:
 def case_config(case, data_table: dict) -> dict:
     """Experiment config (SPEC 9) of a simulated case, as a plain dict for ``dump_config``."""
     rec = case.recommended
-    nsi = {"block_rows": int(rec.get("block_rows", 40)), "order": rec.get("order", "auto")}
-    if rec.get("band_hz") is not None:
-        nsi["band_hz"] = [float(b) for b in rec["band_hz"]]
-    for key in ("bd_method", "upsample", "refine_poles", "c_method"):
-        if rec.get(key) is not None:
-            value = rec[key]
-            nsi[key] = [float(v) for v in value] if isinstance(value, (tuple, list)) else value
+    defaults = type(rec)().to_dict()
+    nsi = {"block_rows": rec.block_rows, "order": rec.order}
+    nsi.update({k: v for k, v in rec.to_dict().items() if v != defaults[k] and v is not None})
     return {
         "seed": int(case.seed or 0),
         "data": data_table,

@@ -38,8 +38,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..options import EvidenceOptions, NSIOptions, parse_likelihood
 from ..evidence import (
-    EVIDENCE_DEFAULTS,
     candidate_affine,
     candidate_evidence,
     candidate_priors,
@@ -53,7 +53,7 @@ from ..nsi import hankel_correlations, identify, nrmse
 from .forces import ResidualForce, residual_force
 from .screen import screen_effects
 
-LOOP_EVIDENCE_DEFAULTS = {**EVIDENCE_DEFAULTS, "residual": "reconstruction"}
+LOOP_EVIDENCE_DEFAULTS = None
 """Evidence settings of the loop. The loop scores effects on the open-loop reconstruction
 residual. With the velocity noise estimated by high-order differences (4× too large at the driven
 DOF), scoring on the innovations ranked velocity look-alikes at DOF 2 (v2³, v2|v2|) first and found
@@ -168,21 +168,20 @@ def _laplace(result, signals, options) -> tuple[float, float]:
     The NRMSE is NaN unless the evidence scores the open-loop reconstruction residual (then
     the affine model at the NSI estimate is that reconstruction, SPEC 5).
     """
-    residual = options.get("residual", "reconstruction")
+    residual = options.residual
     affine = candidate_affine(result, signals, residual)
     priors = candidate_priors(result, signals, affine, options)
-    order = 0 if options["likelihood"] == "white" else int(options["likelihood"][2:])
+    order = parse_likelihood(options.likelihood)[0]
     stats = sufficient_statistics(affine, ar_order=order)
-    score = laplace_log_evidence(stats, priors, options["likelihood"])
+    score = laplace_log_evidence(stats, priors, options.likelihood)
     error = nrmse(affine.measured, affine.predict(affine.estimate))[1] if residual == "reconstruction" else np.nan
     return score, error
 
 
 def _shared_correlations(signals, candidate, nsi_options):
     """Hankel products of ``candidate`` that every ``candidate + effect`` shares (None if unusable)."""
-    keys = ("block_rows", "velocity_method", "input_hold", "upsample")
     try:
-        return hankel_correlations(signals, candidate, **{k: nsi_options[k] for k in keys if k in nsi_options})
+        return hankel_correlations(signals, candidate, nsi_options)
     except (BayesNSIError, np.linalg.LinAlgError):
         return None
 
@@ -196,7 +195,7 @@ def _score_one(signals, candidate, kind, term, nsi_options, evidence_options, co
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", BayesNSIWarning)
-            result = identify(signals, candidate.with_term(term), correlations=correlations, **nsi_options)
+            result = identify(signals, candidate.with_term(term), nsi_options, correlations=correlations)
             score, error = _laplace(result, signals, evidence_options)
     except (BayesNSIError, np.linalg.LinAlgError):
         return _Entry(kind, term, -np.inf, None, np.nan)
@@ -323,7 +322,7 @@ def _halves(signals, candidate, nsi_options, cache=None):
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", BayesNSIWarning)
-                values.append(identify(part, candidate, correlations=correlations, **nsi_options).coefficient_values[-1])
+                values.append(identify(part, candidate, nsi_options, correlations=correlations).coefficient_values[-1])
         except (BayesNSIError, np.linalg.LinAlgError):
             values.append(np.nan)
     return tuple(float(v) for v in values)
@@ -378,7 +377,7 @@ def _check(
     ci95 = (np.nan, np.nan)
     ev = _Score(float(z_trial), None)
     if reason == "accepted":  # emcee only for what is kept: its credible intervals
-        full = candidate_evidence(trial, signals, evidence_options, seed, warn=False)[evidence_options["likelihood"]]
+        full = candidate_evidence(trial, signals, evidence_options, seed, warn=False)[evidence_options.likelihood]
         ev = _Score(float(z_trial), full.ci95)
         ci95 = tuple(float(c) for c in full.ci95[-1])
     step = LoopStep(
@@ -440,7 +439,7 @@ def _screened(signals, candidate, effects, nsi_options, exclude, screen):
             candidate,
             effects,
             max_frequency_hz=max_frequency_hz,
-            velocity_method=nsi_options.get("velocity_method", "fourth"),
+            velocity_method=nsi_options.velocity_method,
         )
     except BayesNSIError:
         return effects, []  # too short a record to screen: score them all
@@ -574,8 +573,8 @@ def close_the_loop(
     """
     if screen is not None and (isinstance(screen, bool) or not isinstance(screen, (int, np.integer)) or screen < 1):
         raise InputDataError(f"screen must be a positive number of effects or None (no screening), got {screen!r}")
-    nsi_options = dict(nsi_options or {})
-    evidence_options = {**LOOP_EVIDENCE_DEFAULTS, **(evidence_options or {}), "compare": []}
+    nsi_options = nsi_options or NSIOptions()
+    evidence_options = (evidence_options or EvidenceOptions(residual="reconstruction")).replace(compare=())
     if effects is None:
         std = {d: signals.displacement[:, c].std() for c, d in enumerate(signals.output_dofs)}
         gaps = {(d,): default_gaps(s) for d, s in std.items()}
@@ -583,7 +582,7 @@ def close_the_loop(
     seeds = _seed_stream(seed)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", BayesNSIWarning)
-        current = identify(signals, candidate, **nsi_options)
+        current = identify(signals, candidate, nsi_options)
     start = current
     current_z = _laplace(current, signals, evidence_options)[0]
     guards = (threshold, max_imag_ratio, stability_factor)
@@ -647,13 +646,13 @@ def close_the_loop(
             current, current_z, [second.term], steps, effects, signals, nsi_options, evidence_options, seeds, guards,
             n_tries, examine=None if exchange else [first.term],
         )
-    final_nsi = dict(nsi_options)
-    if refine_final and int(nsi_options.get("upsample", 1)) == 1 and any(t.expr.switches_with_velocity for t in current.terms):
-        fine = {**nsi_options, "upsample": int(refine_final), "block_rows": int(nsi_options.get("block_rows", 40)) * int(refine_final)}
+    final_nsi = nsi_options
+    if refine_final and nsi_options.upsample == 1 and any(t.expr.switches_with_velocity for t in current.terms):
+        fine = nsi_options.replace(upsample=int(refine_final), block_rows=nsi_options.block_rows * int(refine_final))
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", BayesNSIWarning)
-                current = identify(signals, current.candidate, **fine)
+                current = identify(signals, current.candidate, fine)
             final_nsi = fine
         except (BayesNSIError, np.linalg.LinAlgError) as err:
             warnings.warn(
@@ -672,11 +671,11 @@ def close_the_loop(
         exchange=exchange,
         refine_final=refine_final,
         screen=screen,
-        final_nsi=final_nsi,
+        final_nsi=final_nsi.to_dict(),
         jobs=jobs,
         n_effects=len(effects),
-        nsi=nsi_options,
-        evidence=evidence_options,
+        nsi=nsi_options.to_dict(),
+        evidence=evidence_options.to_dict(),
         seed=seed,
     )
     # accepted steps first (in order), then the rejected ones
@@ -767,7 +766,7 @@ def _prune(current, current_z, new_terms, steps, signals, nsi_options, evidence_
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", BayesNSIWarning)
-                reduced = identify(signals, _without(current.candidate, step.term), **nsi_options)
+                reduced = identify(signals, _without(current.candidate, step.term), nsi_options)
                 z_without = _laplace(reduced, signals, evidence_options)[0]
                 z_with = _laplace(current, signals, evidence_options)[0]
         except (BayesNSIError, np.linalg.LinAlgError):

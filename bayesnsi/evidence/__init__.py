@@ -15,7 +15,7 @@ Conventions: posterior draws are ``(chain, draw, ...)`` with one chain per emcee
 sampled noise parameter is ``log σ`` per output channel; log evidences are in nats.
 """
 
-from .candidate import EVIDENCE_DEFAULTS, RESIDUALS, candidate_affine, candidate_evidence, candidate_priors
+from .candidate import RESIDUALS, candidate_affine, candidate_evidence, candidate_priors
 from .convergence import ConvergenceReport, convergence_report, posterior_summary, warn_if_unconverged
 from .likelihood import (
     SufficientStatistics,
@@ -47,7 +47,6 @@ from .sampling import PosteriorSamples, sample_posterior
 
 __all__ = [
     # candidates
-    "EVIDENCE_DEFAULTS",
     "RESIDUALS",
     "candidate_affine",
     "candidate_evidence",

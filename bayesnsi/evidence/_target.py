@@ -8,11 +8,11 @@ gradient and Hessian for every likelihood.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..options import parse_likelihood as _likelihood_order
 from ..exceptions import InputDataError, ShapeError
 from .likelihood import SufficientStatistics, _beta
 from .priors import Priors
@@ -22,12 +22,7 @@ _LOG_2PI = float(np.log(2.0 * np.pi))
 
 def parse_likelihood(likelihood: str) -> tuple[int, str]:
     """``"white"`` -> (0, "conditional"); ``"ar1"`` -> (1, "exact"); ``"arP"`` -> (P, "conditional")."""
-    if likelihood == "white":
-        return 0, "conditional"
-    match = re.fullmatch(r"ar(\d+)", str(likelihood))
-    if not match or int(match.group(1)) < 1:
-        raise InputDataError(f"likelihood must be 'white', 'ar1' or 'arP' (P >= 1), got {likelihood!r}")
-    p = int(match.group(1))
+    p = _likelihood_order(likelihood)[0]
     return p, "exact" if p == 1 else "conditional"
 
 

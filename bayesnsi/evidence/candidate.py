@@ -6,37 +6,42 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..options import EvidenceOptions
 from .marginal import marginal_evidence
 from .priors import default_priors
 
-__all__ = ["EVIDENCE_DEFAULTS", "RESIDUALS", "candidate_affine", "candidate_evidence", "candidate_priors"]
+__all__ = ["RESIDUALS", "candidate_affine", "candidate_evidence", "candidate_priors"]
 
 RESIDUALS = ("reconstruction", "innovations")
 """Residuals the evidence can be built on: the open-loop reconstruction error (the paper's) or
 the one-step-ahead innovations of the errors-in-variables Kalman predictor
 (:func:`bayesnsi.nsi.predictor_reconstruction`)."""
 
-EVIDENCE_DEFAULTS = {
-    "residual": "innovations",
-    "likelihood": "ar1",
-    "compare": ["white"],
-    "n_walkers": 32,
-    "n_steps": 1500,
-    "n_burn": 300,
-    "reference_force_rms": None,
-}
-"""Settings of ``[evidence]``: residual (see :data:`RESIDUALS`), primary likelihood, the others
-reported beside it, emcee sizes, and the reference force of the default coefficient priors (None:
-rms of the measured forces)."""
 
+def candidate_priors(result, signals, affine, options: EvidenceOptions | None = None, candidate=None):
+    """Default priors of SPEC 6 for one identified candidate (per-term overrides honoured).
 
-def candidate_priors(result, signals, affine, options=EVIDENCE_DEFAULTS, candidate=None):
-    """Default priors of SPEC 6 for one identified candidate (per-term overrides honoured)."""
+    Parameters
+    ----------
+    result : NSIResult
+    signals : Signals
+    affine : AffineReconstruction
+        From :func:`candidate_affine`.
+    options : EvidenceOptions, optional
+        ``reference_force_rms`` scales the coefficient priors.
+    candidate : CandidateModel, optional
+        Carries per-term prior scales (default ``result.candidate``).
+
+    Returns
+    -------
+    Priors
+    """
+    options = options or EvidenceOptions()
     candidate = candidate or result.candidate
     u = result.extended_input(signals)
     m = len(result.input_dofs)
     term_rms = np.sqrt(np.mean(u[:, m:] ** 2, axis=0))
-    force_ref = options.get("reference_force_rms") or float(
+    force_ref = options.reference_force_rms or float(
         np.sqrt(np.sum(np.mean(np.asarray(signals.force) ** 2, axis=0)))
     )
     overrides = {t.name: s for t, s in zip(candidate.terms, candidate.coefficient_prior_scales) if s is not None}
@@ -62,7 +67,9 @@ def candidate_affine(result, signals, residual: str = "innovations"):
     raise ConfigError(f"[evidence] residual {residual!r} unknown; use one of {list(RESIDUALS)}")
 
 
-def candidate_evidence(result, signals, options=EVIDENCE_DEFAULTS, seed_sequence=None, candidate=None, **extra):
+def candidate_evidence(
+    result, signals, options: EvidenceOptions | None = None, seed_sequence=None, candidate=None, *, warn: bool = True
+):
     """Marginal evidence of one identified candidate under each requested likelihood.
 
     Parameters
@@ -70,21 +77,24 @@ def candidate_evidence(result, signals, options=EVIDENCE_DEFAULTS, seed_sequence
     result : NSIResult
     signals : Signals
         The estimation data the result was identified from.
-    options : mapping
-        As :data:`EVIDENCE_DEFAULTS`.
+    options : EvidenceOptions, optional
+        Residual, likelihoods and emcee sizes (default ``EvidenceOptions()``).
     seed_sequence : numpy.random.SeedSequence, optional
         One child per likelihood is spawned from it (reproducible whatever the order of runs).
     candidate : CandidateModel, optional
         Carries per-term prior scales (default ``result.candidate``).
-    **extra
-        Passed to :func:`marginal_evidence` (e.g. ``warn=False``).
+    warn : bool
+        Warn when a chain did not converge (:func:`marginal_evidence`).
 
     Returns
     -------
     dict likelihood -> EvidenceResult
     """
+    options = options or EvidenceOptions()
+    if not isinstance(options, EvidenceOptions):
+        raise TypeError(f"options must be EvidenceOptions, got {type(options).__name__}")
     seed_sequence = seed_sequence or np.random.SeedSequence(0)
-    residual = options.get("residual", EVIDENCE_DEFAULTS["residual"])
+    residual = options.residual
     affine = candidate_affine(result, signals, residual)
     priors = candidate_priors(result, signals, affine, options, candidate)
     plain = None
@@ -94,21 +104,21 @@ def candidate_evidence(result, signals, options=EVIDENCE_DEFAULTS, seed_sequence
 
         reconstruction = result.reconstruct(signals)
         plain = plain_log_likelihood(reconstruction.measured - reconstruction.predicted)
-    likelihoods = [options["likelihood"]] + [lik for lik in options.get("compare", []) if lik != options["likelihood"]]
+    likelihoods = options.likelihoods
     out = {}
     for lik, child in zip(likelihoods, seed_sequence.spawn(len(likelihoods))):
         ar_order = 0 if lik == "white" else int(lik[2:])
         n_params = len(affine.names) + affine.measured.shape[1] * (1 + ar_order)
-        n_walkers = max(int(options["n_walkers"]), 2 * n_params + 2)  # emcee needs >= 2 x parameters
+        n_walkers = max(options.n_walkers, 2 * n_params + 2)  # emcee needs >= 2 x parameters
         out[lik] = marginal_evidence(
             affine,
             priors,
             likelihood=lik,
             rng=np.random.default_rng(child),
             n_walkers=n_walkers + n_walkers % 2,
-            n_steps=int(options["n_steps"]),
-            n_burn=int(options["n_burn"]),
-            **extra,
+            n_steps=options.n_steps,
+            n_burn=options.n_burn,
+            warn=warn,
         )
     if plain is not None:
         out = {lik: replace(ev, plain_log_likelihood=plain) for lik, ev in out.items()}

@@ -7,12 +7,9 @@
 """
 
 from .config import (
-    BD_METHODS,
-    VELOCITY_METHODS,
     DataSpec,
     ExperimentConfig,
     IntegrationSpec,
-    NSISettings,
     ValidationSegment,
     dump_config,
     load_config,
@@ -46,13 +43,10 @@ from .results import (
 __all__ = [
     "DataSpec",
     "IntegrationSpec",
-    "NSISettings",
     "ValidationSegment",
     "ExperimentConfig",
     "load_config",
     "dump_config",
-    "VELOCITY_METHODS",
-    "BD_METHODS",
     "CSVColumns",
     "read_csv_columns",
     "read_csv_signals",

@@ -60,38 +60,25 @@ from typing import Any
 
 from ..exceptions import ConfigError, ExpressionError
 from ..models import CandidateModel, Term
+from ..options import EvidenceOptions, LoopOptions, NSIOptions
 from ..preprocess import INTEGRATION_METHODS
 from . import _toml
 
 __all__ = [
     "DataSpec",
     "IntegrationSpec",
-    "NSISettings",
     "ValidationSegment",
     "ExperimentConfig",
     "load_config",
     "dump_config",
-    "VELOCITY_METHODS",
-    "BD_METHODS",
 ]
 
-VELOCITY_METHODS = ("central", "fourth", "sixth")
-"""Finite-difference stencils for velocities derived from displacements."""
-C_METHODS = ("subspace", "prediction-error")
-BD_METHODS = ("robust", "output-error", "prediction-error")
-INPUT_HOLDS = ("auto", "average", "sample")
-"""Ways of estimating B and D (SPEC section 3)."""
-
-_TOP_KEYS = ("seed", "data", "nsi", "candidates", "validation", "evidence", "meta")
+_TOP_KEYS = ("seed", "data", "nsi", "candidates", "validation", "evidence", "diagnose", "meta")
 _DATA_KEYS = (
     "file", "fs", "time_column", "inputs", "outputs", "velocities", "accelerations", "estimation", "remove_mean",
     "integrate", "decimate",
 )
 _INTEGRATE_KEYS = ("band_hz", "method", "taper", "filter_inputs", "filter_order", "detrend_order")
-_NSI_KEYS = (
-    "block_rows", "order", "band_hz", "band", "velocity_method", "bd_method", "max_order", "zero_feedthrough",
-    "input_hold", "upsample", "refine_poles", "c_method",
-)
 _CANDIDATE_KEYS = ("name", "prior", "terms")
 _TERM_KEYS = ("expr", "at", "prior_scale")
 _VALIDATION_KEYS = ("name", "start", "stop", "file")
@@ -214,53 +201,6 @@ class DataSpec:
 
 
 @dataclass(frozen=True)
-class NSISettings:
-    """Settings of the subspace identification (``[nsi]``; SPEC sections 3-4).
-
-    Parameters
-    ----------
-    block_rows : int
-        Number of block rows i of the Hankel matrices.
-    order : int or "auto"
-        Model order n, or "auto" to choose it from the singular values.
-    band_hz : (float, float) or None
-        Band [Hz] over which λ_i(ω) is averaged; None: the band holding the identified modes.
-    velocity_method : {"central", "fourth", "sixth"}
-        Stencil for velocities derived from displacements.
-    bd_method : {"robust", "output-error", "prediction-error"}
-        Estimator of B and D (see :func:`bayesnsi.nsi.identify`).
-    max_order : int
-        Largest order considered by "auto" and by the stabilisation diagram.
-    zero_feedthrough : bool
-        Impose D = 0 (displacement outputs).
-    input_hold : {"auto", "average", "sample"}
-        How the extended input represents a sampling interval (see
-        :func:`bayesnsi.nsi.extended_input`).
-    upsample : int
-        Identify on a grid this many times finer than the data (``identify(upsample=...)``;
-        helps discontinuous terms such as sign(v)); block_rows then counts fine-grid samples.
-    refine_poles : (float, float) or None
-        Band [Hz] whose poles are refined by output error after the subspace step
-        (``identify(refine_poles=...)``; damping biased by noisy nonlinear inputs).
-    c_method : {"subspace", "prediction-error"}
-        C from the subspace step, or re-estimated with B, D by prediction error
-        (``identify(c_method=...)``; needs ``bd_method = "prediction-error"``).
-    """
-
-    block_rows: int = 40
-    order: int | str = "auto"
-    band_hz: tuple[float, float] | None = None
-    velocity_method: str = "fourth"
-    bd_method: str = "output-error"
-    max_order: int = 40
-    zero_feedthrough: bool = True
-    input_hold: str = "auto"
-    upsample: int = 1
-    refine_poles: tuple[float, float] | None = None
-    c_method: str = "subspace"
-
-
-@dataclass(frozen=True)
 class ValidationSegment:
     """A stretch of data kept for validation only (``[[validation]]``).
 
@@ -290,11 +230,14 @@ class ExperimentConfig:
     path : Path
         The config file, absolute.
     data : DataSpec
-    nsi : NSISettings
+    nsi : NSIOptions
+        ``[nsi]``.
     candidates : tuple of CandidateModel
     validation : tuple of ValidationSegment
-    evidence_settings : dict
-        The ``[evidence]`` table without ``seed`` (numbers, strings, bools and lists of them).
+    evidence : EvidenceOptions
+        ``[evidence]`` (its ``seed`` is the config's ``seed``).
+    loop : LoopOptions
+        ``[diagnose]``: the guards and search of the loop (its seed is the config's ``seed``).
     seed : int
         Seed of every random generator of the run.
     raw : dict
@@ -305,10 +248,11 @@ class ExperimentConfig:
 
     path: Path
     data: DataSpec
-    nsi: NSISettings
+    nsi: NSIOptions
     candidates: tuple[CandidateModel, ...]
     validation: tuple[ValidationSegment, ...]
-    evidence_settings: dict[str, Any]
+    evidence: EvidenceOptions
+    loop: LoopOptions
     seed: int
     raw: dict[str, Any]
     meta: dict[str, Any] = field(default_factory=dict)
@@ -355,12 +299,13 @@ def load_config(path: str | os.PathLike, check_files: bool = True) -> Experiment
     candidates = _parse_candidates(raw.get("candidates", _MISSING), path, data)
     validation = _parse_validation(raw.get("validation", []), path, data, check_files)
     evidence, seed = _parse_evidence(raw, path)
+    loop = _options(LoopOptions, raw.get("diagnose", {}), _Where(path, "[diagnose]"), seed=seed)
     meta = raw.get("meta", {})
     if not isinstance(meta, dict):
         raise _Where(path, "top level").error("meta", "a table [meta]", meta, "write notes as [meta] key = value")
     return ExperimentConfig(
         path=path, data=data, nsi=nsi, candidates=candidates, validation=validation,
-        evidence_settings=evidence, seed=seed, raw=raw, meta=meta,
+        evidence=evidence, loop=loop, seed=seed, raw=raw, meta=meta,
     )
 
 
@@ -653,57 +598,35 @@ def _check_columns_unique(where: _Where, time_column: str | None, *maps) -> None
             used[column] = role
 
 
-def _parse_nsi(table: Any, where: _Where, data: DataSpec) -> NSISettings:
+def _parse_nsi(table: Any, where: _Where, data: DataSpec) -> NSIOptions:
+    if isinstance(table, dict) and "band" in table:
+        if "band_hz" in table:
+            raise where.problem("band", "band and band_hz are the same setting; keep only band_hz")
+        table = {("band_hz" if k == "band" else k): v for k, v in table.items()}
+    options = _options(NSIOptions, table, where)
+    if options.order != "auto" and options.order > options.block_rows * len(data.outputs):
+        limit = options.block_rows * len(data.outputs)
+        raise where.error(
+            "order", f"at most block_rows x outputs = {options.block_rows} x {len(data.outputs)} = {limit}",
+            options.order, "raise block_rows or lower order",
+        )
+    fs = data.signal_fs
+    for key in ("band_hz", "refine_poles"):
+        band = getattr(options, key)
+        if band is not None and fs is not None and band[1] > fs / 2:
+            raise where.error(key, f"a band below the Nyquist frequency {fs / 2:g} Hz", list(band))
+    return options
+
+
+def _options(kind: type, table: Any, where: _Where, **fixed: Any):
+    """Build an options object from a config table; errors carry the file and section."""
     if not isinstance(table, dict):
-        raise where.error(None, "a table [nsi]", table)
-    _check_keys(table, _NSI_KEYS, where)
-    defaults = NSISettings()
-    block_rows = _int(table, "block_rows", where, defaults.block_rows, minimum=1)
-    order = table.get("order", defaults.order)
-    if order != "auto":
-        if not isinstance(order, int) or isinstance(order, bool) or order < 1:
-            raise where.error("order", 'a positive integer or "auto"', order)
-        limit = block_rows * len(data.outputs)
-        if order > limit:
-            raise where.error(
-                "order", f"at most block_rows x outputs = {block_rows} x {len(data.outputs)} = {limit}", order,
-                "raise block_rows or lower order",
-            )
-    settings = NSISettings(
-        block_rows=block_rows,
-        order=order,
-        band_hz=_band(table, where, data.signal_fs),
-        velocity_method=_choice(table, "velocity_method", where, VELOCITY_METHODS, defaults.velocity_method),
-        bd_method=_choice(table, "bd_method", where, BD_METHODS, defaults.bd_method),
-        max_order=_int(table, "max_order", where, defaults.max_order, minimum=1),
-        zero_feedthrough=_bool(table, "zero_feedthrough", where, defaults.zero_feedthrough),
-        input_hold=_choice(table, "input_hold", where, INPUT_HOLDS, defaults.input_hold),
-        upsample=_int(table, "upsample", where, defaults.upsample, minimum=1),
-        refine_poles=_hz_pair(table, "refine_poles", where, data.signal_fs),
-        c_method=_choice(table, "c_method", where, C_METHODS, defaults.c_method),
-    )
-    if settings.c_method == "prediction-error" and settings.bd_method != "prediction-error":
-        raise where.problem("c_method", 'c_method = "prediction-error" needs bd_method = "prediction-error"')
-    return settings
-
-
-def _band(table: Mapping, where: _Where, fs: float | None) -> tuple[float, float] | None:
-    if "band" in table and "band_hz" in table:
-        raise where.problem("band", "band and band_hz are the same setting; keep only band_hz")
-    return _hz_pair(table, "band" if "band" in table else "band_hz", where, fs)
-
-
-def _hz_pair(table: Mapping, key: str, where: _Where, fs: float | None) -> tuple[float, float] | None:
-    value = table.get(key)
-    if value is None:
-        return None
-    ok = (isinstance(value, list) and len(value) == 2
-          and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value))
-    if not ok or not 0 <= value[0] < value[1]:
-        raise where.error(key, "[low, high] in Hz with 0 <= low < high", value)
-    if fs is not None and value[1] > fs / 2:
-        raise where.error(key, f"a band below the Nyquist frequency {fs / 2:g} Hz", value)
-    return float(value[0]), float(value[1])
+        raise where.error(None, f"a table [{kind.SECTION}]", table)
+    _check_keys(table, tuple(k for k in kind.names() if k not in fixed), where)
+    try:
+        return kind.from_mapping(table, **fixed)
+    except ConfigError as exc:
+        raise ConfigError(f"{where.path}: {exc}") from None
 
 
 def _parse_candidates(items: Any, path: Path, data: DataSpec) -> tuple[CandidateModel, ...]:
@@ -811,15 +734,11 @@ def _check_no_overlap(where, name, start, stop, estimation) -> None:
         )
 
 
-def _parse_evidence(raw: Mapping, path: Path) -> tuple[dict[str, Any], int]:
+def _parse_evidence(raw: Mapping, path: Path) -> tuple[EvidenceOptions, int]:
     where = _Where(path, "[evidence]")
     table = raw.get("evidence", {})
     if not isinstance(table, dict):
         raise where.error(None, "a table [evidence]", table)
-    for key, value in table.items():
-        values = value if isinstance(value, list) else [value]
-        if not all(isinstance(v, (bool, int, float, str)) for v in values):
-            raise where.error(key, "a number, string, boolean or a flat array of them", value)
     top = _Where(path, "top level")
     seeds = {}
     if "seed" in raw:
@@ -829,4 +748,5 @@ def _parse_evidence(raw: Mapping, path: Path) -> tuple[dict[str, Any], int]:
     if len(set(seeds.values())) > 1:
         raise top.problem("seed", f"seed = {seeds['top']} disagrees with [evidence] seed = {seeds['evidence']}; keep one")
     settings = {k: v for k, v in table.items() if k != "seed"}
-    return settings, next(iter(seeds.values()), 0)
+    _check_keys(settings, (*EvidenceOptions.names(), "seed"), where)
+    return _options(EvidenceOptions, settings, where), next(iter(seeds.values()), 0)

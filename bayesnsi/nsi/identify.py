@@ -22,6 +22,7 @@ from ..exceptions import (
     UnstableModelError,
 )
 from ..models import CandidateModel, Term
+from ..options import NSIOptions
 from ..signals import Signals
 from . import _hankel, _subspace
 from ._eiv import refine_prediction_error, refine_prediction_error_bc, white_noise_std
@@ -291,6 +292,17 @@ class NSIResult:
         )
 
 
+def _as_options(options) -> NSIOptions:
+    if options is None:
+        return NSIOptions()
+    if not isinstance(options, NSIOptions):
+        raise InputDataError(
+            f"identify() takes its settings as NSIOptions, got {type(options).__name__}; "
+            "build them with bayesnsi.NSIOptions(block_rows=..., order=...)"
+        )
+    return options
+
+
 def _working_signals(signals: Signals, factor: int) -> Signals:
     if factor == 1:
         return signals
@@ -387,22 +399,26 @@ class HankelCorrelations:
         return _hankel.extend_lagged_products(self.lagged, stack, old)
 
 
-def hankel_correlations(
-    signals: Signals,
-    candidate=None,
-    *,
-    block_rows: int = 40,
-    velocity_method: str = "fourth",
-    input_hold: str = "auto",
-    upsample: int = 1,
-) -> HankelCorrelations:
+def hankel_correlations(signals: Signals, candidate=None, options: NSIOptions | None = None) -> HankelCorrelations:
     """Lagged products of ``candidate``'s scaled ``[u, y]`` for reuse by :func:`identify`.
 
-    Parameters are those of :func:`identify` (the others do not change the products).
+    Parameters
+    ----------
+    signals : Signals
+    candidate : CandidateModel, sequence of Term, or None
+    options : NSIOptions, optional
+        Only ``block_rows``, ``velocity_method``, ``input_hold`` and ``upsample`` change the
+        products.
+
+    Returns
+    -------
+    HankelCorrelations
     """
+    options = _as_options(options)
+    block_rows, velocity_method, upsample = options.block_rows, options.velocity_method, options.upsample
     cand = _as_terms(candidate)
     work = _working_signals(signals, int(upsample))
-    hold = resolve_input_hold(input_hold, cand.terms)
+    hold = resolve_input_hold(options.input_hold, cand.terms)
     u = extended_input(work, cand.terms, velocity_method, hold)
     y = np.asarray(work.displacement)
     check_block_rows(len(u), block_rows, u.shape[1] + y.shape[1])
@@ -422,19 +438,8 @@ def _correlation_key(n_samples, block_rows, input_hold, velocity_method, upsampl
 def identify(
     signals: Signals,
     candidate=None,
+    options: NSIOptions | None = None,
     *,
-    block_rows: int = 40,
-    order: int | str = "auto",
-    max_order: int | None = None,
-    band_hz: tuple[float, float] | None = None,
-    velocity_method: str = "fourth",
-    route: str = "correlation",
-    bd_method: str = "output-error",
-    zero_feedthrough: bool = True,
-    input_hold: str = "auto",
-    upsample: int = 1,
-    refine_poles: tuple[float, float] | None = None,
-    c_method: str = "subspace",
     correlations: HankelCorrelations | None = None,
 ) -> NSIResult:
     """Identify one candidate model by nonlinear subspace identification (SPEC sections 2-4).
@@ -445,78 +450,10 @@ def identify(
         Measured forces and displacements (velocities optional).
     candidate : CandidateModel, sequence of Term or (expr, at) pairs, or None
         The nonlinear terms; None identifies a linear model.
-    block_rows : int
-        i, the number of block rows of the Hankel matrices (SPEC 10: two-DOF ±2.3 % at i = 40;
-        the beam with 8 outputs needs i ≥ 40).
-    order : int or "auto"
-        Model order n; "auto" takes the largest gap of log σ among even orders.
-    max_order : int, optional
-        Largest order considered by "auto" (default min(i·l - 1, 40)).
-    band_hz : (float, float), optional
-        Band for averaging λ_i(ω); default :func:`~bayesnsi.nsi.physics.default_band`.
-    velocity_method : {"fourth", "central", "sixth"}
-        Differentiator for velocities when the signals carry none.
-    route : {"correlation", "lq"}
-        Hankel products from one-pass lagged correlations (fast, memory independent of N) or
-        from the LQ factorisation of the explicit Hankel matrix (reference).
-    bd_method : {"robust", "output-error", "prediction-error"}
-        B, D by the robust least squares of Van Overschee & De Moor, or by output-error least
-        squares with A, C fixed (SPEC 10: repairs B, D on real data; cost grows with N), or
-        by prediction error with a Kalman predictor whose process noise is the measurement
-        noise propagated through the nonlinear inputs (errors in variables, SPEC 10; see
-        :mod:`bayesnsi.nsi._eiv`; noise std estimated from the data). Measured on the beam
-        (SPEC 8.2, 1 % noise, i = 40, n = 32, seeds 0-7): k2, k3 errors of up to 5.6 % with
-        "output-error" fall to within 0.65 %; 2-5 s more at 1e5 samples. A, C (hence damping) are not changed. With ``upsample=2`` (negative-stiffness
-        twin, seed 0) α1 was -1.0 %.
-    zero_feedthrough : bool
-        Impose D = 0 (displacement outputs, SPEC section 2).
-    input_hold : {"auto", "average", "sample"}
-        Interval-mean or point-sample extended input; see :func:`extended_input`.
-    upsample : int
-        Identify on a grid ``upsample`` times finer than the data's (band-limited
-        interpolation, :func:`bayesnsi.preprocess.upsample`), so that discontinuous terms such
-        as sign(ż) are evaluated between the samples (SPEC 2 and 10). ``block_rows`` then
-        counts fine-grid samples; the result reconstructs at the data's own samples. Measured
-        on the negative-stiffness twin (512 Hz, 140 s, model 2, i = 40·R): noise-free, the
-        open-loop NRMSE falls from 0.0065 to 0.0028 and the α1 error from -2.3 % to -0.7 %
-        with R = 2; with 1 % noise α1 from -2.1 % to -0.6 %. Cost: about R² × the time.
-    refine_poles : (float, float), optional
-        Band [Hz]: refine the poles of A in it (modes within ``band[0]/1.5 .. 1.5·band[1]``)
-        by output error on data band-passed to it, before the B, D step
-        (:func:`bayesnsi.nsi._output_error.refine_poles`; variable projection, the mode shapes of
-        the subspace step kept). The subspace A is consistent but not efficient: its damping
-        ratios scatter with output noise (SPEC 3, 10). Measured on the beam (SPEC 8.2, model 3,
-        1 % noise, i = 40, n = 32, ``refine_poles=(1.5, 85)``, seeds 0-4,
-        ``benchmarks/beam_bias.py``): the largest damping error over the identified 1-80 Hz
-        modes falls from 8.8-17.9 % to 2.7-3.6 % (frequencies within 0.09 %), but k2, k3 move:
-        with ``bd_method="prediction-error"`` from within 0.46 % to +1.3..+3.7 %, with
-        "output-error" from -5.6..+0.7 % to -1.4..+4.8 %. The 10.55 Hz mode of the close pair
-        stays missed (seeded by hand, the refinement finds it with ζ +68/+173 %: its response is
-        below the propagated input noise). + 3-5 s at 1e5 samples. Default None (off). Use it
-        with ``c_method="prediction-error"``, which re-fits C to the refined A and brings k2, k3
-        back within 1 %.
-    c_method : {"subspace", "prediction-error"}
-        Where C comes from. "subspace" (default): the first block row of Γ_i (SPEC 3).
-        "prediction-error" (needs ``bd_method="prediction-error"``): for the final A, C is
-        re-estimated by least squares on the one-step predicted states of the Kalman predictor
-        of the B, D step, alternated with that step (6 passes;
-        :func:`bayesnsi.nsi._eiv.refine_prediction_error_bc`). The innovation is uncorrelated
-        with the predicted state, so this least squares is consistent under the input noise
-        (SPEC 10, errors in variables). It matters when A no longer comes with its own C, i.e.
-        after ``refine_poles``: the subspace model's other modes (notably its poor image of the
-        beam's 0.509 Hz mode) compensate the errors of its poles, so even the exact poles with
-        the subspace C moved k2, k3 by +3.6 % (noise-free nonlinear inputs). Measured on the
-        beam (SPEC 8.2, model 3, 1 % noise, i = 40, n = 32, band (1, 30) Hz,
-        ``refine_poles=(1.5, 85)``, ``benchmarks/beam_bias.py``): k2, k3 errors from +1.3..+3.7 %
-        to within 0.49 % on seeds 0-7, with every identified 1-80 Hz mode within 3.6 % in
-        damping and 0.099 % in frequency (seed 4, the 10.1 Hz mode next to the missed 10.55 Hz
-        one: the margin to 0.1 % is thin); without ``refine_poles`` k2, k3 stay as they were
-        (seed 0: -0.25/-0.46 % → -0.19/-0.42 %). Two-DOF (SPEC 8.1, i = 60, n = 4): α mean/sd
-        error with ``bd_method="prediction-error"`` alone -0.05/1.65 % (10 s, 20 seeds) and
-        +0.21/0.48 % (100 s, 10 seeds), with this option -0.34/1.10 % and -0.02/0.38 % (modes
-        unchanged: A is kept). Adding ``refine_poles=(1, 15)`` there helps only on long records
-        (100 s: largest damping error 3.2 → 2.4 %; 10 s: mean largest damping error 4.4 → 10.2 %).
-        Cost: + 5 s on the beam (1e5 samples, n = 32).
+    options : NSIOptions, optional
+        Block rows, order, estimators of B, C, D, grid refinement, band (defaults:
+        ``NSIOptions()``; each field is described there, measurements behind the choices in
+        ``docs/measurements.md``).
     correlations : HankelCorrelations, optional
         Lagged products of a candidate whose terms this one's start with
         (:func:`hankel_correlations`, same data and settings): only the products of the added
@@ -540,21 +477,14 @@ def identify(
     """
     if not isinstance(signals, Signals):
         raise InputDataError(f"identify() needs a Signals object, got {type(signals).__name__}")
+    options = _as_options(options)
     cand = _as_terms(candidate)
-    if route not in ("correlation", "lq"):
-        raise InputDataError(f"route must be 'correlation' or 'lq', got {route!r}")
-    if bd_method not in ("robust", "output-error", "prediction-error"):
-        raise InputDataError(f"bd_method must be 'robust', 'output-error' or 'prediction-error', got {bd_method!r}")
-    if c_method not in ("subspace", "prediction-error"):
-        raise InputDataError(f"c_method must be 'subspace' or 'prediction-error', got {c_method!r}")
-    if c_method == "prediction-error" and bd_method != "prediction-error":
-        raise InputDataError("c_method='prediction-error' needs bd_method='prediction-error'")
     identification_routes(cand.terms, signals.input_dofs, signals.output_dofs)
-    if not isinstance(upsample, (int, np.integer)) or upsample < 1:
-        raise InputDataError(f"upsample must be an integer >= 1, got {upsample!r}")
+    block_rows, order, upsample = options.block_rows, options.order, options.upsample
+    velocity_method, route, refine_poles = options.velocity_method, options.route, options.refine_poles
     data_fs = signals.fs
     signals = _working_signals(signals, int(upsample))
-    input_hold = resolve_input_hold(input_hold, cand.terms)
+    input_hold = resolve_input_hold(options.input_hold, cand.terms)
     u = extended_input(signals, cand.terms, velocity_method, input_hold)
     y = np.asarray(signals.displacement)
     n_in, n_out = u.shape[1], y.shape[1]
@@ -575,7 +505,7 @@ def identify(
 
     limit = block_rows * n_out - 1
     if order == "auto":
-        order = select_order(singular_values, min(limit, max_order or 40))
+        order = select_order(singular_values, min(limit, options.max_order))
     elif not isinstance(order, (int, np.integer)) or not 1 <= order <= limit:
         raise OrderError(
             f"order {order!r} is impossible with {block_rows} block rows and {n_out} outputs "
@@ -594,7 +524,8 @@ def identify(
     if refine_poles is not None:
         A, _ = _refine_poles(A, u, y, signals.dt, refine_poles, noise_std=noise_std)
     B, C, D = _input_output_matrices(
-        bd_method, c_method, data, A, C_s, u, y, u_scale, y_scale, signals, cand.terms, zero_feedthrough,
+        options.bd_method, options.c_method, data, A, C_s, u, y, u_scale, y_scale, signals, cand.terms,
+        options.zero_feedthrough,
         velocity_method, noise_std,
     )
     model = StateSpaceModel(A=A, B=B, C=C, D=D, dt=signals.dt)
@@ -611,7 +542,7 @@ def identify(
             SpuriousPoleWarning,
             stacklevel=2,
         )
-    band = tuple(float(b) for b in (band_hz or default_band(modes, signals.fs)))
+    band = tuple(float(b) for b in (options.band_hz or default_band(modes, signals.fs)))
     coefficients = ()
     if cand.terms:
         freqs = np.linspace(band[0], band[1], _BAND_POINTS)
@@ -632,12 +563,12 @@ def identify(
         band_hz=list(band),
         velocity_method=velocity_method,
         route=route,
-        bd_method=bd_method,
-        zero_feedthrough=bool(zero_feedthrough),
+        bd_method=options.bd_method,
+        zero_feedthrough=options.zero_feedthrough,
         input_hold=input_hold,
         upsample=int(upsample),
         refine_poles=None if refine_poles is None else [float(b) for b in refine_poles],
-        c_method=c_method,
+        c_method=options.c_method,
         n_samples=int(len(u)) // int(upsample),
         fs=data_fs,
     )

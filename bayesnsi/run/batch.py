@@ -21,7 +21,7 @@ from __future__ import annotations
 import time
 import traceback
 import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -31,6 +31,7 @@ from ..exceptions import BayesNSIError, ConfigError
 from ..io.cache import ResultCache, candidate_key, signals_fingerprint
 from ..io.schema import candidate_record, failed_candidate_record
 from ..nsi import identify
+from ..options import EvidenceOptions, NSIOptions
 from .backends import dispatch
 
 __all__ = ["CandidateOutcome", "candidate_task", "run_candidates", "run_datasets"]
@@ -62,9 +63,9 @@ def candidate_task(signals, candidate, options, evidence_options, seed_sequence)
     ----------
     signals : Signals
     candidate : CandidateModel
-    options : mapping
-        Keyword arguments of :func:`bayesnsi.nsi.identify`.
-    evidence_options : mapping or None
+    options : NSIOptions
+        Settings of :func:`bayesnsi.nsi.identify`.
+    evidence_options : EvidenceOptions or None
         Settings of :func:`bayesnsi.evidence.candidate_evidence`; None: NSI only.
     seed_sequence : numpy.random.SeedSequence
         This candidate's seed sequence.
@@ -78,7 +79,7 @@ def candidate_task(signals, candidate, options, evidence_options, seed_sequence)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            result = identify(signals, candidate, **options)
+            result = identify(signals, candidate, options)
             record = candidate_record(result, result.reconstruct(signals))
             if evidence_options is not None:
                 from ..evidence import candidate_evidence
@@ -100,8 +101,8 @@ def candidate_task(signals, candidate, options, evidence_options, seed_sequence)
 def run_candidates(
     signals,
     candidates: Sequence,
-    nsi_options: Mapping | None = None,
-    evidence_options: Mapping | None = None,
+    nsi_options: NSIOptions | None = None,
+    evidence_options: EvidenceOptions | None = None,
     seed: int = 0,
     *,
     jobs: int = 1,
@@ -120,7 +121,7 @@ def run_candidates(
     --------
     >>> from bayesnsi import simulate_case
     >>> case = simulate_case("two-dof", seed=0, duration=10.0)
-    >>> out = run_candidates(case.signals, case.candidates, {"block_rows": 40, "order": 4})
+    >>> out = run_candidates(case.signals, case.candidates, NSIOptions(block_rows=40, order=4))
     >>> [o.record["status"] for o in out]
     ['ok', 'ok', 'ok']
     """
@@ -134,8 +135,8 @@ def run_candidates(
 def run_datasets(
     datasets: Sequence,
     candidates: Sequence,
-    nsi_options: Mapping | None = None,
-    evidence_options: Mapping | None = None,
+    nsi_options: NSIOptions | None = None,
+    evidence_options: EvidenceOptions | None = None,
     seed: int = 0,
     *,
     jobs: int = 1,
@@ -151,10 +152,10 @@ def run_datasets(
         Estimation data; every candidate is identified on each.
     candidates : sequence of CandidateModel
         E.g. a config's candidates, or :func:`bayesnsi.run.dictionary_candidates`.
-    nsi_options : mapping, optional
-        Keyword arguments of :func:`bayesnsi.nsi.identify` (block_rows, order, ...).
-    evidence_options : mapping, optional
-        Evidence settings (:data:`bayesnsi.evidence.EVIDENCE_DEFAULTS` and overrides); None
+    nsi_options : NSIOptions, optional
+        Settings of :func:`bayesnsi.nsi.identify` (default ``NSIOptions()``).
+    evidence_options : EvidenceOptions, optional
+        Evidence settings; None
         computes no evidence.
     seed : int
         Root of the candidates' seed sequences.
@@ -182,8 +183,8 @@ def run_datasets(
     """
     datasets, candidates = list(datasets), list(candidates)
     _check_inputs(datasets, candidates)
-    options = dict(nsi_options or {})
-    evidence = None if evidence_options is None else dict(evidence_options)
+    options = _typed(nsi_options, NSIOptions, "nsi_options") or NSIOptions()
+    evidence = _typed(evidence_options, EvidenceOptions, "evidence_options")
     if isinstance(cache, (str, Path)):
         cache = ResultCache(cache)
     seeds = np.random.SeedSequence(seed).spawn(len(candidates))
@@ -221,8 +222,15 @@ def _keys(datasets, candidates, options, evidence, seeds) -> list[list[str]]:
     out = []
     for signals in datasets:
         data = signals_fingerprint(signals)
-        out.append([candidate_key(data, c, options, evidence, s) for c, s in zip(candidates, seeds)])
+        evidence_dict = None if evidence is None else evidence.to_dict()
+        out.append([candidate_key(data, c, options.to_dict(), evidence_dict, s) for c, s in zip(candidates, seeds)])
     return out
+
+
+def _typed(options, kind: type, name: str):
+    if options is not None and not isinstance(options, kind):
+        raise ConfigError(f"{name} must be {kind.__name__} or None, got {type(options).__name__}")
+    return options
 
 
 def _check_inputs(datasets, candidates) -> None:

@@ -25,6 +25,7 @@ import numpy as np
 
 from ..exceptions import InputDataError
 from ..models.terms import CandidateModel, Term
+from ..options import NSIOptions
 from ..signals import Signals
 from .excitation import Excitation, band_limited_gaussian
 from .integrate import Response, add_output_noise, simulate_response
@@ -81,7 +82,7 @@ class ReferenceCase:
         Modes of the underlying linear system (:func:`modal_parameters`).
     candidates : tuple of CandidateModel
         The paper's candidate set, in the paper's order ("model 1", ...).
-    recommended : dict
+    recommended : NSIOptions
         Suggested NSI settings: ``block_rows``, ``order`` and ``band_hz`` (a frequency band
         for averaging λ(ω), SPEC 10).
     seed : int or None
@@ -108,7 +109,7 @@ class ReferenceCase:
     exact_frequencies_hz: np.ndarray
     exact_damping_ratios: np.ndarray
     candidates: tuple[CandidateModel, ...]
-    recommended: Mapping[str, Any]
+    recommended: NSIOptions
     seed: int | None
     noise_percent: float
     excitation: Excitation
@@ -147,7 +148,7 @@ class ReferenceCase:
         lines.append("  candidates:")
         for cand in self.candidates:
             lines.append(f"    {cand.name}: " + ", ".join(t.name for t in cand.terms))
-        lines.append("  recommended: " + ", ".join(f"{k}={v}" for k, v in self.recommended.items()))
+        lines.append("  recommended: " + ", ".join(f"{k}={v}" for k, v in self.recommended.to_dict().items()))
         for key, value in self.settings.items():
             if key != "notes":
                 lines.append(f"  {key}: {value}")
@@ -171,7 +172,7 @@ class _Setup:
     force_dofs: tuple[int, ...]
     output_dofs: tuple[int, ...]
     candidates: tuple[CandidateModel, ...]
-    recommended: dict
+    recommended: NSIOptions
     make_excitation: Callable[[np.random.Generator], Excitation]
     force_factor: float  # force [N] = force_factor * excitation
     fs: float
@@ -511,7 +512,7 @@ def _two_dof_setup(duration=10.0, fs=100.0, oversample=8, force_rms=10.0):
         force_dofs=(2,),
         output_dofs=(1, 2),
         candidates=cands,
-        recommended={"block_rows": 60, "order": 4},
+        recommended=NSIOptions(block_rows=60, order=4),
         make_excitation=lambda rng: band_limited_gaussian(n_samples, fs, force_rms, rng, oversample=oversample),
         force_factor=1.0,
         fs=fs,
@@ -544,8 +545,8 @@ def _beam_setup(duration=100.0, fs=1000.0, oversample=4, force_rms=10.0, damping
         # errors in variables (SPEC 10): prediction-error B, C, D and refined in-band poles give
         # k2, k3 within 0.5 %, damping within 3.6 %, frequencies within 0.1 % (seeds 0-7,
         # benchmarks/beam_bias.py); the default output-error B/D is 20-40x faster but k is off by up to 6 %
-        recommended={"block_rows": 40, "order": 32, "band_hz": (1.0, 30.0), "bd_method": "prediction-error",
-                     "refine_poles": (1.5, 85.0), "c_method": "prediction-error"},
+        recommended=NSIOptions(block_rows=40, order=32, band_hz=(1.0, 30.0), bd_method="prediction-error",
+                               refine_poles=(1.5, 85.0), c_method="prediction-error"),
         make_excitation=lambda rng: band_limited_gaussian(n_samples, fs, force_rms, rng, oversample=oversample),
         force_factor=1.0,
         fs=fs,
@@ -594,7 +595,7 @@ def _twin_setup(
         candidates=cands,
         # upsample 4 (block rows on the fine grid): sign() friction resolved between the 512 Hz
         # samples; α1 error -2.1 % -> within 0.8 % (benchmarks/upsample.py, seeds 0-3)
-        recommended={"block_rows": 80, "order": 2, "band_hz": (5.0, 20.0), "upsample": 4},
+        recommended=NSIOptions(block_rows=80, order=2, band_hz=(5.0, 20.0), upsample=4),
         make_excitation=lambda rng: band_limited_gaussian(
             n_samples, fs, table_rms, rng, oversample=oversample, band_hz=band_hz
         ),
@@ -638,7 +639,7 @@ def _three_dof_setup(duration=20.0, fs=100.0, oversample=8, force_rms=10.0):
         force_dofs=(3,),
         output_dofs=(1, 2, 3),
         candidates=cands,
-        recommended={"block_rows": 40, "order": 6},
+        recommended=NSIOptions(block_rows=40, order=6),
         make_excitation=lambda rng: band_limited_gaussian(n_samples, fs, force_rms, rng, oversample=oversample),
         force_factor=1.0,
         fs=fs,
@@ -712,7 +713,7 @@ def _run(setup: _Setup, seeds: list, noise_percent: float) -> tuple[ReferenceCas
                 exact_frequencies_hz=freqs,
                 exact_damping_ratios=zetas,
                 candidates=setup.candidates,
-                recommended=dict(setup.recommended),
+                recommended=setup.recommended,
                 seed=int(seed) if isinstance(seed, (int, np.integer)) else None,
                 noise_percent=noise_percent,
                 excitation=exc,

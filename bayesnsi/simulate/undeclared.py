@@ -43,6 +43,7 @@ import numpy as np
 from ..exceptions import InputDataError
 from ..models.dictionary import clearance_expression
 from ..models.terms import CandidateModel, Term
+from ..options import NSIOptions
 from .cases import ReferenceCase, _n_samples, _run, _Setup
 from .excitation import band_limited_gaussian
 from .structures import chain_system
@@ -118,7 +119,7 @@ class UndeclaredCase:
         The effects the declared model lacks; empty for a negative control.
     declared_coefficients : ndarray
         True coefficients of the declared terms.
-    nsi : dict
+    nsi : NSIOptions
         NSI settings for :func:`bayesnsi.nsi.identify` (block rows, order).
     """
 
@@ -127,7 +128,7 @@ class UndeclaredCase:
     declared: CandidateModel
     missing: tuple[MissingEffect, ...]
     declared_coefficients: np.ndarray
-    nsi: dict = field(default_factory=dict)
+    nsi: NSIOptions = field(default_factory=NSIOptions)
 
     @property
     def signals(self):
@@ -214,8 +215,8 @@ _DEFINITIONS: dict[str, tuple] = {
 }
 
 _CHAINS = {
-    "two": (_two_dof_chain, (2,), (1, 2), {"block_rows": 60, "order": 4}),
-    "three": (_three_dof_chain, (3,), (1, 2, 3), {"block_rows": 40, "order": 6}),
+    "two": (_two_dof_chain, (2,), (1, 2), NSIOptions(block_rows=60, order=4)),
+    "three": (_three_dof_chain, (3,), (1, 2, 3), NSIOptions(block_rows=40, order=6)),
 }
 
 UNDECLARED_CASES: dict[str, str] = {name: spec[0] for name, spec in _DEFINITIONS.items()}
@@ -288,7 +289,7 @@ def undeclared_cases(
         force_dofs=force_dofs,
         output_dofs=output_dofs,
         candidates=(CandidateModel(name="declared", terms=tuple(t for _, t, _ in declared)),),
-        recommended=dict(nsi),
+        recommended=nsi,
         make_excitation=lambda rng: band_limited_gaussian(n_samples, fs, force_rms, rng, oversample=oversample),
         force_factor=1.0,
         fs=fs,
@@ -306,7 +307,7 @@ def undeclared_cases(
             declared=setup.candidates[0],
             missing=effects,
             declared_coefficients=np.array([c for _, _, c in declared], dtype=float),
-            nsi=dict(nsi),
+            nsi=nsi,
         )
         for ref in _run(setup, list(seeds), float(noise_percent))
     )

@@ -1,0 +1,323 @@
+"""Typed, frozen settings of each layer: identification, evidence, the loop, execution.
+
+Every option of bayesnsi is a field of one of these dataclasses, with its default, its check and
+its help text written once, here. The config file's tables (``[nsi]``, ``[evidence]``,
+``[diagnose]``), the command line flags, the Python API and the cache key all read the same
+fields, and ``results.json`` records :meth:`to_dict`. An instance is validated when it is built,
+so a function that receives one can trust it.
+
+Examples
+--------
+>>> from bayesnsi.options import NSIOptions
+>>> NSIOptions(block_rows=60, order=4).block_rows
+60
+>>> NSIOptions.from_mapping({"block_rows": 60, "band_hz": [1.0, 10.0]}).band_hz
+(1.0, 10.0)
+>>> NSIOptions(block_rows=0)
+Traceback (most recent call last):
+...
+bayesnsi.exceptions.ConfigError: [nsi] block_rows: expected an integer in [1, 100000], got 0
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+from typing import Any, ClassVar
+
+from .exceptions import ConfigError
+
+__all__ = [
+    "EvidenceOptions",
+    "ExecutionOptions",
+    "LoopOptions",
+    "NSIOptions",
+    "MAX_BLOCK_ROWS",
+    "MAX_JOBS",
+    "MAX_UPSAMPLE",
+    "option_help",
+    "parse_likelihood",
+]
+
+MAX_BLOCK_ROWS = 100_000
+"""Largest number of block rows accepted (the Hankel products grow with its square)."""
+MAX_UPSAMPLE = 64
+"""Largest identification-grid refinement accepted (cost grows with its square)."""
+MAX_WALKERS = 10_000
+"""Largest emcee ensemble accepted."""
+MAX_STEPS = 10_000_000
+"""Largest number of emcee steps per walker accepted."""
+MAX_JOBS = 256
+"""Largest number of local worker processes accepted."""
+
+
+def _option(default: Any, help: str, *, kind: str, choices: tuple = (), low: float | None = None,
+            high: float | None = None, none: bool = False):
+    """A dataclass field that carries its help text and its check (kind, choices, range)."""
+    meta = {"help": help, "kind": kind, "choices": choices, "low": low, "high": high, "none": none}
+    return field(default=default, metadata=meta)
+
+
+class _Options:
+    """Shared behaviour of the options dataclasses: build from a table, check, serialise."""
+
+    SECTION: ClassVar[str] = ""
+
+    def __post_init__(self) -> None:
+        for item in fields(self):  # type: ignore[arg-type]
+            value = _coerce(self.SECTION, item, getattr(self, item.name))
+            object.__setattr__(self, item.name, value)
+        self._check()
+
+    def _check(self) -> None:
+        """Checks across fields (overridden where needed)."""
+
+    @classmethod
+    def names(cls) -> tuple[str, ...]:
+        """The option names: the keys of the config table and the fields of the class."""
+        return tuple(item.name for item in fields(cls))  # type: ignore[arg-type]
+
+    @classmethod
+    def from_mapping(cls, table: Mapping[str, Any] | None = None, **overrides: Any):
+        """Build from a config table (unknown keys refused), with keyword overrides.
+
+        Parameters
+        ----------
+        table : mapping, optional
+            Option name -> value, e.g. a parsed TOML table. Lists become tuples.
+        **overrides
+            Values that take precedence over ``table``.
+
+        Returns
+        -------
+        options of this class
+
+        Raises
+        ------
+        ConfigError
+            On an unknown key or an invalid value; the message names the key.
+        """
+        merged = {**dict(table or {}), **overrides}
+        unknown = sorted(set(merged) - set(cls.names()))
+        if unknown:
+            raise ConfigError(
+                f"[{cls.SECTION}] has unknown key(s) {unknown}; allowed: {sorted(cls.names())}"
+            )
+        return cls(**merged)
+
+    def replace(self, **changes: Any):
+        """A copy with some options changed (validated again)."""
+        return dataclasses.replace(self, **changes)  # type: ignore[type-var]
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain, JSON-ready values (tuples as lists), as recorded in results.json ``settings``."""
+        return {item.name: _plain(getattr(self, item.name)) for item in fields(self)}  # type: ignore[arg-type]
+
+
+def option_help(options_class: type) -> dict[str, str]:
+    """Help text of each option of an options class (for the CLI and the docs)."""
+    return {item.name: item.metadata["help"] for item in fields(options_class)}
+
+
+@dataclass(frozen=True)
+class NSIOptions(_Options):
+    """Settings of the subspace identification (config ``[nsi]``; SPEC sections 3-4).
+
+    Each field's help text (:func:`option_help`) states its meaning; measurements behind the
+    defaults are in ``docs/measurements.md``.
+    """
+
+    SECTION: ClassVar[str] = "nsi"
+
+    block_rows: int = _option(40, "i, block rows of the Hankel matrices", kind="int", low=1, high=MAX_BLOCK_ROWS)
+    order: int | str = _option("auto", 'model order n, or "auto" (largest gap of the singular values)', kind="order")
+    max_order: int = _option(40, 'largest order "auto" and the stabilisation diagram consider', kind="int", low=1, high=10_000)
+    band_hz: tuple[float, float] | None = _option(
+        None, "band [Hz] over which λ(ω) is averaged (default: the band holding the modes)", kind="band", none=True)
+    velocity_method: str = _option(
+        "fourth", "finite-difference stencil for velocities not measured", kind="choice",
+        choices=("central", "fourth", "sixth"))
+    route: str = _option(
+        "correlation", "Hankel products from one-pass correlations, or the LQ reference", kind="choice",
+        choices=("correlation", "lq"))
+    bd_method: str = _option(
+        "output-error", "estimator of B and D", kind="choice", choices=("robust", "output-error", "prediction-error"))
+    zero_feedthrough: bool = _option(True, "impose D = 0 (displacement outputs)", kind="bool")
+    input_hold: str = _option(
+        "auto", "extended input over a sample interval: point value or interval mean", kind="choice",
+        choices=("auto", "average", "sample"))
+    upsample: int = _option(
+        1, "identify on a grid this many times finer than the data (sign() terms)", kind="int", low=1, high=MAX_UPSAMPLE)
+    refine_poles: tuple[float, float] | None = _option(
+        None, "band [Hz] whose poles are refined by output error", kind="band", none=True)
+    c_method: str = _option(
+        "subspace", "C from the subspace step or re-fitted by prediction error", kind="choice",
+        choices=("subspace", "prediction-error"))
+
+    def _check(self) -> None:
+        if self.c_method == "prediction-error" and self.bd_method != "prediction-error":
+            raise ConfigError('[nsi] c_method = "prediction-error" needs bd_method = "prediction-error"')
+
+
+@dataclass(frozen=True)
+class EvidenceOptions(_Options):
+    """Settings of the marginal evidence (config ``[evidence]``; SPEC section 6)."""
+
+    SECTION: ClassVar[str] = "evidence"
+
+    residual: str = _option(
+        "innovations", "residual the evidence scores: Kalman innovations or open-loop reconstruction error",
+        kind="choice", choices=("innovations", "reconstruction"))
+    likelihood: str = _option("ar1", "primary likelihood: white, ar1 or arP (P an integer)", kind="likelihood")
+    compare: tuple[str, ...] = _option(("white",), "likelihoods reported beside the primary one", kind="likelihoods")
+    n_walkers: int = _option(32, "emcee walkers", kind="int", low=4, high=MAX_WALKERS)
+    n_steps: int = _option(1500, "emcee steps per walker", kind="int", low=2, high=MAX_STEPS)
+    n_burn: int = _option(300, "steps discarded as burn-in (fewer than n_steps)", kind="int", low=0, high=MAX_STEPS)
+    reference_force_rms: float | None = _option(
+        None, "force [N] that scales the default coefficient priors (default: rms of the measured forces)",
+        kind="float", low=0.0, none=True)
+
+    def _check(self) -> None:
+        if self.n_burn >= self.n_steps:
+            raise ConfigError(
+                f"[evidence] n_burn ({self.n_burn}) must be smaller than n_steps ({self.n_steps}); "
+                "lower n_burn or raise n_steps"
+            )
+        if self.reference_force_rms is not None and self.reference_force_rms <= 0:
+            raise ConfigError(f"[evidence] reference_force_rms must be positive, got {self.reference_force_rms!r}")
+
+    @property
+    def likelihoods(self) -> tuple[str, ...]:
+        """The primary likelihood, then the compared ones (each once)."""
+        return tuple(dict.fromkeys((self.likelihood, *self.compare)))
+
+
+@dataclass(frozen=True)
+class LoopOptions(_Options):
+    """Settings of the loop that closes the model on its residual (config ``[diagnose]``; SPEC 7).
+
+    The guards (``threshold``, ``max_imag_ratio``, ``stability_factor``) and the search
+    (``screen``, ``n_tries``, ``lookahead``, ``max_steps``) are explained in
+    :func:`bayesnsi.diagnose.close_the_loop`.
+    """
+
+    SECTION: ClassVar[str] = "diagnose"
+
+    residual: str = _option(
+        "reconstruction", "residual the effects are scored on (see close_the_loop)", kind="choice",
+        choices=("innovations", "reconstruction"))
+    threshold: float = _option(
+        float(math.log(100.0)), "smallest log Bayes factor that accepts an effect", kind="float", low=0.0)
+    max_imag_ratio: float = _option(0.3, "largest quality index |Im λ|/|Re λ| accepted", kind="float", low=0.0)
+    stability_factor: float = _option(
+        1.4, "largest ratio of the record-half coefficient estimates", kind="float", low=1.0)
+    max_steps: int = _option(3, "most effects added", kind="int", low=0, high=1000)
+    n_tries: int = _option(3, "effects checked per step, best first", kind="int", low=1, high=1000)
+    lookahead: bool = _option(True, "try a pair when an effect fails only the quality index", kind="bool")
+    refine_final: int | None = _option(
+        4, "upsample factor of the final re-identification of friction-like models (none: off)", kind="int",
+        low=2, high=MAX_UPSAMPLE, none=True)
+    screen: int | None = _option(
+        6, "effects re-identified per step after the frequency-domain screen (none: all)", kind="int",
+        low=1, high=100_000, none=True)
+    seed: int = _option(0, "seed of the evidence computations", kind="int", low=0, high=2**63 - 1)
+
+
+@dataclass(frozen=True)
+class ExecutionOptions(_Options):
+    """Where candidates and effects run (command line ``--jobs``, ``--scheduler``).
+
+    These never change a number: every task carries its own seed.
+    """
+
+    SECTION: ClassVar[str] = "execution"
+
+    jobs: int = _option(1, "local worker processes", kind="int", low=1, high=MAX_JOBS)
+    scheduler: Any = _option(None, "Dask scheduler address (or a connected Client)", kind="any", none=True)
+
+
+def parse_likelihood(name: str) -> tuple[int, str]:
+    """AR order and canonical name of a likelihood name: ``"white"``, ``"ar1"``, ``"arP"``.
+
+    Parameters
+    ----------
+    name : str
+
+    Returns
+    -------
+    (int, str)
+        AR order (0 for white) and the name.
+
+    Raises
+    ------
+    ConfigError
+        For any other name.
+    """
+    if name == "white":
+        return 0, name
+    if isinstance(name, str) and name.startswith("ar") and name[2:].isdigit() and 1 <= int(name[2:]) <= 50:
+        return int(name[2:]), name
+    raise ConfigError(f"likelihood {name!r} unknown; use 'white', 'ar1' or 'arP' (P an integer from 1 to 50)")
+
+
+def _coerce(section: str, item, value):
+    """Check one option value against its field's kind, choices and range; normalise it."""
+    meta = item.metadata
+    where = f"[{section}] {item.name}"
+    if value is None and meta["none"]:
+        return None
+    kind = meta["kind"]
+    if kind == "any":
+        return value
+    if kind == "bool":
+        if not isinstance(value, bool):
+            raise ConfigError(f"{where}: expected true or false, got {value!r}")
+        return value
+    if kind == "choice":
+        if value not in meta["choices"]:
+            raise ConfigError(f"{where}: expected one of {list(meta['choices'])}, got {value!r}")
+        return value
+    if kind == "likelihood":
+        return parse_likelihood(value)[1]
+    if kind == "likelihoods":
+        values = [value] if isinstance(value, str) else value
+        if not isinstance(values, (list, tuple)):
+            raise ConfigError(f"{where}: expected a likelihood name or a list of them, got {value!r}")
+        return tuple(parse_likelihood(v)[1] for v in values)
+    if kind == "order":
+        if value == "auto":
+            return value
+        return _number(where, value, integer=True, low=1, high=10_000, extra=' or "auto"')
+    if kind == "band":
+        ok = isinstance(value, (list, tuple)) and len(value) == 2
+        pair = tuple(_number(where, v, integer=False, low=0.0, high=None) for v in value) if ok else ()
+        if not ok or not pair[0] < pair[1]:
+            raise ConfigError(f"{where}: expected [low, high] in Hz with 0 <= low < high, got {value!r}")
+        return pair
+    return _number(where, value, integer=kind == "int", low=meta["low"], high=meta["high"])
+
+
+def _number(where: str, value, *, integer: bool, low, high, extra: str = ""):
+    is_int = isinstance(value, int) and not isinstance(value, bool)
+    is_real = is_int or (isinstance(value, float) and math.isfinite(value))
+    if integer and isinstance(value, float) and value.is_integer() and math.isfinite(value):
+        value, is_int = int(value), True
+    if (integer and not is_int) or not is_real or (low is not None and value < low) or (high is not None and value > high):
+        span = f"[{_fmt(low)}, {_fmt(high)}]" if high is not None else f">= {_fmt(low)}"
+        noun = "an integer" if integer else "a finite number"
+        raise ConfigError(f"{where}: expected {noun} in {span}{extra}, got {value!r}")
+    return int(value) if integer else float(value)
+
+
+def _fmt(bound) -> str:
+    return "-inf" if bound is None else f"{bound:g}" if isinstance(bound, float) else str(bound)
+
+
+def _plain(value):
+    if isinstance(value, tuple):
+        return [_plain(v) for v in value]
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    return repr(value)

@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: venv test demo bench clean
+.PHONY: venv lint test demo bench clean
 
 $(BIN)/bayesnsi: pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -13,7 +13,13 @@ $(BIN)/bayesnsi: pyproject.toml
 
 venv: $(BIN)/bayesnsi
 
-test: venv
+# lint: ruff (style, imports, bugbear; [tool.ruff]) and mypy on the shared modules and the
+# public namespaces ([tool.mypy] files); docs/architecture.md lists the architecture tests.
+lint: venv
+	$(BIN)/ruff check bayesnsi tests
+	$(BIN)/mypy
+
+test: lint
 	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 $(BIN)/python -m pytest -q
 
 demo: venv

@@ -14,14 +14,14 @@ Example
 20
 """
 
+from ._version import __version__
 from .exceptions import BayesNSIError
 from .models import CandidateModel, Term, parse_expression
-from .options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions
 from .nsi import NSIResult, affine_reconstruction, identify, reconstruct
+from .options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions
+from .selection import Selection, select
 from .signals import Signals, differentiate
 from .simulate import simulate_case
-
-__version__ = "0.1.0"
 
 __all__ = [
     "BayesNSIError",
@@ -38,6 +38,8 @@ __all__ = [
     "NSIResult",
     "reconstruct",
     "affine_reconstruction",
+    "select",
+    "Selection",
     "simulate_case",
     "__version__",
 ]

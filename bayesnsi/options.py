@@ -117,7 +117,18 @@ class _Options:
 
 
 def option_help(options_class: type) -> dict[str, str]:
-    """Help text of each option of an options class (for the CLI and the docs)."""
+    """Help text of each option of an options class (for the CLI and the docs).
+
+    Parameters
+    ----------
+    options_class : type
+        One of the options dataclasses of this module (e.g. :class:`NSIOptions`).
+
+    Returns
+    -------
+    dict of str to str
+        Option name -> one-line help text, in field order.
+    """
     return {item.name: item.metadata["help"] for item in fields(options_class)}
 
 
@@ -133,7 +144,8 @@ class NSIOptions(_Options):
 
     block_rows: int = _option(40, "i, block rows of the Hankel matrices", kind="int", low=1, high=MAX_BLOCK_ROWS)
     order: int | str = _option("auto", 'model order n, or "auto" (largest gap of the singular values)', kind="order")
-    max_order: int = _option(40, 'largest order "auto" and the stabilisation diagram consider', kind="int", low=1, high=10_000)
+    max_order: int = _option(
+        40, 'largest order "auto" and the stabilisation diagram consider', kind="int", low=1, high=10_000)
     band_hz: tuple[float, float] | None = _option(
         None, "band [Hz] over which λ(ω) is averaged (default: the band holding the modes)", kind="band", none=True)
     velocity_method: str = _option(
@@ -149,7 +161,8 @@ class NSIOptions(_Options):
         "auto", "extended input over a sample interval: point value or interval mean", kind="choice",
         choices=("auto", "average", "sample"))
     upsample: int = _option(
-        1, "identify on a grid this many times finer than the data (sign() terms)", kind="int", low=1, high=MAX_UPSAMPLE)
+        1, "identify on a grid this many times finer than the data (sign() terms)", kind="int", low=1,
+        high=MAX_UPSAMPLE)
     refine_poles: tuple[float, float] | None = _option(
         None, "band [Hz] whose poles are refined by output error", kind="band", none=True)
     c_method: str = _option(
@@ -178,6 +191,8 @@ class EvidenceOptions(_Options):
     reference_force_rms: float | None = _option(
         None, "force [N] that scales the default coefficient priors (default: rms of the measured forces)",
         kind="float", low=0.0, none=True)
+    seed: int = _option(0, "root seed of every random draw (emcee walkers, Monte-Carlo errors)", kind="int",
+                        low=0, high=2**63 - 1)
 
     def _check(self) -> None:
         if self.n_burn >= self.n_steps:
@@ -198,9 +213,9 @@ class EvidenceOptions(_Options):
 class LoopOptions(_Options):
     """Settings of the loop that closes the model on its residual (config ``[diagnose]``; SPEC 7).
 
-    The guards (``threshold``, ``max_imag_ratio``, ``stability_factor``) and the search
-    (``screen``, ``n_tries``, ``lookahead``, ``max_steps``) are explained in
-    :func:`bayesnsi.diagnose.close_the_loop`.
+    The guards (``threshold``, ``max_imag_ratio``, ``stability_factor``), the search
+    (``screen``, ``n_tries``, ``lookahead``, ``max_steps``) and the dictionary (``effects``) are
+    explained in :func:`bayesnsi.diagnose.close_the_loop`.
     """
 
     SECTION: ClassVar[str] = "diagnose"
@@ -222,20 +237,40 @@ class LoopOptions(_Options):
     screen: int | None = _option(
         6, "effects re-identified per step after the frequency-domain screen (none: all)", kind="int",
         low=1, high=100_000, none=True)
-    seed: int = _option(0, "seed of the evidence computations", kind="int", low=0, high=2**63 - 1)
+    effects: tuple[str, ...] | None = _option(
+        None, 'effect types tried at the measured DOFs, e.g. ["x^3", "sign(v)", "clearance"] (none: all; '
+        "the names are checked against bayesnsi.models.EFFECT_TYPES when the loop builds its dictionary)",
+        kind="any", none=True)
+
+    def _check(self) -> None:
+        if self.effects is None:
+            return
+        names = self.effects
+        if not isinstance(names, (list, tuple)) or not names or not all(isinstance(n, str) for n in names):
+            raise ConfigError(
+                f"[diagnose] effects: expected a non-empty list of effect type names, got {self.effects!r}"
+            )
+        object.__setattr__(self, "effects", tuple(dict.fromkeys(names)))
 
 
 @dataclass(frozen=True)
 class ExecutionOptions(_Options):
-    """Where candidates and effects run (command line ``--jobs``, ``--scheduler``).
+    """Where and how candidates and effects run (command line ``--jobs``, ``--scheduler``, cache).
 
-    These never change a number: every task carries its own seed.
+    These never change a number: every task carries its own seed, and a cache entry is keyed by
+    everything its result depends on.
     """
 
     SECTION: ClassVar[str] = "execution"
 
     jobs: int = _option(1, "local worker processes", kind="int", low=1, high=MAX_JOBS)
     scheduler: Any = _option(None, "Dask scheduler address (or a connected Client)", kind="any", none=True)
+    cache: Any = _option(
+        None, "result cache: key(signals, candidate, nsi, evidence, seed_sequence), load(key), store(key, outcome)",
+        kind="any", none=True)
+    progress: Any = _option(
+        None, "called as progress(candidate_index, outcome) when a candidate is done "
+        "(run_datasets: progress(dataset_index, candidate_index, outcome))", kind="any", none=True)
 
 
 def parse_likelihood(name: str) -> tuple[int, str]:
@@ -304,7 +339,12 @@ def _number(where: str, value, *, integer: bool, low, high, extra: str = ""):
     is_real = is_int or (isinstance(value, float) and math.isfinite(value))
     if integer and isinstance(value, float) and value.is_integer() and math.isfinite(value):
         value, is_int = int(value), True
-    if (integer and not is_int) or not is_real or (low is not None and value < low) or (high is not None and value > high):
+    if (
+        (integer and not is_int)
+        or not is_real
+        or (low is not None and value < low)
+        or (high is not None and value > high)
+    ):
         span = f"[{_fmt(low)}, {_fmt(high)}]" if high is not None else f">= {_fmt(low)}"
         noun = "an integer" if integer else "a finite number"
         raise ConfigError(f"{where}: expected {noun} in {span}{extra}, got {value!r}")

@@ -18,15 +18,15 @@ has ``[data] accelerations`` and ``[data] integrate`` (see :class:`bayesnsi.io.D
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 from scipy import fft as _fft
 from scipy import signal as _signal
 from scipy.integrate import cumulative_trapezoid
 
+from ._resample import decimate, detrend, select_segment, upsample
+from ._sampled import as_columns, check_band, check_fs, check_int, check_taper, poly_detrend
 from .exceptions import InputDataError
-from .signals import Signals
 
 __all__ = [
     "INTEGRATION_METHODS",
@@ -71,8 +71,8 @@ def band_window(freqs_hz, band_hz, fs: float, taper: float = 0.5) -> np.ndarray:
         filter has zero phase. ``taper = 0`` is a brick wall (long ringing in time).
     """
     f = np.abs(np.asarray(freqs_hz, dtype=float))
-    lo, hi = _check_band(band_hz, fs, allow_dc=True)
-    _check_taper(taper)
+    lo, hi = check_band(band_hz, fs, allow_dc=True)
+    check_taper(taper)
     w = np.ones_like(f)
     if lo > 0:
         lo0 = lo * (1.0 - taper)
@@ -164,13 +164,13 @@ def integrate_acceleration(
     output carry the same filter; nonlinear terms evaluated on filtered responses are then an
     approximation, good when the filter removes little response energy.
     """
-    a = _as_columns(acc, "acceleration")
-    fs = _check_fs(fs)
-    lo, hi = _check_band(band_hz, fs, allow_dc=False)
+    a = as_columns(acc, "acceleration")
+    fs = check_fs(fs)
+    lo, hi = check_band(band_hz, fs, allow_dc=False)
     if method not in INTEGRATION_METHODS:
         raise InputDataError(f"unknown integration method {method!r}; use one of {INTEGRATION_METHODS}")
     if method == "frequency":
-        _check_taper(taper)
+        check_taper(taper)
         velocity, displacement = _frequency_filter(a.array, fs, (lo, hi), taper, pad_s, powers=(1, 2))
     else:
         velocity, displacement = _time_integrate(a.array, fs, (lo, hi), filter_order, detrend_order)
@@ -211,13 +211,13 @@ def band_filter(
     ndarray
         Same shape as ``signal``; a new array. The mean is removed when ``f_lo > 0``.
     """
-    s = _as_columns(signal, "signal")
-    fs = _check_fs(fs)
-    lo, hi = _check_band(band_hz, fs, allow_dc=True)
+    s = as_columns(signal, "signal")
+    fs = check_fs(fs)
+    lo, hi = check_band(band_hz, fs, allow_dc=True)
     if method not in INTEGRATION_METHODS:
         raise InputDataError(f"unknown filter method {method!r}; use one of {INTEGRATION_METHODS}")
     if method == "frequency":
-        _check_taper(taper)
+        check_taper(taper)
         (out,) = _frequency_filter(s.array, fs, (lo, hi), taper, pad_s, powers=(0,))
     else:
         out = _butter_band(s.array, fs, (lo, hi), filter_order)
@@ -252,12 +252,12 @@ def _frequency_filter(a, fs, band, taper, pad_s, powers):
 
 def _time_integrate(a, fs, band, order, detrend_order):
     dt = 1.0 / fs
-    _check_int(order, "filter_order", 1)
-    _check_int(detrend_order, "detrend_order", 0)
+    check_int(order, "filter_order", 1)
+    check_int(detrend_order, "detrend_order", 0)
     high = _signal.butter(order, band[0], btype="highpass", fs=fs, output="sos")
-    v0 = _poly_detrend(cumulative_trapezoid(a, dx=dt, axis=0, initial=0.0), detrend_order)
+    v0 = poly_detrend(cumulative_trapezoid(a, dx=dt, axis=0, initial=0.0), detrend_order)
     v1 = _filtfilt(high, v0)
-    x = _filtfilt(high, _poly_detrend(cumulative_trapezoid(v1, dx=dt, axis=0, initial=0.0), detrend_order))
+    x = _filtfilt(high, poly_detrend(cumulative_trapezoid(v1, dx=dt, axis=0, initial=0.0), detrend_order))
     v = _filtfilt(high, v1)
     if band[1] < fs / 2:
         low = _signal.butter(order, band[1], btype="lowpass", fs=fs, output="sos")
@@ -266,7 +266,7 @@ def _time_integrate(a, fs, band, order, detrend_order):
 
 
 def _butter_band(s, fs, band, order):
-    _check_int(order, "filter_order", 1)
+    check_int(order, "filter_order", 1)
     out = np.array(s, dtype=float, copy=True)
     if band[0] > 0:
         high = _signal.butter(order, band[0], btype="highpass", fs=fs, output="sos")
@@ -280,257 +280,3 @@ def _butter_band(s, fs, band, order):
 def _filtfilt(sos, x):
     # forward-backward (zero phase), scipy's default odd-extension padding at the ends
     return _signal.sosfiltfilt(sos, x, axis=0)
-
-
-# ---------------------------------------------------------------------------------------------
-# detrend, decimate, segments
-
-
-def detrend(signals, order: int = 1):
-    """Remove a least-squares polynomial trend from every channel.
-
-    Parameters
-    ----------
-    signals : Signals or array_like, shape (n_samples,) or (n_samples, n_channels)
-        With Signals: forces, displacements and (if present) velocities are detrended, each
-        channel independently. This breaks the exact relation v = dx/dt when a trend is removed
-        from both; for order 0 (the mean) it does not.
-    order : int
-        Polynomial order (0: mean, 1: line, ...). The fit uses a scaled time axis on [-1, 1]
-        (well conditioned up to order ~20).
-
-    Returns
-    -------
-    Signals or ndarray
-        Same type and shape as the input; new arrays.
-    """
-    _check_int(order, "order", 0)
-    if isinstance(signals, Signals):
-        return replace(
-            signals,
-            force=_poly_detrend(np.asarray(signals.force), order),
-            displacement=_poly_detrend(np.asarray(signals.displacement), order),
-            velocity=None if signals.velocity is None else _poly_detrend(np.asarray(signals.velocity), order),
-        )
-    s = _as_columns(signals, "signal")
-    return s.restore(_poly_detrend(s.array, order))
-
-
-def decimate(signals, factor: int):
-    """Anti-aliased down-sampling by an integer factor (zero-phase FIR).
-
-    :func:`scipy.signal.decimate` with ``ftype="fir", zero_phase=True``: a Hamming-windowed
-    sinc of ``20·factor + 1`` taps with cut-off at the new Nyquist frequency, applied
-    without delay; output sample j is at the time of input sample ``j·factor``
-    (``ceil(n / factor)`` samples). Gain (computed for factors 2-13): within 0.35 % of 1 up to
-    0.8 of the new Nyquist frequency fs/(2·factor), -6 dB at it, below -50 dB above 1.17 of
-    it; content between the new Nyquist frequency and 1.17 times it is attenuated but still
-    aliases. Keep the modes of interest below ~0.8·fs/(2·factor). The first and last ~10
-    output samples carry the filter's edge transients.
-
-    Parameters
-    ----------
-    signals : Signals or array_like, shape (n_samples,) or (n_samples, n_channels)
-        All channels (forces, displacements, velocities) are filtered with the same filter.
-    factor : int
-        Decimation factor q >= 1 (1 returns a copy).
-
-    Returns
-    -------
-    Signals or ndarray
-        New Signals with ``fs / factor``, or a new array.
-    """
-    _check_int(factor, "factor", 1)
-    if isinstance(signals, Signals):
-        if signals.n_samples < 2 * (20 * factor + 1) and factor > 1:
-            raise InputDataError(
-                f"decimating by {factor} needs at least {2 * (20 * factor + 1)} samples, got {signals.n_samples}"
-            )
-        return replace(
-            signals,
-            force=_decimate(np.asarray(signals.force), factor),
-            displacement=_decimate(np.asarray(signals.displacement), factor),
-            velocity=None if signals.velocity is None else _decimate(np.asarray(signals.velocity), factor),
-            fs=signals.fs / factor,
-        )
-    s = _as_columns(signals, "signal")
-    if factor > 1 and s.array.shape[0] < 2 * (20 * factor + 1):
-        raise InputDataError(
-            f"decimating by {factor} needs at least {2 * (20 * factor + 1)} samples, got {s.array.shape[0]}"
-        )
-    return s.restore(_decimate(s.array, factor))
-
-
-def _decimate(x: np.ndarray, factor: int) -> np.ndarray:
-    if factor == 1:
-        return np.array(x, dtype=float, copy=True)
-    return np.ascontiguousarray(_signal.decimate(x, factor, ftype="fir", zero_phase=True, axis=0))
-
-
-def upsample(signals, factor: int):
-    """Band-limited interpolation onto a grid ``factor`` times finer (FFT zero padding).
-
-    Each channel is extended by its mirror image (so the periodic extension has no jump at
-    the record's ends), transformed, zero-padded to the finer rate and transformed back;
-    output sample ``j·factor`` equals input sample ``j`` to rounding. This is exact for a
-    band-limited record. NSI uses it (``identify(..., upsample=R)``) to evaluate
-    discontinuous nonlinear terms such as sign(ż) on a finer grid (SPEC 2 and 10): on the
-    negative-stiffness twin (512 Hz, noise-free) the sign-friction coefficient error falls
-    from -2.3 % to -0.6 % with R = 2.
-
-    Parameters
-    ----------
-    signals : Signals or array_like, shape (n_samples,) or (n_samples, n_channels)
-    factor : int
-        Interpolation factor R >= 1 (1 returns a copy).
-
-    Returns
-    -------
-    Signals or ndarray
-        New Signals with ``fs · factor`` and ``n_samples · factor`` samples (the last
-        ``factor - 1`` lie after the last input sample), or a new array.
-    """
-    _check_int(factor, "factor", 1)
-    if isinstance(signals, Signals):
-        return replace(
-            signals,
-            force=_upsample(np.asarray(signals.force), factor),
-            displacement=_upsample(np.asarray(signals.displacement), factor),
-            velocity=None if signals.velocity is None else _upsample(np.asarray(signals.velocity), factor),
-            fs=signals.fs * factor,
-        )
-    s = _as_columns(signals, "signal")
-    return s.restore(_upsample(s.array, factor))
-
-
-def _upsample(x: np.ndarray, factor: int) -> np.ndarray:
-    x = np.asarray(x, dtype=float)
-    if factor == 1:
-        return x.copy()
-    n = x.shape[0]
-    mirrored = np.concatenate([x, x[::-1]], axis=0)  # even extension: periodic, no jump
-    spectrum = np.fft.rfft(mirrored, axis=0)
-    fine = np.zeros((n * factor + 1,) + x.shape[1:], dtype=complex)  # rfft size of 2·n·factor
-    fine[: spectrum.shape[0]] = spectrum
-    fine[spectrum.shape[0] - 1] *= 0.5  # split the old Nyquist bin between ±f_N
-    return np.ascontiguousarray(np.fft.irfft(fine, n=2 * n * factor, axis=0)[: n * factor] * factor)
-
-
-def select_segment(signals, start, stop, unit: str = "sample", fs: float | None = None):
-    """A contiguous stretch of a record, as a copy.
-
-    Parameters
-    ----------
-    signals : Signals or array_like, shape (n_samples, ...)
-    start, stop : int or float
-        Half-open window ``[start, stop)``: sample indices (``unit="sample"``), or times in
-        seconds from the first sample (``unit="s"``; sample k is at k/fs, and the window holds
-        the samples with ``start <= k/fs < stop``).
-    unit : {"sample", "s"}
-    fs : float, optional
-        Sampling frequency for ``unit="s"`` with an array (Signals carry their own).
-
-    Returns
-    -------
-    Signals or ndarray
-        New object; the input is not modified.
-
-    Raises
-    ------
-    InputDataError
-        For an empty window or one outside the record.
-    """
-    is_signals = isinstance(signals, Signals)
-    n = signals.n_samples if is_signals else np.asarray(signals).shape[0]
-    if unit == "s":
-        rate = signals.fs if is_signals else fs
-        if rate is None:
-            raise InputDataError("select_segment with unit='s' on an array needs fs")
-        rate = _check_fs(rate)
-        start = int(math.ceil(start * rate - 1e-9))
-        stop = int(math.ceil(stop * rate - 1e-9))
-    elif unit == "sample":
-        if not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in (start, stop)):
-            raise InputDataError(f"sample indices must be integers, got start={start!r}, stop={stop!r}")
-    else:
-        raise InputDataError(f"unit must be 'sample' or 's', got {unit!r}")
-    if not 0 <= start < stop <= n:
-        raise InputDataError(f"segment [{start}, {stop}) is empty or outside the record of {n} samples")
-    if is_signals:
-        return signals.segment(int(start), int(stop))
-    return np.array(np.asarray(signals)[start:stop], dtype=float, copy=True)
-
-
-# ---------------------------------------------------------------------------------------------
-# helpers
-
-
-class _Columns:
-    """An input array as float (n, c) plus how to give results back the same shape."""
-
-    def __init__(self, values, name: str):
-        arr = np.array(values, dtype=float, copy=True)
-        if arr.ndim not in (1, 2):
-            raise InputDataError(f"{name} must have shape (n_samples,) or (n_samples, n_channels), got {arr.shape}")
-        self.squeeze = arr.ndim == 1
-        self.array = arr.reshape(arr.shape[0], -1)
-        if self.array.shape[0] < 8:
-            raise InputDataError(f"{name} needs at least 8 samples, got {self.array.shape[0]}")
-        bad = ~np.isfinite(self.array)
-        if bad.any():
-            row, col = np.argwhere(bad)[0]
-            raise InputDataError(
-                f"{name} holds {int(bad.sum())} NaN/Inf value(s), the first at sample {row}, channel {col}; "
-                "fill or cut them out first"
-            )
-
-    def restore(self, out: np.ndarray) -> np.ndarray:
-        out = np.ascontiguousarray(out)
-        return out[:, 0].copy() if self.squeeze else out
-
-
-def _as_columns(values, name: str) -> _Columns:
-    return _Columns(values, name)
-
-
-def _poly_detrend(x: np.ndarray, order: int) -> np.ndarray:
-    x = np.asarray(x, dtype=float)
-    n = x.shape[0]
-    if order == 0 or n < 2:
-        return x - x.mean(axis=0)
-    tau = np.linspace(-1.0, 1.0, n)
-    basis = np.polynomial.legendre.legvander(tau, order)
-    coef, *_ = np.linalg.lstsq(basis, x.reshape(n, -1), rcond=None)
-    return x - (basis @ coef).reshape(x.shape)
-
-
-def _check_fs(fs) -> float:
-    if isinstance(fs, bool) or not isinstance(fs, (int, float, np.floating, np.integer)) or not (
-        math.isfinite(fs) and fs > 0
-    ):
-        raise InputDataError(f"fs must be a positive number of Hz, got {fs!r}")
-    return float(fs)
-
-
-def _check_band(band, fs: float, allow_dc: bool) -> tuple[float, float]:
-    try:
-        lo, hi = (float(v) for v in band)
-    except (TypeError, ValueError):
-        raise InputDataError(f"band_hz must be a pair (f_lo, f_hi) in Hz, got {band!r}") from None
-    low_ok = lo >= 0 if allow_dc else lo > 0
-    if not (math.isfinite(lo) and math.isfinite(hi) and low_ok and lo < hi):
-        need = "0 <= f_lo < f_hi" if allow_dc else "0 < f_lo < f_hi (f_lo > 0: integration needs a high-pass)"
-        raise InputDataError(f"band_hz must satisfy {need}, got {band!r}")
-    if lo >= fs / 2:
-        raise InputDataError(f"band_hz f_lo = {lo} Hz must be below the Nyquist frequency {fs / 2} Hz")
-    return lo, hi
-
-
-def _check_taper(taper) -> None:
-    if isinstance(taper, bool) or not isinstance(taper, (int, float)) or not 0 <= taper < 1:
-        raise InputDataError(f"taper must be a number in [0, 1), got {taper!r}")
-
-
-def _check_int(value, name: str, minimum: int) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise InputDataError(f"{name} must be an integer >= {minimum}, got {value!r}")

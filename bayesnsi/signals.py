@@ -13,7 +13,12 @@ import numpy as np
 
 from .exceptions import InputDataError, ShapeError
 
-__all__ = ["Signals", "differentiate"]
+__all__ = ["Signals", "differentiate", "MIN_FS", "MAX_FS"]
+
+MIN_FS = 1e-6
+"""Lowest accepted sampling frequency [Hz] (one sample every 11.6 days)."""
+MAX_FS = 1e9
+"""Highest accepted sampling frequency [Hz] (1 GHz, far above any structural measurement)."""
 
 _DIFFERENTIATORS = {
     # central-difference stencils (coefficients for offsets -k..k, divided by dt)
@@ -144,8 +149,11 @@ class Signals:
             if vel.shape[1] != self.displacement.shape[1]:
                 raise ShapeError("velocity must have one column per displacement channel (same DOFs)")
             set_("velocity", vel)
-        if not (np.isfinite(self.fs) and self.fs > 0):
-            raise InputDataError(f"sampling frequency must be a positive number of Hz, got {self.fs!r}")
+        if not (isinstance(self.fs, (int, float, np.integer, np.floating)) and not isinstance(self.fs, bool)
+                and MIN_FS <= self.fs <= MAX_FS):
+            raise InputDataError(
+                f"sampling frequency must be a number of Hz in [{MIN_FS:g}, {MAX_FS:g}], got {self.fs!r}"
+            )
         set_("fs", float(self.fs))
         set_("input_dofs", _as_dofs("input_dofs", self.input_dofs, force.shape[1]))
         set_("output_dofs", _as_dofs("output_dofs", self.output_dofs, self.displacement.shape[1]))
@@ -173,7 +181,7 @@ class Signals:
             return self.velocity
         return differentiate(self.displacement, self.fs, method)
 
-    def segment(self, start: int, stop: int) -> "Signals":
+    def segment(self, start: int, stop: int) -> Signals:
         """Samples ``start:stop`` as new Signals."""
         if not (0 <= start < stop <= self.n_samples):
             raise InputDataError(f"segment [{start}, {stop}) is outside the record of {self.n_samples} samples")

@@ -6,9 +6,9 @@ noise-free data they are within 0.03 %. bd_method="prediction-error" (bayesnsi.n
 from the one-step prediction error of a Kalman predictor whose process noise is the measurement
 noise propagated through the nonlinear inputs) is compared with it on the same data.
 
-identify(refine_poles=(low, high)) (bayesnsi.nsi._output_error.refine_poles: output-error
+identify with NSIOptions(refine_poles=(low, high)) (bayesnsi.nsi._output_error.refine_poles: output-error
 refinement of the poles in the band on band-passed data, variable projection) is compared with
---refine-poles LOW HIGH (rows "... +poles"); identify(c_method="prediction-error") (C re-fitted
+--refine-poles LOW HIGH (rows "... +poles"); NSIOptions(c_method="prediction-error") (C re-fitted
 to the final A on the Kalman predictor's states, bayesnsi.nsi._eiv.refine_prediction_error_bc)
 with --c-methods subspace prediction-error (rows "... +C").
 
@@ -34,15 +34,14 @@ import os
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"  # before numpy (SPEC 10: multithreaded BLAS is slower here)
 
-import argparse
-import time
-import warnings
+import argparse  # noqa: E402
+import time  # noqa: E402
+import warnings  # noqa: E402
 
-import numpy as np
+import numpy as np  # noqa: E402
 
-from bayesnsi.exceptions import SpuriousPoleWarning
-from bayesnsi.nsi import identify
-from bayesnsi.simulate import simulate_case
+from bayesnsi import NSIOptions, identify, simulate_case  # noqa: E402
+from bayesnsi.exceptions import SpuriousPoleWarning  # noqa: E402
 
 METHODS = ("output-error", "prediction-error")
 C_METHODS = ("subspace", "prediction-error")
@@ -81,7 +80,7 @@ def main():
     parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS)
     parser.add_argument(
         "--c-methods", nargs="+", default=["subspace"], choices=C_METHODS,
-        help="identify(c_method=...); 'prediction-error' only with bd_method prediction-error",
+        help="NSIOptions(c_method=...); 'prediction-error' only with bd_method prediction-error",
     )
     parser.add_argument("--only-refined", action="store_true", help="skip the runs without --refine-poles")
     args = parser.parse_args()
@@ -97,7 +96,8 @@ def main():
         f"beam, model 3 {{x13², x13³}}, 1 % noise, 1e5 samples, i = {args.block_rows}, n = 32, band 1-30 Hz"
     )
     print(
-        f"{'seed':>4} {'run':>27} {'k2 %':>7} {'k3 %':>7} {'ζ10.1 %':>8} {'ζ10.6 %':>8} {'max|ζ| %':>9} {'max|f| %':>9} {'time s':>7}"
+        f"{'seed':>4} {'run':>27} {'k2 %':>7} {'k3 %':>7} {'ζ10.1 %':>8} {'ζ10.6 %':>8} {'max|ζ| %':>9} "
+        f"{'max|f| %':>9} {'time s':>7}"
     )
     worst = {run: 0.0 for run in runs}
     worst_z = {run: 0.0 for run in runs}
@@ -108,7 +108,9 @@ def main():
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", SpuriousPoleWarning)
                 start = time.perf_counter()
-                result = identify(case.signals, case.candidate("model 3"), NSIOptions(block_rows=args.block_rows, order=32, band_hz=(1.0, 30.0), bd_method=method, refine_poles=band, c_method=c_method))
+                options = NSIOptions(block_rows=args.block_rows, order=32, band_hz=(1.0, 30.0), bd_method=method,
+                                     refine_poles=band, c_method=c_method)
+                result = identify(case.signals, case.candidate("model 3"), options)
                 elapsed = time.perf_counter() - start
             k_err, close, z_max, f_max = _row(case, result)
             run = (method, band, c_method)
@@ -120,7 +122,8 @@ def main():
                 "       -" if np.isnan(c) else f"{c:8.1f}" for c in close
             )
             print(
-                f"{seed:>4} {label:>27} {k_err[0]:7.2f} {k_err[1]:7.2f} {close_txt} {z_max:9.1f} {f_max:9.3f} {elapsed:7.2f}",
+                f"{seed:>4} {label:>27} {k_err[0]:7.2f} {k_err[1]:7.2f} {close_txt} {z_max:9.1f} {f_max:9.3f} "
+                f"{elapsed:7.2f}",
                 flush=True,
             )
     for run in runs:

@@ -12,9 +12,8 @@ seeded datasets, the output noise cycling over 1, 2, 5, 10 % (dataset ``j`` has 
    settings (``case.recommended``); a candidate whose identification or evidence fails gets
    probability 0;
 2. computes the evidence of each identified candidate exactly as ``bayesnsi select`` does
-   (:func:`bayesnsi.evidence.candidate.candidate_evidence`, formerly
-   ``bayesnsi.cli._selection.evaluate_evidence``: affine reconstruction -> default priors ->
-   emcee + bridge sampling) with :data:`EVIDENCE_DEFAULTS`, under the white-noise and the
+   (:func:`bayesnsi.evidence.candidate_evidence`: affine reconstruction -> default priors ->
+   emcee + bridge sampling) with ``EvidenceOptions()`` defaults, under the white-noise and the
    exact AR(1) likelihood, with a ``numpy.random.SeedSequence`` per candidate;
 3. turns them into three probability vectors over the candidates (uniform model priors, via
    :func:`bayesnsi.evidence.compare_evidence`): the paper's plain ranking (Eq. 4, Gaussian
@@ -76,16 +75,6 @@ BINS = (0.0, 0.1, 0.5, 0.9, 0.99, 1.0)
 BIN_LABELS = ("[0, 0.1)", "[0.1, 0.5)", "[0.5, 0.9)", "[0.9, 0.99)", "[0.99, 1]")
 
 
-def _evidence_api():
-    """(EVIDENCE_DEFAULTS, per-candidate evidence function) of ``bayesnsi select``."""
-    try:
-        from bayesnsi.evidence.candidate import EVIDENCE_DEFAULTS, candidate_evidence
-    except ImportError:  # older trees kept it in the CLI
-        from bayesnsi.cli._selection import EVIDENCE_DEFAULTS
-        from bayesnsi.cli._selection import evaluate_evidence as candidate_evidence
-    return EVIDENCE_DEFAULTS, candidate_evidence
-
-
 def _git_state() -> str:
     import subprocess
 
@@ -99,14 +88,12 @@ def _git_state() -> str:
         return "unknown"
 
 
-def one_dataset(case_name: str, index: int, seed: int, noise: float, opts: dict, seed0: int) -> dict:
-    """Simulate, identify, compute evidences and the three rankings for one dataset."""
-    from bayesnsi.evidence import compare_evidence
+def one_dataset(case_name: str, index: int, seed: int, noise: float, opts, seed0: int) -> dict:
+    """Simulate, identify, compute evidences (``opts``: EvidenceOptions) and the three rankings for one dataset."""
+    from bayesnsi import identify, simulate_case
+    from bayesnsi.evidence import candidate_evidence, compare_evidence
     from bayesnsi.exceptions import BayesNSIError, ConvergenceWarning
-    from bayesnsi.nsi import identify
-    from bayesnsi.simulate import simulate_case
 
-    _, evaluate_evidence = _evidence_api()
     t0 = time.perf_counter()
     case = simulate_case(case_name, seed=seed, noise_percent=noise)
     names = [c.name for c in case.candidates]
@@ -121,7 +108,7 @@ def one_dataset(case_name: str, index: int, seed: int, noise: float, opts: dict,
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
-                result = identify(case.signals, cand, **case.recommended)
+                result = identify(case.signals, cand, case.recommended)
             except (BayesNSIError, np.linalg.LinAlgError) as err:
                 status[cand.name], errors[cand.name] = "nsi-failed", f"{type(err).__name__}: {err}"
                 continue
@@ -129,7 +116,7 @@ def one_dataset(case_name: str, index: int, seed: int, noise: float, opts: dict,
                 rel = result.coefficient_values / np.asarray(case.true_coefficients) - 1.0
                 true_coef_error = [float(r) for r in rel]
             try:
-                ev = evaluate_evidence(result, case.signals, opts, ss, cand)
+                ev = candidate_evidence(result, case.signals, opts, ss, cand)
             except (BayesNSIError, np.linalg.LinAlgError) as err:
                 status[cand.name], errors[cand.name] = "evidence-failed", f"{type(err).__name__}: {err}"
                 continue
@@ -205,18 +192,26 @@ def scores(records: list[dict], rank: str) -> dict:
     }
 
 
+def _nsi_settings(options) -> dict:
+    """Block rows, order and the other NSIOptions fields that differ from their defaults."""
+    default = type(options)()
+    values = {name: getattr(options, name) for name in options.names()}
+    shown = ("block_rows", "order")
+    return {name: value for name, value in values.items() if name in shown or value != getattr(default, name)}
+
+
 def print_case(case_name: str, records: list[dict]) -> None:
-    from bayesnsi.simulate import simulate_case
+    from bayesnsi import simulate_case
 
     case = simulate_case(case_name, seed=0, duration=1.0)
     names = records[0]["names"]
     print(f"\n=== {case_name}: true model {case.true_model!r}; {len(records)} datasets; "
-          f"NSI settings {dict(case.recommended)}")
+          f"NSI settings {_nsi_settings(case.recommended)}")
     for cand in case.candidates:
         print(f"    {cand.name}: " + ", ".join(t.name for t in cand.terms))
     status = {}
     for r in records:
-        for name, s in r["status"].items():
+        for s in r["status"].values():
             status.setdefault(s, 0)
             status[s] += 1
     print("  candidate fits: " + ", ".join(f"{s} {n}" for s, n in sorted(status.items())))
@@ -229,7 +224,8 @@ def print_case(case_name: str, records: list[dict]) -> None:
     for lvl, recs in by_noise.items():
         e = np.array([r["true_coefficient_rel_error"][0] for r in recs if r["true_coefficient_rel_error"]]) * 100
         if e.size:
-            print(f"    noise {lvl:>4g} %: {np.median(e):+6.1f}  ({np.percentile(e, 10):+6.1f} .. {np.percentile(e, 90):+6.1f})")
+            low, high = np.percentile(e, 10), np.percentile(e, 90)
+            print(f"    noise {lvl:>4g} %: {np.median(e):+6.1f}  ({low:+6.1f} .. {high:+6.1f})")
     warn = sum(r["convergence_warnings"] for r in records)
     gap = max(r["white_bridge_vs_exact_nat"] for r in records)
     print(f"  evidence convergence warnings: {warn} over {len(records) * len(names) * 2} evidence runs; "
@@ -274,7 +270,7 @@ def print_reliability(title: str, bins: list[dict]) -> None:
 
 
 def main(argv=None) -> int:
-    EVIDENCE_DEFAULTS, _ = _evidence_api()
+    from bayesnsi import EvidenceOptions
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seeds", type=int, default=60, help="datasets per case (default 60: 15 per noise level)")
@@ -282,31 +278,28 @@ def main(argv=None) -> int:
     ap.add_argument("--seed0", type=int, default=1000, help="first simulation seed (default 1000)")
     ap.add_argument("--cases", nargs="+", default=list(CASE_NAMES), choices=CASE_NAMES)
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--n-steps", type=int, default=None, help="emcee steps (default: EVIDENCE_DEFAULTS)")
-    ap.add_argument("--n-burn", type=int, default=None, help="emcee burn-in (default: EVIDENCE_DEFAULTS)")
+    ap.add_argument("--n-steps", type=int, default=None, help="emcee steps (default: EvidenceOptions)")
+    ap.add_argument("--n-burn", type=int, default=None, help="emcee burn-in (default: EvidenceOptions)")
     ap.add_argument("--noise", type=float, nargs="+", default=list(NOISE_LEVELS),
                     help="noise levels [%%] cycled over the datasets (default 1 2 5 10; "
                          "issue 3 criterion: --cases two-dof --seeds 20 --noise 2)")
     ap.add_argument("--residual", default=None, choices=("innovations", "reconstruction"),
-                    help="residual the evidence scores (default: EVIDENCE_DEFAULTS)")
+                    help="residual the evidence scores (default: EvidenceOptions)")
     ap.add_argument("--json", default=None, help="write the per-dataset records and scores here")
     args = ap.parse_args(argv)
     n_seeds = 8 if args.quick else args.seeds
 
-    opts = {**EVIDENCE_DEFAULTS, "likelihood": "ar1", "compare": ["white"]}
-    if args.n_steps is not None:
-        opts["n_steps"] = args.n_steps
-    if args.n_burn is not None:
-        opts["n_burn"] = args.n_burn
-    if args.residual is not None:
-        opts["residual"] = args.residual
+    given = {"n_steps": args.n_steps, "n_burn": args.n_burn, "residual": args.residual}
+    opts = EvidenceOptions(likelihood="ar1", compare=("white",)).replace(
+        **{name: value for name, value in given.items() if value is not None}
+    )
 
     print("bayesnsi calibration study (SPEC 6)")
     print(f"python {platform.python_version()}, numpy {np.__version__}, {os.cpu_count()} CPUs, "
           f"{args.workers} workers, threads per worker 1; repository {_git_state()}")
     print(f"cases {args.cases}; {n_seeds} datasets per case, seeds {args.seed0}..{args.seed0 + n_seeds - 1}, "
           f"noise cycling over {', '.join(f'{n:g}' for n in args.noise)} %")
-    print(f"evidence options: {opts}")
+    print(f"evidence options: {opts.to_dict()}")
 
     tasks = [
         (name, j, args.seed0 + j, args.noise[j % len(args.noise)], opts, args.seed0)
@@ -326,7 +319,7 @@ def main(argv=None) -> int:
     cpu = sum(r["seconds"] for r in records)
     print(f"wall time {wall:.0f} s ({cpu / len(records):.1f} s per dataset in a worker)")
 
-    out = {"options": opts, "n_seeds": n_seeds, "seed0": args.seed0, "records": records, "scores": {}}
+    out = {"options": opts.to_dict(), "n_seeds": n_seeds, "seed0": args.seed0, "records": records, "scores": {}}
     for name in args.cases:
         recs = sorted((r for r in records if r["case"] == name), key=lambda r: r["index"])
         print_case(name, recs)

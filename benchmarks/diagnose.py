@@ -27,16 +27,17 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 from bayesnsi.diagnose import close_the_loop  # noqa: E402
-from bayesnsi.evidence import EVIDENCE_DEFAULTS, candidate_evidence  # noqa: E402
+from bayesnsi.evidence import candidate_evidence  # noqa: E402
 from bayesnsi.models import CandidateModel  # noqa: E402
 from bayesnsi.nsi import identify  # noqa: E402
+from bayesnsi.options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions  # noqa: E402
 from bayesnsi.simulate import simulate_case  # noqa: E402
 
 CASES = {
-    "two-dof": (CandidateModel.from_terms("declared", [("v1*abs(v1)", 1)]), dict(block_rows=60, order=4)),
+    "two-dof": (CandidateModel.from_terms("declared", [("v1*abs(v1)", 1)]), NSIOptions(block_rows=60, order=4)),
     "beam": (
         CandidateModel.from_terms("declared", [("x13**2", 13), ("x13**3", 13)]),
-        dict(block_rows=40, order=32, band_hz=(1.0, 30.0)),
+        NSIOptions(block_rows=40, order=32, band_hz=(1.0, 30.0)),
     ),
 }
 
@@ -55,7 +56,7 @@ def cli_select_seconds(case, candidate, nsi) -> float:
         csv = Path(tmp) / "data.csv"
         config = case_config(case, write_signals_csv(csv, case.signals))
         config["candidates"] = [{"name": candidate.name, "terms": [term_record(t) for t in candidate.terms]}]
-        config["nsi"] = {k: list(v) if isinstance(v, tuple) else v for k, v in nsi.items()}
+        config["nsi"] = {k: v for k, v in nsi.to_dict().items() if v is not None}
         (Path(tmp) / "one.toml").write_text(dump_config(config))
         start = time.perf_counter()
         code = cli_main(["select", str(Path(tmp) / "one.toml"), "--out", str(Path(tmp) / "out"), "--quiet"])
@@ -72,7 +73,8 @@ def main() -> None:
     parser.add_argument("--no-screen", action="store_true", help="re-identify every effect (close_the_loop screen=None)")
     args = parser.parse_args()
     names = ["two-dof"] if args.quick else list(CASES)
-    screen = {"screen": None} if args.no_screen else {}  # {}: close_the_loop's default screen
+    screen = {"screen": None} if args.no_screen else {}  # {}: the default screen of LoopOptions
+    options = LoopOptions(max_steps=2, **screen)
     print(f"loop effects scored in {args.jobs} worker process(es); screen {'off (every effect re-identified)' if screen else 'on'}")
     print(f"{'case':8} {'select 1 cand [s]':>18} {'CLI select [s]':>15} {'loop [s]':>9} {'steps':>6} {'effects':>8} "
           f"{'s / step':>9}  added")
@@ -82,13 +84,13 @@ def main() -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             start = time.perf_counter()
-            result = identify(case.signals, candidate, **nsi)
+            result = identify(case.signals, candidate, nsi)
             result.reconstruct(case.signals)
-            candidate_evidence(result, case.signals, {**EVIDENCE_DEFAULTS, "compare": []}, np.random.SeedSequence(0))
+            candidate_evidence(result, case.signals, EvidenceOptions(compare=()), np.random.SeedSequence(0))
             select_time = time.perf_counter() - start
             cli_time = cli_select_seconds(case, candidate, nsi)
             start = time.perf_counter()
-            loop = close_the_loop(case.signals, candidate, nsi_options=nsi, max_steps=2, seed=0, jobs=args.jobs, **screen)
+            loop = close_the_loop(case.signals, candidate, options, nsi=nsi, execution=ExecutionOptions(jobs=args.jobs))
             loop_time = time.perf_counter() - start
         steps = max(len(loop.scores), 1)
         added = ", ".join(s.term.name for s in loop.added) or "nothing"

@@ -42,34 +42,33 @@ import numpy as np
 from bayesnsi.diagnose import close_the_loop
 from bayesnsi.nsi import identify
 from bayesnsi.nsi.reconstruct import nrmse as _nrmse
+from bayesnsi.options import EvidenceOptions, LoopOptions, NSIOptions
 from bayesnsi.simulate.undeclared import UNDECLARED_CASES, undeclared_cases
 
 FLOOR_FACTOR = 1.1  # "at the noise floor": NRMSE after ≤ 1.1 × NRMSE of the true model
 
 
-def nsi_settings(case, bd_method=None, upsample=None) -> dict:
+def nsi_settings(case, bd_method=None, upsample=None) -> NSIOptions:
     """The case's NSI settings with the overrides of the command line."""
-    nsi = dict(case.nsi)
+    nsi = case.nsi
     if bd_method is not None:
-        nsi["bd_method"] = bd_method
+        nsi = nsi.replace(bd_method=bd_method)
     if upsample is not None:
-        base = nsi.get("upsample", 1)
-        nsi["block_rows"] = nsi["block_rows"] // base * upsample
-        nsi["upsample"] = upsample
+        nsi = nsi.replace(block_rows=nsi.block_rows // nsi.upsample * upsample, upsample=upsample)
     return nsi
 
 
 def evaluate(case, loop, nsi=None) -> dict:
     """Score one loop run against the truth of its case."""
     added = loop.added
-    first = bool(added) and any(e.matches(added[0].effect_type, added[0].term) for e in case.missing)
-    matched = [next((s for s in added if e.matches(s.effect_type, s.term)), None) for e in case.missing]
+    first = bool(added) and any(e.matches(added[0].effect.base, added[0].term) for e in case.missing)
+    matched = [next((s for s in added if e.matches(s.effect.base, s.term)), None) for e in case.missing]
     spurious = [s for s in added if not any(s is m for m in matched)]  # wrong effects and duplicates
     final = {t: c.value for t, c in zip(loop.final.terms, loop.final.coefficients)}
     errors = [abs(final[s.term] / e.coefficient - 1.0) for e, s in zip(case.missing, matched) if s is not None]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        truth = identify(case.signals, case.truth, **(case.nsi if nsi is None else nsi)).reconstruct(case.signals).nrmse
+        truth = identify(case.signals, case.truth, case.nsi if nsi is None else nsi).reconstruct(case.signals).nrmse
     noise = _nrmse(case.signals.displacement, case.clean.displacement)[1]
     before = loop.start.reconstruct(case.signals).nrmse
     after = loop.final.reconstruct(case.signals).nrmse
@@ -96,13 +95,14 @@ def main() -> None:
     parser.add_argument("--bd-method", choices=["robust", "output-error", "prediction-error"], help="override B, D method")
     parser.add_argument("--upsample", type=int, help="override the NSI upsampling factor (block rows scaled with it)")
     parser.add_argument("--residual", choices=["innovations", "reconstruction"],
-                        help="override the evidence residual (default: the loop's, LOOP_EVIDENCE_DEFAULTS)")
-    parser.add_argument("--exchange", action="store_true", help="turn on the loop's exchange step")
+                        help="override the residual the loop scores (default: LoopOptions().residual)")
     parser.add_argument("--verbose", action="store_true", help="print every run")
     parser.add_argument("--duration", type=float, default=30.0, help="record length [s] (default 30)")
     parser.add_argument("--no-screen", action="store_true", help="re-identify every effect (close_the_loop screen=None)")
     args = parser.parse_args()
-    evidence = {"residual": args.residual} if args.residual else None  # None: the loop's defaults
+    options = LoopOptions(
+        **({"residual": args.residual} if args.residual else {}), **({"screen": None} if args.no_screen else {})
+    )
     print(f"NSI overrides: bd_method={args.bd_method}, upsample={args.upsample}; records of {args.duration:g} s; "
           f"screen {'off' if args.no_screen else 'on'}")
     header = (
@@ -120,11 +120,8 @@ def main() -> None:
                 start = time.perf_counter()
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
-                    loop = close_the_loop(
-                        case.signals, case.declared, nsi_options=nsi, evidence_options=evidence, seed=case.seed,
-                        exchange=args.exchange,
-                        **({"screen": None} if args.no_screen else {}),
-                    )
+                    evidence = EvidenceOptions(seed=case.seed)
+                    loop = close_the_loop(case.signals, case.declared, options, nsi=nsi, evidence=evidence)
                 times.append(time.perf_counter() - start)
                 row = evaluate(case, loop, nsi)
                 rows.append(row)
@@ -135,7 +132,7 @@ def main() -> None:
                         f"nrmse {row['before']:.4f} -> {row['after']:.4f} (truth {row['truth']:.4f}); {times[-1]:.1f} s"
                     )
                     for step in loop.steps:
-                        true = any(e.matches(step.effect_type, step.term) for e in case.missing)
+                        true = any(e.matches(step.effect.base, step.term) for e in case.missing)
                         h = np.abs(step.half_coefficients)
                         print(
                             f"    {'+' if step.accepted else '-'} {'TRUE' if true else 'false'} {step.term.name[:48]:48} "

@@ -23,8 +23,14 @@ import warnings
 import numpy as np
 from scipy.signal import lfilter
 
-from bayesnsi.evidence import CoefficientPrior, NoisePrior, Priors, closed_form_log_evidence, marginal_evidence
-from bayesnsi.evidence import sufficient_statistics
+from bayesnsi.evidence import (
+    CoefficientPrior,
+    NoisePrior,
+    Priors,
+    closed_form_log_evidence,
+    marginal_evidence,
+    sufficient_statistics,
+)
 from bayesnsi.exceptions import ConvergenceWarning
 from bayesnsi.nsi import AffineReconstruction
 

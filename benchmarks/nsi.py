@@ -33,14 +33,23 @@ import os
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"  # must precede the numpy import (see the docstring)
 
-import argparse, importlib, json, pickle, platform, subprocess, sys, tempfile, time, tracemalloc, warnings  # noqa
+import argparse  # noqa: E402
+import importlib  # noqa: E402
+import json  # noqa: E402
+import pickle  # noqa: E402
+import platform  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+import tracemalloc  # noqa: E402
+import warnings  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from bayesnsi import NSIOptions, Signals, identify, simulate_case  # noqa: E402
 from bayesnsi.exceptions import UnstableModelError  # noqa: E402
-from bayesnsi.nsi import identify  # noqa: E402
-from bayesnsi.signals import Signals  # noqa: E402
-from bayesnsi.simulate.cases import simulate_case, simulate_cases  # noqa: E402
+from bayesnsi.simulate import simulate_cases  # noqa: E402
 
 BLOCK_ROWS, ORDER, MB = 40, 32, 1e6
 STAGES = [("factor", "_hankel", "gram_factor"), ("factor", "_hankel", "lq_factor"), ("svd", "_subspace", "oblique_svd"),
@@ -67,15 +76,20 @@ def _instrument(timings):
     """Wrap the stage functions, which identify() looks up at call time, to accumulate their time."""
     for stage, module_name, name in STAGES:
         module = importlib.import_module(f"bayesnsi.nsi.{module_name}")
+        setattr(module, name, _timed(getattr(module, name), stage, timings))
 
-        def timed(*args, _original=getattr(module, name), _stage=stage, **kwargs):
-            start = time.perf_counter()
-            try:
-                return _original(*args, **kwargs)
-            finally:
-                timings[_stage] += time.perf_counter() - start
 
-        setattr(module, name, timed)
+def _timed(function, stage, timings):
+    """``function`` wrapped to add its wall time to ``timings[stage]``."""
+
+    def timed(*args, **kwargs):
+        start = time.perf_counter()
+        try:
+            return function(*args, **kwargs)
+        finally:
+            timings[stage] += time.perf_counter() - start
+
+    return timed
 
 
 def worker(path, route):
@@ -84,7 +98,8 @@ def worker(path, route):
         signals, terms = pickle.load(fh)  # terms as (expression, location) pairs
     warnings.simplefilter("ignore")  # spurious-pole warnings are not the point here
     options = dict(route=route) if route != "accurate" else dict(route="correlation", **ACCURATE)
-    run = lambda s: identify(s, terms, block_rows=BLOCK_ROWS, order=ORDER, **options)  # noqa: E731
+    nsi = NSIOptions(block_rows=BLOCK_ROWS, order=ORDER, **options)
+    run = lambda s: identify(s, terms, nsi)  # noqa: E731
     try:  # warm-up (lazy imports, first-call costs); so short a record may give an unstable model
         run(signals.segment(0, 5000))
     except UnstableModelError:
@@ -195,7 +210,8 @@ def main():
                        f"{r['time'] - sum(s.values()):>7.3f}{data / MB:>7.0f}{r['traced'] / MB:>8.0f}{rss:>7}"
                 if route == "lq":  # LQ / fast ratios; the RSS one only when the fast RSS is above noise
                     fast = results[n, "correlation"]
-                    line += f"   LQ/fast: time x{r['time'] / fast['time']:.1f}, traced x{r['traced'] / fast['traced']:.0f}"
+                    line += f"   LQ/fast: time x{r['time'] / fast['time']:.1f}, "
+                    line += f"traced x{r['traced'] / fast['traced']:.0f}"
                     line += f", RSS x{r['rss'] / fast['rss']:.0f}" if r["rss"] and (fast["rss"] or 0) > 10 * MB else ""
                 print(line, flush=True)
     for n, target in ((100_000, 1.0), (1_000_000, 5.0)):

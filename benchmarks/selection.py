@@ -2,9 +2,10 @@
 
 1. Stage times per candidate, two-DOF case (seed 0, 1e3 samples, block_rows=60, order=4) and beam
    case (seed 0, 1e5 samples, 8 outputs, block_rows=60, order=32, band 1-30 Hz), 3 paper
-   candidates each, replaying ``bayesnsi.cli._selection`` (select_all -> candidate_evidence, same
-   seeds): identify, open-loop reconstruction, affine reconstruction (signatures; the innovations form by default), priors (extended
-   input + default_priors); then, for the "ar1" (default) and "white" likelihoods, the timings of
+   candidates each, replaying :func:`bayesnsi.select` (candidate_evidence per candidate, same
+   seeds): identify, open-loop reconstruction, affine reconstruction (signatures; the innovations
+   form by default), priors (:func:`bayesnsi.evidence.candidate_priors`: extended input +
+   default_priors); then, for the "ar1" (default) and "white" likelihoods, the timings of
    ``EvidenceResult.settings``: statistics (time_statistics_s), emcee (time_sampling_s), estimators
    = bridge + Laplace + closed form (time_evidence_s), arviz summary (time_summary_s); "other" =
    marginal_evidence wall time minus those four. A stage that raises (wrong beam candidates:
@@ -31,21 +32,24 @@ import os
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"  # must precede the numpy import (see the docstring)
 
-import argparse, platform, subprocess, sys, tempfile, time  # noqa: E401,E402
+import argparse  # noqa: E402
+import platform  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from bayesnsi.evidence import EVIDENCE_DEFAULTS  # noqa: E402
-from bayesnsi.evidence import default_priors, marginal_evidence  # noqa: E402
+from bayesnsi import EvidenceOptions, NSIOptions, Signals, affine_reconstruction, identify  # noqa: E402
+from bayesnsi.evidence import candidate_affine, candidate_priors, marginal_evidence  # noqa: E402
 from bayesnsi.exceptions import BayesNSIError  # noqa: E402
-from bayesnsi.evidence.candidate import EVIDENCE_DEFAULTS, candidate_affine  # noqa: E402
-from bayesnsi.nsi import affine_reconstruction, identify  # noqa: E402
-from bayesnsi.signals import Signals  # noqa: E402
 from bayesnsi.simulate import simulate_case, simulate_cases  # noqa: E402
 
 LIKELIHOODS = ("ar1", "white")
 NSI = {"two-dof": dict(block_rows=60, order=4), "beam": dict(block_rows=60, order=32, band_hz=(1.0, 30.0))}
+EVIDENCE = EvidenceOptions()  # the defaults of ``bayesnsi select``
 KEYS = dict(stats="time_statistics_s", emcee="time_sampling_s", estim="time_evidence_s", summary="time_summary_s")
 STAGES = ("identify", "recon", "affine", "priors", *KEYS, "other")
 TARGET_EVIDENCE_S, TARGET_DEMO_S = 5.0, 30.0
@@ -61,22 +65,18 @@ def timed(times, key, fn, *args, **kwargs):
 
 
 def priors_for(result, affine, signals, candidate):
-    """The priors of ``bayesnsi.evidence.candidate_evidence`` (term rms from the extended input, force rms reference)."""
-    u, m = result.extended_input(signals), len(result.input_dofs)
-    term_rms = np.sqrt(np.mean(u[:, m:] ** 2, axis=0))
-    force_ref = float(np.sqrt(np.sum(np.mean(np.asarray(signals.force) ** 2, axis=0))))
-    overrides = {t.name: s for t, s in zip(candidate.terms, candidate.coefficient_prior_scales) if s is not None}
-    return default_priors(affine, term_rms, force_ref, overrides=overrides, channel_names=signals.output_names)
+    """The priors of ``bayesnsi.evidence.candidate_evidence`` (default evidence options)."""
+    return candidate_priors(result, signals, affine, EVIDENCE, candidate)
 
 
 def evidence(affine, priors, lik, seed, n_steps=None):
     """marginal_evidence as ``select`` runs it; returns the result and {stage: s} incl. "other"."""
     q, l = affine.signatures.shape[2], affine.measured.shape[1]
-    n_walkers = max(EVIDENCE_DEFAULTS["n_walkers"], 2 * (q + l * (1 + (lik == "ar1"))))
+    n_walkers = max(EVIDENCE.n_walkers, 2 * (q + l * (1 + (lik == "ar1"))))
     t0 = time.perf_counter()
     ev = marginal_evidence(affine, priors, likelihood=lik, rng=np.random.default_rng(seed), warn=False,
-                           n_walkers=n_walkers, n_steps=n_steps or EVIDENCE_DEFAULTS["n_steps"],
-                           n_burn=EVIDENCE_DEFAULTS["n_burn"] if n_steps is None else n_steps // 5)
+                           n_walkers=n_walkers, n_steps=n_steps or EVIDENCE.n_steps,
+                           n_burn=EVIDENCE.n_burn if n_steps is None else n_steps // 5)
     wall = time.perf_counter() - t0
     t = {k: float(ev.settings[v]) for k, v in KEYS.items()}
     t["other"] = wall - sum(t.values())
@@ -90,13 +90,13 @@ def stage_table(name, case):
     head = f"{'candidate':<10}{'lik':<6}" + "".join(f"{s:>8}" for s in (*STAGES, "total")) + "  log Z ± se (rhat, it)"
     print(head + "\n" + "-" * len(head))
     sums, per_cand, failures = dict.fromkeys(STAGES, 0.0), {}, []
-    seeds = np.random.SeedSequence(0).spawn(len(case.candidates))  # as select_all with config seed 0
+    seeds = np.random.SeedSequence(EVIDENCE.seed).spawn(len(case.candidates))  # as select, seed 0
     for cand, seed in zip(case.candidates, seeds):
         t, rows = {}, []
         try:
-            result = timed(t, "identify", identify, sig, cand, **opts)
+            result = timed(t, "identify", identify, sig, cand, NSIOptions(**opts))
             timed(t, "recon", result.reconstruct, sig)
-            affine = timed(t, "affine", candidate_affine, result, sig, EVIDENCE_DEFAULTS["residual"])
+            affine = timed(t, "affine", candidate_affine, result, sig, EVIDENCE.residual)
             priors = timed(t, "priors", priors_for, result, affine, sig, cand)
         except BayesNSIError as err:
             rows.append(("-", {}, f"FAILED in {list(t)[-1]}: {type(err).__name__}"))
@@ -149,8 +149,8 @@ def scaling_table(quick):
     seed = np.random.SeedSequence(0).spawn(3)[0]
     for n, sig in records.items():
         t = {}
-        result = timed(t, "identify", identify, sig, cand, **NSI["two-dof"])
-        affine = timed(t, "affine", candidate_affine, result, sig, EVIDENCE_DEFAULTS["residual"])
+        result = timed(t, "identify", identify, sig, cand, NSIOptions(**NSI["two-dof"]))
+        affine = timed(t, "affine", candidate_affine, result, sig, EVIDENCE.residual)
         priors = priors_for(result, affine, sig, cand)
         for lik, child in zip(LIKELIHOODS, seed.spawn(len(LIKELIHOODS))):
             ev, te = evidence(affine, priors, lik, child)
@@ -180,11 +180,12 @@ def main():
     load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
     print(f"python {platform.python_version()}, numpy {np.__version__}, {platform.platform()}, {os.cpu_count()} cpus, "
           f"load average {load}; OMP/OPENBLAS/MKL threads = 1")
-    print(f"evidence settings: {EVIDENCE_DEFAULTS['n_steps']} steps, {EVIDENCE_DEFAULTS['n_burn']} burn-in, "
-          f">= {EVIDENCE_DEFAULTS['n_walkers']} walkers; times in s")
+    print(f"evidence settings: {EVIDENCE.n_steps} steps, {EVIDENCE.n_burn} burn-in, "
+          f">= {EVIDENCE.n_walkers} walkers; times in s")
     two = simulate_case("two-dof", 0)
-    t0, res = time.perf_counter(), identify(two.signals, two.candidates[0], **NSI["two-dof"])  # warm-up: imports
-    aff = affine_reconstruction(res, two.signals)  # and first-call costs are not charged to model 1
+    t0 = time.perf_counter()  # warm-up: imports and first-call costs are not charged to model 1
+    res = identify(two.signals, two.candidates[0], NSIOptions(**NSI["two-dof"]))
+    aff = affine_reconstruction(res, two.signals)
     evidence(aff, priors_for(res, aff, two.signals, two.candidates[0]), "ar1", 0, n_steps=100)
     print(f"warm-up (imports + a 100-step evidence): {time.perf_counter() - t0:.2f} s")
     stage_table("two-dof", two)

@@ -27,16 +27,17 @@ import os
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"  # must precede the numpy import (see the docstring)
 
-import argparse
-import platform
-import time
-import warnings
+import argparse  # noqa: E402
+import platform  # noqa: E402
+import time  # noqa: E402
+import warnings  # noqa: E402
 
-from bayesnsi import __version__, simulate_case
-from bayesnsi.run import dictionary_candidates, run_candidates
+from bayesnsi import EvidenceOptions, ExecutionOptions, NSIOptions, __version__, simulate_case  # noqa: E402
+from bayesnsi.run import dictionary_candidates, run_candidates  # noqa: E402
 
-NSI = dict(block_rows=60, order=4)
-EVIDENCE = {"likelihood": "ar1", "compare": [], "n_walkers": 32, "n_steps": 300, "n_burn": 100, "reference_force_rms": None}
+NSI_SETTINGS = dict(block_rows=60, order=4)
+NSI = NSIOptions(**NSI_SETTINGS)
+EVIDENCE = EvidenceOptions(likelihood="ar1", compare=(), n_walkers=32, n_steps=300, n_burn=100, seed=1)
 
 
 def parse_args():
@@ -52,15 +53,16 @@ def parse_args():
 def digest(outcomes):
     """The numbers that must not depend on the backend."""
     return [
-        (o.record["name"], o.record["status"], o.record.get("nrmse"), tuple(c["value"] for c in o.record["coefficients"]),
+        (o.name, o.status, o.nrmse, () if o.result is None else tuple(o.result.coefficient_values),
          None if o.evidences is None else tuple(e.log_evidence for e in o.evidences.values()))
         for o in outcomes
     ]
 
 
 def timed_run(label, workers, signals, candidates, evidence, **backend):
+    """One sweep on the backend ``ExecutionOptions(**backend)``: wall time, rate and outcomes."""
     start = time.perf_counter()
-    outcomes = run_candidates(signals, candidates, NSI, evidence, seed=1, **backend)
+    outcomes = run_candidates(signals, candidates, NSI, evidence, execution=ExecutionOptions(**backend))
     wall = time.perf_counter() - start
     return {"backend": label, "workers": workers, "candidates": len(candidates), "wall_s": wall,
             "per_min": 60.0 * len(candidates) / wall, "outcomes": outcomes}
@@ -73,7 +75,7 @@ def main():
     candidates = dictionary_candidates([1, 2], max_terms=args.max_terms)
     evidence = EVIDENCE if args.evidence else None
     print(f"bayesnsi {__version__}, Python {platform.python_version()}, {os.cpu_count()} CPUs; two-DOF, "
-          f"{signals.n_samples} samples, {len(candidates)} candidates, NSI {NSI}, evidence: {bool(evidence)}")
+          f"{signals.n_samples} samples, {len(candidates)} candidates, NSI {NSI_SETTINGS}, evidence: {bool(evidence)}")
     rows = [timed_run("serial", 1, signals, candidates, evidence)]
     rows.append(timed_run("joblib-loky", args.workers, signals, candidates, evidence, jobs=args.workers))
     if args.scheduler:
@@ -94,12 +96,12 @@ def main():
     reference = digest(rows[0]["outcomes"])
     identical = all(digest(row["outcomes"]) == reference for row in rows[1:])
     print(f"\nidentical numbers across backends: {'yes' if identical else 'NO'}")
-    ranked = sorted((o.record for o in rows[0]["outcomes"] if o.record["status"] == "ok"), key=lambda r: r["nrmse"])
-    failed = sum(o.record["status"] != "ok" for o in rows[0]["outcomes"])
+    ranked = sorted((o for o in rows[0]["outcomes"] if o.status == "ok"), key=lambda o: o.nrmse)
+    failed = sum(o.status != "ok" for o in rows[0]["outcomes"])
     print(f"failed candidates (recorded with their reason): {failed}")
     print("best five by NRMSE (plain ranking):")
-    for record in ranked[:5]:
-        print(f"  {record['nrmse']:.5f}  {record['name']}")
+    for outcome in ranked[:5]:
+        print(f"  {outcome.nrmse:.5f}  {outcome.name}")
     return 0 if identical else 1
 
 

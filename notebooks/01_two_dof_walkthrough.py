@@ -51,8 +51,9 @@ if SMALL:
 import matplotlib.pyplot as plt
 from IPython.display import Image, display
 
-from bayesnsi.evidence import EVIDENCE_DEFAULTS, candidate_evidence, compare_evidence
-from bayesnsi.nsi import coefficients_table, identify, modes_table
+from bayesnsi import EvidenceOptions
+from bayesnsi.evidence import candidate_evidence, compare_evidence
+from bayesnsi.nsi import identify
 from bayesnsi.plots import (
     plot_coefficient_spectrum,
     plot_frf,
@@ -61,9 +62,10 @@ from bayesnsi.plots import (
     plot_traces,
 )
 from bayesnsi.simulate import simulate_case
+from bayesnsi.tables import coefficients_table, modes_table
 
 SEED = 0
-EVIDENCE = {**EVIDENCE_DEFAULTS, **({"n_steps": 200, "n_burn": 50} if SMALL else {})}
+EVIDENCE = EvidenceOptions(n_steps=200, n_burn=50) if SMALL else EvidenceOptions()
 pd.set_option("display.precision", 4)
 
 
@@ -80,7 +82,7 @@ def show(fig):
     plt.close(fig)
 
 
-print(f"small mode: {SMALL}; emcee: {EVIDENCE['n_walkers']} walkers x {EVIDENCE['n_steps']} steps")
+print(f"small mode: {SMALL}; emcee: {EVIDENCE.n_walkers} walkers x {EVIDENCE.n_steps} steps")
 
 # %% [markdown]
 # ## 1. Simulate the structure
@@ -102,8 +104,8 @@ print(case.describe())
 # λ_i = mean Re λ_i(ω) over the band of the modes, with the quality index |Im|/|Re|.
 
 # %%
-settings = {"block_rows": case.recommended["block_rows"], "order": case.recommended["order"]}
-results = {candidate.name: identify(signals, candidate, **settings) for candidate in case.candidates}
+settings = case.recommended  # NSIOptions: block_rows 60, order 4
+results = {candidate.name: identify(signals, candidate, settings) for candidate in case.candidates}
 exact = {term.name: value for term, value in zip(case.true_terms, case.true_coefficients)}
 
 # %% [markdown]

@@ -47,14 +47,14 @@ if SMALL:
 import matplotlib.pyplot as plt
 from IPython.display import Image, display
 
-from bayesnsi import BayesNSIError
-from bayesnsi.evidence import EVIDENCE_DEFAULTS, candidate_evidence, compare_evidence
+from bayesnsi import BayesNSIError, EvidenceOptions
+from bayesnsi.evidence import candidate_evidence, compare_evidence
 from bayesnsi.nsi import identify
 from bayesnsi.simulate import simulate_cases
 
 NOISE_PERCENT = [2.0] if SMALL else [1.0, 2.0, 5.0, 10.0]
 SEEDS = [0] if SMALL else [0, 1, 2, 3, 4]
-EVIDENCE = {**EVIDENCE_DEFAULTS, **({"n_steps": 200, "n_burn": 50} if SMALL else {})}
+EVIDENCE = EvidenceOptions(n_steps=200, n_burn=50) if SMALL else EvidenceOptions()
 RANKINGS = {"plain": "plain (Eq. 4)", "ar1": "evidence, AR(1)", "white": "evidence, white"}
 pd.set_option("display.precision", 4)
 
@@ -72,7 +72,7 @@ def show(fig):
     plt.close(fig)
 
 
-print(f"noise levels {NOISE_PERCENT} %, seeds {SEEDS}, emcee {EVIDENCE['n_walkers']} x {EVIDENCE['n_steps']}")
+print(f"noise levels {NOISE_PERCENT} %, seeds {SEEDS}, emcee {EVIDENCE.n_walkers} x {EVIDENCE.n_steps}")
 
 # %% [markdown]
 # ## 1. Identify and rank every realisation
@@ -87,11 +87,11 @@ for level, noise in enumerate(NOISE_PERCENT):
     for case in simulate_cases("two-dof", SEEDS, noise_percent=noise):
         alpha_true = float(case.true_coefficients[0])
         alpha_name = case.true_terms[0].name
-        settings = {"block_rows": case.recommended["block_rows"], "order": case.recommended["order"]}
+        settings = case.recommended  # NSIOptions: block_rows 60, order 4
         results, evidence = {}, {}
         for k, candidate in enumerate(case.candidates):
             try:
-                results[candidate.name] = identify(case.signals, candidate, **settings)
+                results[candidate.name] = identify(case.signals, candidate, settings)
                 seed = np.random.SeedSequence([case.seed, level, k])
                 per = candidate_evidence(results[candidate.name], case.signals, EVIDENCE, seed, warn=not SMALL)
                 evidence[candidate.name] = list(per.values())

@@ -39,7 +39,6 @@
 # chain, and draws no figures. The test segments are always the full ones.
 
 # %%
-import dataclasses
 import io
 import os
 from pathlib import Path
@@ -57,9 +56,9 @@ from IPython.display import Image, display
 
 from bayesnsi.diagnose import close_the_loop
 from bayesnsi.io import load_config, load_signals, load_validation
-from bayesnsi.models import effect_dictionary
-from bayesnsi.nsi import coefficients_table, identify, modes_table
+from bayesnsi.nsi import identify
 from bayesnsi.plots import plot_effect_force, plot_reconstruction_errors
+from bayesnsi.tables import coefficients_table, modes_table
 
 N_INIT = 50  # benchmark rule: the first 50 measured outputs may set the initial state
 pd.set_option("display.precision", 4)
@@ -113,12 +112,12 @@ if HAVE_DATA:
     if SMALL:
         signals = signals.segment(0, 2 * 8693)  # two multisine periods (8192 samples + transient)
     validation = load_validation(config)
-    nsi_options = dataclasses.asdict(config.nsi)
+    nsi_options = config.nsi  # NSIOptions from the config's [nsi] table
     print(f"estimation: {signals.n_samples} samples at {signals.fs:.4f} Hz, "
           f"rms V1 {1e3 * signals.force.std():.2f} mV, rms V2 {1e3 * signals.displacement.std():.2f} mV")
     for name, segment in validation:
         print(f"{name}: {segment.n_samples} samples, rms V2 {1e3 * segment.displacement.std():.2f} mV")
-    print("NSI settings:", nsi_options)
+    print("NSI settings:", nsi_options.to_dict())
 
 # %% [markdown]
 # ## 2. Identify a linear and a cubic model
@@ -129,7 +128,7 @@ if HAVE_DATA:
 # %%
 if HAVE_DATA:
     candidates = {c.name: c for c in config.candidates if c.name in ("linear", "cubic")}
-    results = {name: identify(signals, candidate, **nsi_options) for name, candidate in candidates.items()}
+    results = {name: identify(signals, candidate, nsi_options) for name, candidate in candidates.items()}
     display(modes_table(results))
     display(coefficients_table({"cubic": results["cubic"]}))
 
@@ -192,20 +191,12 @@ if HAVE_DATA:
 
 # %%
 if HAVE_DATA:
-    evidence_options = dict(config.evidence_settings)
-    effects = None  # the full dictionary, with clearance gaps from the displacement's spread
+    evidence_options = config.evidence  # its residual is replaced by the loop's (config.loop.residual)
+    loop_options = config.loop.replace(max_steps=3)  # effects=None: the full dictionary
     if SMALL:
-        evidence_options.update(n_steps=200, n_burn=50)
-        effects = effect_dictionary([1], types=("x^2", "x^3", "v|v|"))
-    loop = close_the_loop(
-        signals,
-        candidates["linear"],
-        nsi_options=nsi_options,
-        evidence_options=evidence_options,
-        effects=effects,
-        max_steps=1 if SMALL else 3,
-        seed=config.seed,
-    )
+        evidence_options = evidence_options.replace(n_steps=200, n_burn=50)
+        loop_options = loop_options.replace(max_steps=1, effects=("x^2", "x^3", "v|v|"))
+    loop = close_the_loop(signals, candidates["linear"], loop_options, nsi=nsi_options, evidence=evidence_options)
     steps = pd.DataFrame(
         [
             {
@@ -234,8 +225,10 @@ if HAVE_DATA:
 
 # %%
 if HAVE_DATA:
-    first = pd.DataFrame(loop.scores[0], columns=["type", "term", "log Z (Laplace)"])
-    first["term"] = [term.name for term in first["term"]]
+    first = pd.DataFrame(
+        [(row.effect.name, row.term.name, row.log_evidence) for row in loop.scores[0]],
+        columns=["type", "term", "log Z (Laplace)"],
+    )
     first["Δ log Z"] = first["log Z (Laplace)"] - first["log Z (Laplace)"].max()
     display(first.head(10))
 

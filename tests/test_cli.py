@@ -37,11 +37,12 @@ def test_select_writes_spec9_results_and_report(two_dof_config, tmp_path):
     assert results["candidates"][0]["posterior"] > 0.95
     assert results["versions"]["numpy"]
     html = (out / "report.html").read_text()
-    # every table and figure of the report: modes, coefficients, NRMSE, ranking and one
-    # arviz summary per candidate; FRF, stabilisation, probabilities, errors, and per candidate
-    # singular values + λ(ω) + corner + trace
+    # every table and figure of the report: modes, coefficients, NRMSE, ranking, adequacy and
+    # one arviz summary per candidate; FRF, stabilisation, probabilities, errors, and per
+    # candidate singular values + λ(ω) + corner + trace
     n_cand = len(results["candidates"])
-    assert html.count("<table") == 3 + 1 + n_cand
+    assert html.count("<table") == 3 + 2 + n_cand
+    assert "Ljung-Box" in html and all(c["adequacy"]["p_value"] for c in results["candidates"])
     assert html.count("<img") == 4 + 4 * n_cand
     for heading in ("Data and settings", "Identified modes", "Model selection", "Coefficient posteriors"):
         assert heading in html
@@ -68,6 +69,21 @@ def test_failed_candidate_is_reported_and_others_complete(two_dof_config, tmp_pa
     records = {c["name"]: c for c in json.loads((out / "results.json").read_text())["candidates"]}
     assert records["constant"]["status"] == "failed" and "identifiable" in records["constant"]["error"]
     assert records["model 1"]["status"] == "ok"
+
+
+def test_every_candidate_failing_exits_2_and_keeps_the_errors(two_dof_config, tmp_path, capsys):
+    # issue 13: exit 0 with "selected: None" when every candidate failed
+    text = two_dof_config.read_text().split("[[candidates]]")[0]
+    text += '\n[[candidates]]\nname = "constant"\nterms = [{ expr = "x1 - x1 + 1e-300*x1", at = 1 }]\n'
+    config = tmp_path / "cfg.toml"
+    config.write_text(text.replace('file = "two_dof.csv"', f'file = "{two_dof_config.with_suffix(".csv")}"'))
+    out = tmp_path / "out"
+    capsys.readouterr()
+    assert main(["select", str(config), "--out", str(out), "--quiet", "--no-figures"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "no candidate could be identified" in err and "Traceback" not in err
+    records = json.loads((out / "results.json").read_text())["candidates"]
+    assert records[0]["status"] == "failed" and "identifiable" in records[0]["error"]
 
 
 @pytest.mark.parametrize(

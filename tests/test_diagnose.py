@@ -15,10 +15,11 @@ import pytest
 
 from bayesnsi import CandidateModel
 from bayesnsi.diagnose import close_the_loop, refine_gap, score_effects
-from bayesnsi.options import EvidenceOptions
+from bayesnsi.exceptions import ConfigError
 from bayesnsi.models import default_gaps, effect_dictionary
-from bayesnsi.models.dictionary import clearance_effect, clearance_gap, effect_base_type
+from bayesnsi.models.dictionary import Effect, clearance_effect
 from bayesnsi.nsi import identify
+from bayesnsi.options import EvidenceOptions, ExecutionOptions, LoopOptions
 from bayesnsi.simulate.undeclared import (
     UNDECLARED_CASES,
     effect_sizes,
@@ -29,10 +30,13 @@ from bayesnsi.simulate.undeclared import (
 FLOOR_FACTOR = 1.1  # "at the noise floor": at most 1.1 x the NRMSE of the true model
 
 
-def run_loop(case, **kwargs):
+def run_loop(case, jobs=1, **options):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return close_the_loop(case.signals, case.declared, nsi_options=case.nsi, seed=case.seed, **kwargs)
+        return close_the_loop(
+            case.signals, case.declared, LoopOptions(**options), nsi=case.nsi,
+            evidence=EvidenceOptions(seed=case.seed), execution=ExecutionOptions(jobs=jobs),
+        )
 
 
 def truth_nrmse(case):
@@ -43,7 +47,7 @@ def truth_nrmse(case):
 
 def final_coefficient(loop, effect):
     """Coefficient, in the final model, of the added term matching ``effect`` (type and location)."""
-    step = next(s for s in loop.added if effect.matches(s.effect_type, s.term))
+    step = next(s for s in loop.added if effect.matches(s.effect.base, s.term))
     index = loop.final.terms.index(step.term)
     return loop.final.coefficients[index].value, step
 
@@ -51,7 +55,7 @@ def final_coefficient(loop, effect):
 def assert_found(case, loop):
     """Every missing effect added (type and location), nothing else, coefficients within 10 %."""
     assert len(loop.added) == len(case.missing), [s.term.name for s in loop.added]
-    assert any(e.matches(loop.added[0].effect_type, loop.added[0].term) for e in case.missing)
+    assert any(e.matches(loop.added[0].effect.base, loop.added[0].term) for e in case.missing)
     for effect in case.missing:
         value, step = final_coefficient(loop, effect)
         assert value == pytest.approx(effect.coefficient, rel=0.10), effect.describe()
@@ -87,11 +91,11 @@ def test_undeclared_cases_are_seeded():
 
 
 def test_clearance_effects_carry_their_gap():
-    kind, term = clearance_effect((1, 2), 0.0123456)
-    assert clearance_gap(kind) == pytest.approx(0.0123456)
-    assert effect_base_type(kind) == "clearance" and term.at == (1, 2)
+    effect = clearance_effect((1, 2), 0.0123456)
+    assert effect.gap == pytest.approx(0.0123456)
+    assert effect.base == "clearance" and effect.term.at == (1, 2) and effect.location == (1, 2)
     effects = effect_dictionary([1, 2], types=("x^3",), gaps={(2,): [0.01, 0.02]})
-    assert [k for k, _ in effects] == ["x^3", "x^3", "clearance g=0.01", "clearance g=0.02", "x^3"]
+    assert [e.name for e in effects] == ["x^3", "x^3", "clearance g=0.01", "clearance g=0.02", "x^3"]
 
 
 # --------------------------------------------------------------------------------------------
@@ -119,7 +123,7 @@ def test_final_model_with_friction_is_reidentified_upsampled(coulomb):
     # after the refinement, up to 12 % at the data rate.
     case, loop = coulomb
     assert loop.settings["final_nsi"]["upsample"] == 4
-    assert loop.settings["final_nsi"]["block_rows"] == 4 * case.nsi["block_rows"]
+    assert loop.settings["final_nsi"]["block_rows"] == 4 * case.nsi.block_rows
     assert loop.final.upsample == 4
     value, _ = final_coefficient(loop, case.missing[0])
     assert value == pytest.approx(case.missing[0].coefficient, rel=0.05)
@@ -169,7 +173,7 @@ def test_clearance_gap_is_refined_off_the_grid():
     case = undeclared_case("clearance", seed=1, noise_percent=1.0)
     loop = run_loop(case, max_steps=2)
     assert_found(case, loop)
-    assert clearance_gap(loop.added[0].effect_type) == pytest.approx(case.missing[0].gap, rel=0.05)
+    assert loop.added[0].effect.gap == pytest.approx(case.missing[0].gap, rel=0.05)
     assert_nrmse_criterion(case, loop)
 
 
@@ -181,9 +185,9 @@ def test_refine_gap_moves_towards_the_true_gap():
         warnings.simplefilter("ignore")
         scored = score_effects(case.signals, case.declared, coarse, case.nsi, options)
         best = refine_gap(case.signals, case.declared, scored[0], coarse, case.nsi, options)
-    assert best[2] > scored[0][2]
-    assert abs(clearance_gap(best[0]) - 0.015) < abs(clearance_gap(scored[0][0]) - 0.015)
-    assert clearance_gap(best[0]) == pytest.approx(0.015, rel=0.05)
+    assert best.log_evidence > scored[0].log_evidence
+    assert abs(best.effect.gap - 0.015) < abs(scored[0].effect.gap - 0.015)
+    assert best.effect.gap == pytest.approx(0.015, rel=0.05)
 
 
 def test_negative_control_adds_nothing():
@@ -228,7 +232,8 @@ def test_loop_is_identical_with_two_workers():
     case = undeclared_case("quadratic-damping", seed=0, noise_percent=1.0)
     serial = run_loop(case, max_steps=1)
     parallel = run_loop(case, max_steps=1, jobs=2)
-    assert [(k, t.name, s) for k, t, s in serial.scores[0]] == [(k, t.name, s) for k, t, s in parallel.scores[0]]
+    rows = [[(r.effect.name, r.term.name, r.log_evidence) for r in loop.scores[0]] for loop in (serial, parallel)]
+    assert rows[0] == rows[1]
     assert [s.term.name for s in serial.added] == [s.term.name for s in parallel.added] == ["v1*abs(v1)@1"]
     assert serial.added[0].ci95 == parallel.added[0].ci95
 
@@ -249,9 +254,9 @@ def test_screen_ranks_the_missing_effect_among_the_best_three(name):
     )
     assert len(ranked) == len(effects) - case.declared.n_terms
     # close_the_loop re-identifies the best 6; on cubic-pair, x|x| across the pair ranks above x³
-    best = [(kind, term) for kind, term, _ in ranked[:3]]
-    assert any(case.missing[0].matches(kind, term) for kind, term in best), [t.name for _, t in best]
-    assert all(score > 0 for _, _, score in ranked[:3])
+    best = [effect for effect, _ in ranked[:3]]
+    assert any(case.missing[0].matches(e.base, e.term) for e in best), [e.term.name for e in best]
+    assert all(score > 0 for _, score in ranked[:3])
 
 
 def test_screen_refuses_a_record_too_short_for_its_groups():
@@ -272,18 +277,15 @@ def test_screened_loop_adds_what_the_full_loop_adds():
     assert [s.term.name for s in screened.added] == [s.term.name for s in full.added] == ["v1*abs(v1)@1"]
     assert screened.added[0].log_bayes_factor == pytest.approx(full.added[0].log_bayes_factor, rel=1e-9)
     assert screened.final.coefficient_values == pytest.approx(full.final.coefficient_values, rel=1e-9)
-    scored = [s for _, _, s in screened.scores[0]]
+    scored = [row.log_evidence for row in screened.scores[0]]
     assert sum(np.isfinite(scored)) <= 6 and np.isnan(scored[-1])  # the rest were screened out
     assert len(scored) == len(full.scores[0])
 
 
 @pytest.mark.parametrize("screen", [0, -2, 2.5, True])
 def test_loop_refuses_a_screen_that_is_not_a_positive_count(screen):
-    from bayesnsi.exceptions import InputDataError
-
-    case = undeclared_case("quadratic-damping", seed=0, noise_percent=2.0)
-    with pytest.raises(InputDataError, match="screen must be a positive number"):
-        close_the_loop(case.signals, case.declared, nsi_options=case.nsi, screen=screen)
+    with pytest.raises(ConfigError, match=r"\[diagnose\] screen: expected an integer in \[1, 100000\]"):
+        LoopOptions(screen=screen)
 
 
 def test_look_alike_taken_first_is_exchanged_once_its_partner_is_in():
@@ -296,5 +298,73 @@ def test_look_alike_taken_first_is_exchanged_once_its_partner_is_in():
     assert loop.added[0].reason.startswith("accepted in exchange for")
     assert loop.added[0].residual_force is not None
     exchanged = [s for s in loop.steps if s.reason.startswith("exchanged for x1**3@1")]
-    assert len(exchanged) == 1 and exchanged[0].effect_type.startswith("clearance")
+    assert len(exchanged) == 1 and exchanged[0].effect.base == "clearance"
     assert_found(case, loop)
+
+
+# --------------------------------------------------------------------------------------------
+# the loop's API: typed effects, options, the record-half guard, results.json
+
+
+def test_halves_too_short_to_identify_reject_the_effect_with_that_reason():
+    # 1000 samples identify v1|v1| (60 block rows need 239) but each half, 500 samples, is too
+    # short for the stability guard's identifications: rejected as such, not as "unstable"
+    from bayesnsi.diagnose.guards import TOO_SHORT
+
+    case = undeclared_case("quadratic-damping", seed=0, noise_percent=1.0)
+    short = case.signals.segment(0, 1000)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        loop = close_the_loop(short, case.declared, LoopOptions(max_steps=1, effects=("v|v|", "v^3")), nsi=case.nsi)
+    assert loop.added == ()
+    first = loop.steps[0]
+    assert first.term.name == "v1*abs(v1)@1" and first.log_bayes_factor > np.log(100.0)
+    assert first.reason.startswith(TOO_SHORT) and "500 samples each" in first.reason
+    assert all(np.isnan(first.half_coefficients))
+    assert {row.effect.base for row in loop.scores[0]} == {"v|v|", "v^3"}
+
+
+def test_loop_options_choose_the_effect_types_of_the_dictionary():
+    from bayesnsi.diagnose import loop_effects
+
+    case = undeclared_case("clearance", seed=0, noise_percent=1.0, duration=5.0)
+    assert len(loop_effects(case.signals)) == len(loop_effects(case.signals, LoopOptions().effects)) == 27
+    chosen = loop_effects(case.signals, LoopOptions(effects=["clearance", "x^3"]).effects)
+    assert [e.name.split(" ")[0] for e in chosen] == ["x^3", "clearance", "clearance", "clearance"] * 2 + ["x^3"]
+    assert {e.location for e in chosen if e.gap is not None} == {(1,), (2,)}
+    with pytest.raises(ConfigError, match=r"\[diagnose\] effects: expected a non-empty list"):
+        LoopOptions(effects=[])
+    with pytest.raises(ConfigError, match=r"\[diagnose\] effects: unknown type\(s\) \['x\^4'\]"):
+        loop_effects(case.signals, LoopOptions(effects=["x^3", "x^4"]).effects)
+    with pytest.raises(ConfigError, match="unknown effect type"):
+        effect_dictionary([1], types=("x^4",))
+    with pytest.raises(ConfigError, match="effect type 'x\\^4' unknown"):
+        Effect("x^4", case.declared.terms[0])
+
+
+def test_loop_refuses_options_that_are_not_typed():
+    case = undeclared_case("quadratic-damping", seed=0, noise_percent=2.0, duration=5.0)
+    with pytest.raises(ConfigError, match="options must be a LoopOptions"):
+        close_the_loop(case.signals, case.declared, {"max_steps": 1})
+    with pytest.raises(ConfigError, match="nsi must be a NSIOptions"):
+        close_the_loop(case.signals, case.declared, nsi={"block_rows": 60})
+
+
+def test_diagnose_command_writes_effects_and_their_scores(tmp_path):
+    import json
+
+    from bayesnsi.cli import main
+
+    csv = tmp_path / "qd.csv"
+    assert main(["simulate", "quadratic-damping", "--seed", "0", "--out", str(csv), "--quiet"]) == 0
+    out = tmp_path / "out"
+    args = ["diagnose", str(csv.with_suffix(".toml")), "--out", str(out), "--quiet", "--no-figures", "--max-steps", "1"]
+    assert main(args) == 0
+    results = json.loads((out / "results.json").read_text())
+    added = results["loop"][0]
+    assert added["effect"] == {"type": "v|v|", "at": [1], "gap": None} and added["effect_type"] == "v|v|"
+    first = results["loop_scores"][0]  # the first search: every effect, best first
+    assert first[0]["term"] == "v1*abs(v1)@1" and first[0]["type"] == "v|v|"
+    scored = [row["log_evidence_laplace"] for row in first if isinstance(row["log_evidence_laplace"], float)]
+    assert len(scored) == 6 and scored == sorted(scored, reverse=True)  # the screen's best 6
+    assert len(first) == results["settings"]["loop"]["n_effects"]  # the declared model is linear: every effect

@@ -1,20 +1,25 @@
-"""Property-based fuzzing of every text bayesnsi reads: expressions, configs (TOML) and CSV files.
+"""Property-based fuzzing of every file bayesnsi reads: expressions, configs (TOML), CSV files, cache entries.
 
 Whatever the input, the result is a value or a :class:`~bayesnsi.exceptions.BayesNSIError`
 subclass - never another exception. The number of examples follows the hypothesis profile
 registered in conftest.py (``BAYESNSI_HYPOTHESIS_PROFILE=long`` for thousands).
 """
 
+import functools
+import io
+import json
 import math
+import os
 import tempfile
 import warnings
+import zipfile
 from pathlib import Path
 
 import numpy as np
-from hypothesis import event, given
+from hypothesis import event, given, settings
 from hypothesis import strategies as st
 
-from bayesnsi.exceptions import BayesNSIError
+from bayesnsi.exceptions import BayesNSIError, CacheWarning, InputDataError
 from bayesnsi.io import (
     DataSpec,
     dump_config,
@@ -260,3 +265,132 @@ def test_csv_loader_on_arbitrary_bytes(content):
     path = FOLDER / "fuzz_bytes.csv"
     path.write_bytes(content)
     _outcome(lambda: read_signals(path, DataSpec(file=path, fs=100.0, inputs={"f2": 2}, outputs={"x1": 1})))
+
+
+# ---------------------------------------------------------------------------------------------
+# cache entries: random bytes and mutated valid entries give an outcome, or None with one
+# CacheWarning naming the entry - never another exception, never more than 2 s per entry.
+# These run 60 examples by default, 10 000 under BAYESNSI_HYPOTHESIS_PROFILE=long.
+
+CACHE_EXAMPLES = 10_000 if os.environ.get("BAYESNSI_HYPOTHESIS_PROFILE") == "long" else 60
+_cache_settings = settings(max_examples=CACHE_EXAMPLES, deadline=2000)
+CACHE_KEY = "a" * 64
+
+
+@functools.lru_cache(maxsize=1)
+def _valid_entry():
+    """Bytes, JSON document and arrays of a real entry (NSI result and two evidences)."""
+    from bayesnsi import simulate_case
+    from bayesnsi.io.cache import ResultCache
+    from bayesnsi.options import EvidenceOptions, NSIOptions
+    from bayesnsi.run.batch import candidate_task
+
+    case = simulate_case("two-dof", seed=0, duration=5.0)
+    evidence = EvidenceOptions(n_walkers=8, n_steps=12, n_burn=2, compare=("white",))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        outcome = candidate_task(case.signals, case.candidates[0], NSIOptions(block_rows=20, order=4), evidence,
+                                 np.random.SeedSequence(0))
+    assert outcome.error is None and outcome.evidences
+    cache = ResultCache(FOLDER / "valid-cache")
+    cache.store(CACHE_KEY, outcome)
+    data = cache.path(CACHE_KEY).read_bytes()
+    with np.load(io.BytesIO(data), allow_pickle=False) as npz:
+        arrays = {name: npz[name] for name in npz.files if name != "entry.json"}
+    return data, json.loads(zipfile.ZipFile(io.BytesIO(data)).read("entry.json")), arrays
+
+
+def _load_cache_entry(data: bytes, record=event):
+    """Load ``data`` as an entry both ways; judge what comes back."""
+    from bayesnsi.io._store import EntryError
+    from bayesnsi.io.cache import ResultCache, load_entry
+    from bayesnsi.run.batch import CandidateOutcome
+
+    folder = FOLDER / "fuzz-cache"
+    folder.mkdir(exist_ok=True)
+    path = folder / f"{CACHE_KEY}.npz"
+    path.write_bytes(data)
+    try:
+        outcome = load_entry(path, CACHE_KEY)
+    except (EntryError, InputDataError) as err:
+        assert str(err).strip()
+        record(f"refused: {type(err).__name__}: {str(err).replace(path.name, '').strip(' :')[:32]}")
+        outcome = None
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        loaded = ResultCache(folder).load(CACHE_KEY)
+    if outcome is None:
+        assert loaded is None
+        assert [w.category for w in caught] == [CacheWarning] and path.name in str(caught[0].message)
+    else:
+        record("loaded")
+        assert isinstance(outcome, CandidateOutcome) and outcome.cached and not caught
+        assert isinstance(loaded, CandidateOutcome) and loaded.candidate == outcome.candidate
+
+
+_json_values = st.recursive(
+    st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=6)
+    | st.sampled_from([{"$array": "a0"}, {"$scalar": "a1"}, {"$tuple": []}, {"$complex": [1.0, "x"]},
+                       {"$dict": [[1, 2]]}, {"$frame": {}}, {"$array": "a99"}, "x1**3", "sign(v1)", "identification"]),
+    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=5), inner, max_size=3),
+    max_leaves=5,
+)
+_replacement_arrays = st.sampled_from([
+    np.zeros(0), np.zeros((2, 2)), np.arange(3), np.ones(3, dtype=complex), np.float64(1.5), np.zeros((1, 1, 1)),
+])
+
+
+@st.composite
+def _mutated_document(draw):
+    """The valid entry with a few values replaced or removed somewhere in its JSON or arrays."""
+    _, document, arrays = _valid_entry()
+    document, arrays = json.loads(json.dumps(document)), dict(arrays)
+    for _ in range(draw(st.integers(1, 3))):
+        inside = draw(st.integers(0, 9)) > 0 and "outcome" in document  # mostly a value inside the outcome
+        parent, key = (document, "outcome") if inside else (None, None)
+        node = document["outcome"] if inside else document
+        for _ in range(draw(st.integers(0, 12))):
+            children = list(node) if isinstance(node, (dict, list)) else []
+            children = list(range(len(node))) if isinstance(node, list) else children
+            if not children:
+                break
+            parent, key = node, children[draw(st.integers(0, len(children) - 1))]
+            node = parent[key]
+        if parent is None:
+            continue
+        if isinstance(parent, dict) and draw(st.booleans()):
+            del parent[key]
+        else:
+            parent[key] = json.loads(json.dumps(draw(_json_values)))  # a copy: sampled values are shared
+    if arrays and draw(st.booleans()):
+        arrays[draw(st.sampled_from(sorted(arrays)))] = draw(_replacement_arrays)
+    from bayesnsi.io._store import write_container
+
+    buffer = io.BytesIO()
+    write_container(buffer, document, arrays)
+    return buffer.getvalue()
+
+
+@st.composite
+def _mutated_bytes(draw):
+    """The valid entry with a few bytes changed, and maybe truncated."""
+    data = bytearray(_valid_entry()[0])
+    for position, value in draw(st.lists(st.tuples(st.integers(0, len(data) - 1), st.integers(0, 255)), max_size=6)):
+        data[position] = value
+    return bytes(data[: draw(st.integers(0, len(data)))] if draw(st.booleans()) else data)
+
+
+@_cache_settings
+@given(st.binary(max_size=400) | _mutated_bytes())
+def test_cache_reader_on_arbitrary_and_mutated_bytes(data):
+    _load_cache_entry(data)
+
+
+@_cache_settings
+@given(_mutated_document())
+def test_cache_reader_on_mutated_entries(data):
+    _load_cache_entry(data)
+
+
+def test_cache_reader_accepts_the_unmutated_entry():
+    _load_cache_entry(_valid_entry()[0], record=print)

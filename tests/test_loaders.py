@@ -6,9 +6,8 @@ Signals as the CSV and give the same identification (coefficients equal to 1e-9 
 
 from __future__ import annotations
 
-from bayesnsi.options import NSIOptions
-
 import gc
+import sys
 import warnings
 from pathlib import Path
 
@@ -31,6 +30,7 @@ from bayesnsi.io import (
     write_signals_csv,
 )
 from bayesnsi.nsi import identify
+from bayesnsi.options import NSIOptions
 from bayesnsi.simulate import simulate_case
 
 SILVERBOX = Path("/work/shared/data/silverbox/SNLS80mV.mat")
@@ -299,6 +299,17 @@ def test_hdf5_errors(tmp_path, columns):
     _write_mat73(tmp_path / "short.h5", {**columns, "v2": columns["v2"][:10]})
     with pytest.raises(InputDataError, match="different lengths"):
         _load(tmp_path, "short.h5", fs=FS)
+
+
+@pytest.mark.parametrize("module, extra, file", [("h5py", "hdf5", "data.h5"), ("pyuff", "uff", "data.uff")])
+def test_missing_optional_reader_names_the_extra(tmp_path, monkeypatch, module, extra, file):
+    path = tmp_path / file
+    path.write_bytes(b"\x89HDF\r\n\x1a\n" + bytes(64))  # an HDF5 signature; any bytes for UFF
+    monkeypatch.setitem(sys.modules, module, None)  # as if the extra were not installed
+    with pytest.raises(InputDataError) as info:
+        read_columns(path, ["x1"])
+    message = str(info.value)
+    assert f"pip install 'bayesnsi[{extra}]'" in message and "\n" not in message
 
 
 def test_uff_errors(tmp_path, columns):

@@ -62,8 +62,11 @@ def test_parser_fuzz_gives_expression_or_expression_error(text):
     assert expr.evaluate(x, x).shape == (4,)
 
 
+_TOKENS = ["x1", "v2", "abs(", "sign(", "tanh(", ")", "+", "-", "*", "/", "**", "2", "0.5"]
+
+
 @settings(max_examples=200, deadline=None)
-@given(st.lists(st.sampled_from(["x1", "v2", "abs(", "sign(", "tanh(", ")", "+", "-", "*", "/", "**", "2", "0.5"]), max_size=15))
+@given(st.lists(st.sampled_from(_TOKENS), max_size=15))
 def test_parser_fuzz_on_grammar_tokens(tokens):
     try:
         parse_expression("".join(tokens))
@@ -94,6 +97,35 @@ def test_candidate_model_validation():
     with pytest.raises(ConfigError, match="prior"):
         CandidateModel.from_terms("m", [("x1", 1)], prior=-1)
     assert issubclass(ExpressionError, BayesNSIError) and issubclass(ExpressionError, ValueError)
+
+
+@pytest.mark.parametrize(
+    "first, second",
+    [
+        (("x1**3", 1), ("x1*x1*x1", 1)),  # one function written twice: the coefficient would be split in two
+        (("x1**3", 1), ("-2.5*x1**3", 1)),  # a constant factor
+        (("(x1-x2)**3", [1, 2]), ("(x1-x2)**3", [2, 1])),  # the same element, location reversed
+        (("v1*abs(v1)", 1), ("abs(v1)*v1", 1)),
+    ],
+)
+def test_collinear_terms_are_refused(first, second):
+    with pytest.raises(ConfigError, match=r"terms .*@.* and .*@.* are the same function up to a constant factor"):
+        CandidateModel.from_terms("m", [first, second])
+
+
+@pytest.mark.parametrize(
+    "first, second",
+    [
+        (("x1**3", 1), ("x1**3", 2)),  # other location
+        (("x1**3", 1), ("x1**3 + x1", 1)),  # differs only for small displacements
+        (("x1**16", 1), ("x1**16 + x1", 1)),
+        (("sign(v1)", 1), ("tanh(1000*v1)", 1)),  # differs only for small velocities
+        (("x1**3", 1), ("v1**3", 1)),
+        (("abs(x1)", 1), ("x1", 1)),
+    ],
+)
+def test_independent_terms_are_accepted(first, second):
+    assert CandidateModel.from_terms("m", [first, second]).n_terms == 2
 
 
 @pytest.mark.parametrize(

@@ -4,14 +4,13 @@ Reference values are independent computations: explicit Hankel products (numpy),
 zero-order-hold discretisation (scipy.linalg.expm) of chains whose poles are eig(A_c).
 """
 
-from bayesnsi.options import NSIOptions
 import numpy as np
 import pytest
 
 from bayesnsi.exceptions import BlockRowsError, NotIdentifiableError, OrderError
 from bayesnsi.models import CandidateModel, Term
-from bayesnsi.nsi import StateSpaceModel, identify, select_order
-from bayesnsi.nsi import _hankel
+from bayesnsi.nsi import StateSpaceModel, _hankel, identify, select_order
+from bayesnsi.options import NSIOptions
 from bayesnsi.signals import Signals
 
 from .conftest import zoh_chain
@@ -77,13 +76,13 @@ def test_identify_with_shared_correlations_equals_the_full_computation():
     np.testing.assert_allclose(fast.singular_values, full.singular_values, rtol=1e-9)
     np.testing.assert_allclose(fast.coefficient_values, full.coefficient_values, rtol=1e-7)
     # products of another candidate, or other settings, are ignored rather than misused
-    other = hankel_correlations(case.signals, CandidateModel.from_terms("c", [("sign(v1)", 1)]), NSIOptions(block_rows=30))
+    sign_candidate = CandidateModel.from_terms("c", [("sign(v1)", 1)])
+    other = hankel_correlations(case.signals, sign_candidate, NSIOptions(block_rows=30))
     unrelated = identify(case.signals, larger, NSIOptions(block_rows=30, order=4), correlations=other)
     np.testing.assert_allclose(unrelated.coefficient_values, full.coefficient_values, rtol=1e-12)
     mismatched = identify(case.signals, larger, NSIOptions(block_rows=20, order=4), correlations=shared)
-    np.testing.assert_allclose(
-        mismatched.coefficient_values, identify(case.signals, larger, NSIOptions(block_rows=20, order=4)).coefficient_values, rtol=1e-12
-    )
+    fresh = identify(case.signals, larger, NSIOptions(block_rows=20, order=4))
+    np.testing.assert_allclose(mismatched.coefficient_values, fresh.coefficient_values, rtol=1e-12)
 
 
 def test_gram_and_lq_factors_agree(rng):
@@ -123,7 +122,9 @@ def test_auto_order_finds_true_order(rng):
     assert select_order(np.array([10.0, 9.0, 1.0, 0.9, 1e-3, 1e-3]), 5) == 4
 
 
-def _discrete_feedback_chain(term_expr, at, coefficient, force_dofs, output_dofs, n_samples=6000, seed=0, force_rms=2.0):
+def _discrete_feedback_chain(
+    term_expr, at, coefficient, force_dofs, output_dofs, n_samples=6000, seed=0, force_rms=2.0
+):
     """Two-DOF chain, exact ZOH model, nonlinear term fed back in discrete time.
 
     x_{k+1} = A x_k + B_f f_k - λ B_l n(y_k, v_k): the extended-input model of SPEC Eq. 8 holds
@@ -221,7 +222,9 @@ def test_modal_simulation_equals_state_recursion(seed):
         assert np.abs(each[:, :, c] - direct_recursion(model, alone, np.zeros(model.order))).max() < 1e-10 * scale
 
 
-@pytest.mark.parametrize("eigenvalue", [0.999 * np.exp(0.05j), 0.5 + 0.5j, 0.99999 * np.exp(2e-3j), 0.9999995 * np.exp(1e-4j), -0.3])
+@pytest.mark.parametrize(
+    "eigenvalue", [0.999 * np.exp(0.05j), 0.5 + 0.5j, 0.99999 * np.exp(2e-3j), 0.9999995 * np.exp(1e-4j), -0.3]
+)
 def test_modal_filter_matches_complex_recursion(eigenvalue):
     from scipy import signal
 
@@ -236,3 +239,33 @@ def test_modal_filter_matches_complex_recursion(eigenvalue):
         out, state = modal_filter_step(complex(eigenvalue), chunk, state)
         parts.append(out)
     assert np.abs(np.concatenate(parts) - expected).max() < 1e-9 * np.abs(expected).max()
+
+
+def _relative_imports(module) -> set[str]:
+    import ast
+    import inspect
+
+    tree = ast.parse(inspect.getsource(module))
+    return {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and node.level == 1}
+
+
+def test_noise_estimate_sits_below_both_refinements():
+    # the output-error refinement and the errors-in-variables step share the noise estimate
+    # of the measured channels; it lives below both, so neither imports the other's module back
+    from bayesnsi.nsi import _eiv, _noise, _output_error
+
+    assert "_eiv" not in _relative_imports(_output_error)
+    assert {"_noise", "_output_error"} <= _relative_imports(_eiv)
+    assert not {"_eiv", "_output_error"} & _relative_imports(_noise)
+
+
+def test_stabilization_uses_the_singular_values_of_identify():
+    # stabilization() and identify() share the scaled [u, y] and the oblique projection
+    from bayesnsi.nsi import stabilization
+    from bayesnsi.simulate import simulate_case
+
+    case = simulate_case("two-dof", seed=0)
+    result = identify(case.signals, case.true_terms, NSIOptions(block_rows=20, order=4))
+    singular_values, diagram = stabilization(case.signals, case.true_terms, block_rows=20, orders=[4])
+    np.testing.assert_array_equal(singular_values, result.singular_values)
+    assert diagram[0][0] == 4 and diagram[0][1].shape == (len(result.modes), 2)

@@ -1,6 +1,5 @@
 """Innovations (one-step-ahead predictor) form of the affine reconstruction, SPEC 6 and 10."""
 
-from bayesnsi.options import NSIOptions
 import warnings
 
 import numpy as np
@@ -8,6 +7,7 @@ import pytest
 
 from bayesnsi.exceptions import SpuriousPoleWarning
 from bayesnsi.nsi import affine_reconstruction, identify, predictor_reconstruction
+from bayesnsi.options import NSIOptions
 from bayesnsi.simulate import simulate_case
 
 
@@ -42,9 +42,8 @@ def test_innovations_are_affine_in_the_coefficients(two_dof):
     case, result = two_dof
     affine = predictor_reconstruction(result, case.signals)
     lam = affine.estimate
-    np.testing.assert_allclose(
-        affine.predict(2 * lam) - affine.predict(0 * lam), 2 * (affine.predict(lam) - affine.predict(0 * lam)), atol=1e-12
-    )
+    zero = affine.predict(0 * lam)
+    np.testing.assert_allclose(affine.predict(2 * lam) - zero, 2 * (affine.predict(lam) - zero), atol=1e-12)
     assert affine.signatures.shape == case.signals.displacement.shape + (1,)
 
 
@@ -60,7 +59,8 @@ def test_without_nonlinear_inputs_the_predictor_is_the_open_loop_reconstruction(
 
 def test_upsampled_result_predicts_at_the_data_samples():
     case = simulate_case("negative-stiffness", seed=1, duration=20.0)
-    result = _identify(case.signals, case.candidate("model 2"), NSIOptions(block_rows=40, order=2, band_hz=(5.0, 20.0), upsample=2))
+    options = NSIOptions(block_rows=40, order=2, band_hz=(5.0, 20.0), upsample=2)
+    result = _identify(case.signals, case.candidate("model 2"), options)
     affine = predictor_reconstruction(result, case.signals)
     assert affine.measured.shape == case.signals.displacement.shape
     innovations = affine.measured - affine.predict(affine.estimate)
@@ -72,7 +72,7 @@ def test_measured_noise_std_from_channel_consistency():
     """Independent reference: the simulator's own noise. On the negative-stiffness twin the velocity
     has broadband content (base excitation, friction): high-order differences overestimate its
     noise 10×, the displacement-velocity consistency fit does not."""
-    from bayesnsi.nsi._eiv import measured_noise_std, white_noise_std
+    from bayesnsi.nsi._noise import measured_noise_std, white_noise_std
 
     case = simulate_case("negative-stiffness", seed=0)
     true_disp = (case.signals.displacement - case.clean.displacement).std(axis=0)
@@ -102,12 +102,13 @@ def test_prediction_error_on_an_upsampled_record_with_friction():
     # difference estimate instead of failing (it raised LinAlgError, with LAPACK messages).
     # Reference: the simulated coefficients of the undeclared-effect case (quadratic damping 20,
     # Coulomb 1 N at DOF 2).
-    from bayesnsi.nsi._eiv import measured_noise_std
+    from bayesnsi.nsi._noise import measured_noise_std
     from bayesnsi.preprocess import upsample
     from bayesnsi.simulate.undeclared import undeclared_case
 
     case = undeclared_case("coulomb-dof2", seed=0, noise_percent=2.0)
     disp, vel = measured_noise_std(upsample(case.signals, 2))
     assert np.all(np.isfinite(disp)) and np.all(disp > 0) and np.all(np.isfinite(vel))
-    result = _identify(case.signals, case.truth, NSIOptions(block_rows=120, order=4, upsample=2, bd_method="prediction-error"))
+    options = NSIOptions(block_rows=120, order=4, upsample=2, bd_method="prediction-error")
+    result = _identify(case.signals, case.truth, options)
     np.testing.assert_allclose(result.coefficient_values, [20.0, 1.0], rtol=0.1)

@@ -13,8 +13,6 @@ Measured numbers (seed 0, recorded when the tests were written):
 
 from __future__ import annotations
 
-from bayesnsi.options import NSIOptions
-
 import numpy as np
 import pytest
 from scipy import signal as sp_signal
@@ -22,14 +20,15 @@ from scipy import signal as sp_signal
 from bayesnsi.exceptions import ConfigError, InputDataError
 from bayesnsi.io import dump_config, load_config, load_signals, load_validation, write_signals_csv
 from bayesnsi.nsi import identify
+from bayesnsi.options import NSIOptions
 from bayesnsi.preprocess import (
-    upsample,
     band_filter,
     band_window,
     decimate,
     detrend,
     integrate_acceleration,
     select_segment,
+    upsample,
 )
 from bayesnsi.signals import Signals
 from bayesnsi.simulate import simulate_case

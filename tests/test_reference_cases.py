@@ -4,7 +4,6 @@ Exact references: modal parameters of the simulators' M, C, K (eig of the state 
 the true coefficients used in the simulation. Tolerances are the issue's acceptance criteria.
 """
 
-from bayesnsi.options import EvidenceOptions, NSIOptions
 import warnings
 
 import numpy as np
@@ -12,6 +11,7 @@ import pytest
 
 from bayesnsi.exceptions import BayesNSIError, SpuriousPoleWarning
 from bayesnsi.nsi import identify
+from bayesnsi.options import EvidenceOptions, NSIOptions
 from bayesnsi.simulate import simulate_case, simulate_cases
 
 N_SEEDS = 20
@@ -42,7 +42,8 @@ def two_dof_10s():
 @pytest.fixture(scope="module")
 def two_dof_100s():
     cases = simulate_cases("two-dof", range(N_SEEDS), duration=100.0)
-    results = [[_identify(c.signals, cand, NSIOptions(block_rows=60, order=4)) for cand in c.candidates[:2]] for c in cases]
+    options = NSIOptions(block_rows=60, order=4)
+    results = [[_identify(c.signals, cand, options) for cand in c.candidates[:2]] for c in cases]
     return cases, results
 
 
@@ -88,10 +89,11 @@ def test_two_dof_wrong_candidates_fit_worse(two_dof_10s, two_dof_100s):
 @pytest.fixture(scope="module")
 def beam():
     case = simulate_case("beam", seed=0)
+    options = NSIOptions(block_rows=60, order=32, band_hz=(1.0, 30.0), bd_method="output-error")
     results = {}
     for cand in case.candidates:
         try:
-            results[cand.name] = _identify(case.signals, cand, NSIOptions(block_rows=60, order=32, band_hz=(1.0, 30.0), bd_method="output-error"))
+            results[cand.name] = _identify(case.signals, cand, options)
         except BayesNSIError as err:
             results[cand.name] = err
     return case, results
@@ -181,7 +183,8 @@ def test_beam_damping_and_coefficients_seeds(seed):
 
 
 def _beam_prediction_error(case, block_rows=40):
-    return _identify(case.signals, case.candidate("model 3"), NSIOptions(block_rows=block_rows, order=32, band_hz=(1.0, 30.0), bd_method="prediction-error"))
+    options = NSIOptions(block_rows=block_rows, order=32, band_hz=(1.0, 30.0), bd_method="prediction-error")
+    return _identify(case.signals, case.candidate("model 3"), options)
 
 
 def test_beam_coefficients_prediction_error(beam):
@@ -209,7 +212,10 @@ def test_beam_damping_refined_poles(beam):
     5 % criterion). The 10.55 Hz mode is still missed. k2, k3 need c_method="prediction-error" with it
     (test_beam_damping_and_coefficients)."""
     case, _ = beam
-    result = _identify(case.signals, case.candidate("model 3"), NSIOptions(block_rows=40, order=32, band_hz=(1.0, 30.0), bd_method="output-error", refine_poles=(1.5, 85.0)))
+    options = NSIOptions(
+        block_rows=40, order=32, band_hz=(1.0, 30.0), bd_method="output-error", refine_poles=(1.5, 85.0)
+    )
+    result = _identify(case.signals, case.candidate("model 3"), options)
     f, f_err, z_err, nearest = _modal_errors(result, case)
     in_band = (f > 1.0) & (f < 80.0)
     assert len(set(nearest[in_band])) >= 14
@@ -232,8 +238,9 @@ def test_negative_stiffness_twin_upsampled_identification():
     Table 8 model 2 within 1 % (against the simulator's exact values; the default sampled
     identification gives α1 -2.1 %, benchmarks/upsample.py), reconstructed at the data's samples."""
     case = simulate_case("negative-stiffness", seed=0)
-    sampled = _identify(case.signals, case.candidate("model 2"), NSIOptions(block_rows=40, order=2, band_hz=(5.0, 20.0)))
-    fine = _identify(case.signals, case.candidate("model 2"), NSIOptions(block_rows=80, order=2, band_hz=(5.0, 20.0), upsample=4))
+    model_2 = case.candidate("model 2")
+    sampled = _identify(case.signals, model_2, NSIOptions(block_rows=40, order=2, band_hz=(5.0, 20.0)))
+    fine = _identify(case.signals, model_2, NSIOptions(block_rows=80, order=2, band_hz=(5.0, 20.0), upsample=4))
     np.testing.assert_allclose(fine.coefficient_values, case.true_coefficients, rtol=0.01)
     assert abs(fine.coefficient_values[2] / case.true_coefficients[2] - 1) < 0.5 * abs(
         sampled.coefficient_values[2] / case.true_coefficients[2] - 1

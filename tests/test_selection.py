@@ -10,9 +10,9 @@ import warnings
 import numpy as np
 
 from bayesnsi.evidence import candidate_evidence, compare_evidence
-from bayesnsi.options import EvidenceOptions
 from bayesnsi.models import Term
 from bayesnsi.nsi import identify
+from bayesnsi.options import EvidenceOptions, NSIOptions
 from bayesnsi.simulate import simulate_cases
 
 

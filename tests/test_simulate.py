@@ -14,6 +14,7 @@ from scipy.linalg import expm
 
 from bayesnsi.exceptions import InputDataError, UnstableModelError
 from bayesnsi.models import CandidateModel, Term
+from bayesnsi.options import NSIOptions
 from bayesnsi.signals import Signals
 from bayesnsi.simulate import (
     CASES,
@@ -386,7 +387,7 @@ def test_two_dof_case_contents():
     assert case.true_model == "model 1" and case.candidate("model 1").terms == case.true_terms
     np.testing.assert_array_equal(case.true_coefficients, [20.0])
     np.testing.assert_array_equal(np.round(case.exact_frequencies_hz, 2), [2.46, 7.51])
-    assert case.recommended["block_rows"] == 60 and case.recommended["order"] == 4
+    assert case.recommended.block_rows == 60 and case.recommended.order == 4
     assert "two-dof" in case.describe()
 
 
@@ -432,7 +433,7 @@ def test_beam_case_short_run():
         ["x13**3"],
         ["x13**2", "x13**3"],
     ]
-    assert case.recommended["order"] == 32
+    assert case.recommended.order == 32
     x13 = case.clean.displacement[:, 6]
     assert np.all(np.abs(x13) < 0.1)  # bounded
     np.testing.assert_allclose(case.settings["rk4_step_s"], 5e-4)
@@ -521,4 +522,61 @@ def test_three_dof_case_contents():
     ]
     assert case.true_model == "model 1" and case.candidate("model 1").terms == case.true_terms
     np.testing.assert_array_equal(case.true_coefficients, [2.0e5])
-    assert case.recommended == {"block_rows": 40, "order": 6}
+    assert case.recommended == NSIOptions(block_rows=40, order=6)
+
+
+# --------------------------------------------------------------------------------------
+# refusals before allocating (CLI exit code 2, one-line message)
+
+
+def test_cli_simulate_refuses_a_huge_duration_before_allocating(tmp_path, capsys, monkeypatch):
+    from bayesnsi.cli import main
+
+    monkeypatch.delenv("BAYESNSI_MAX_MEMORY", raising=False)
+    out = tmp_path / "huge.csv"
+    assert main(["simulate", "two-dof", "--duration", "1e12", "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "BAYESNSI_MAX_MEMORY" in err and "limit" in err and len(err.splitlines()) == 1, err
+    assert not out.exists()
+
+
+def test_memory_limit_is_read_from_the_environment(monkeypatch):
+    from bayesnsi.simulate import case_setup, simulation_bytes
+
+    need = simulation_bytes(case_setup("two-dof", duration=10.0))
+    monkeypatch.setenv("BAYESNSI_MAX_MEMORY", f"{need / 2:e}")
+    with pytest.raises(InputDataError, match="BAYESNSI_MAX_MEMORY"):
+        simulate_case("two-dof", duration=10.0)
+    monkeypatch.setenv("BAYESNSI_MAX_MEMORY", str(need))
+    assert simulate_case("two-dof", duration=10.0).signals.n_samples == 1000
+    monkeypatch.setenv("BAYESNSI_MAX_MEMORY", "lots")
+    with pytest.raises(InputDataError, match="BAYESNSI_MAX_MEMORY"):
+        simulate_case("two-dof", duration=1.0)
+
+
+def test_cli_simulate_refuses_a_negative_seed(tmp_path, capsys):
+    from bayesnsi.cli import main
+
+    for case in ("two-dof", "coulomb-dof2"):
+        assert main(["simulate", case, "--seed", "-1", "--out", str(tmp_path / f"{case}.csv"), "--quiet"]) == 2
+        assert "seed" in capsys.readouterr().err
+
+
+def test_unknown_case_parameter_is_an_input_error():
+    with pytest.raises(InputDataError, match="no parameter 'durtion'"):
+        simulate_case("two-dof", durtion=1.0)
+
+
+def test_underlying_frf_is_the_receptance_of_the_matrices():
+    from bayesnsi.simulate import underlying_frf
+
+    M, C, K = chain_system([1.0, 1.5], [800.0, 1000.0], [1.0, 1.0])
+    freqs = np.array([0.0, 2.0, 7.5])
+    H = underlying_frf(M, C, K, freqs, [1, 2], [2])
+    assert H.shape == (3, 2, 1)
+    np.testing.assert_allclose(H[0, :, 0].real, np.linalg.inv(K)[:, 1], rtol=1e-12)
+    w = 2 * np.pi * 7.5
+    dynamic = K - w**2 * M + 1j * w * C
+    np.testing.assert_allclose(dynamic @ H[2], np.array([[0.0], [1.0]]), atol=1e-12)
+    with pytest.raises(InputDataError, match="1..2"):
+        underlying_frf(M, C, K, freqs, [3], [2])

@@ -23,13 +23,19 @@ from pathlib import Path
 
 import numpy as np
 
-from bayesnsi.cli._common import nsi_options
-from bayesnsi.cli._selection import evidence_options
-from bayesnsi.cli.select import validate
 from bayesnsi.diagnose import close_the_loop
-from bayesnsi.io import load_config, load_signals, load_validation, prepare_output_dir
-from bayesnsi.io.results import atomic_write_json, atomic_write_text, to_jsonable, versions
+from bayesnsi.io import (
+    atomic_write_json,
+    atomic_write_text,
+    load_config,
+    load_signals,
+    load_validation,
+    prepare_output_dir,
+    to_jsonable,
+    versions,
+)
 from bayesnsi.nsi import identify
+from bayesnsi.validation import validate
 
 CONFIG = Path(__file__).parent / "silverbox" / "silverbox.toml"
 STARTS = ("linear", "cubic")
@@ -53,7 +59,7 @@ def model_errors(result, signals, segments) -> dict:
         "estimation_nrmse": rec.nrmse,
         "estimation_rmse_mv": float(rec.rmse[0] * MV),
         "tests": [
-            {**v, "rmse_mv": None if v["rmse"] is None else v["rmse"] * MV} for v in validate(result, segments)
+            {**v.to_dict(), "rmse_mv": None if v.rmse is None else v.rmse * MV} for v in validate(result, segments)
         ],
     }
 
@@ -63,16 +69,14 @@ def run_loops(config_path=CONFIG, starts=STARTS, quiet=False) -> dict:
     config = load_config(config_path)
     signals = load_signals(config)
     segments = load_validation(config)
-    nsi = nsi_options(config)
-    evidence = {  # the loop's own residual (LOOP_EVIDENCE_DEFAULTS) unless the config sets one
-        k: v for k, v in evidence_options(config).items() if k != "residual" or k in config.evidence_settings
-    }
+    nsi = config.nsi
+    evidence = config.evidence.replace(residual=config.loop.residual)  # the loop scores its own residual
     by_name = {c.name: c for c in config.candidates}
-    out = {"settings": {"config": str(config_path), "nsi": nsi, "evidence": evidence}, "versions": versions(), "loops": []}
+    out = {"settings": {"config": str(config_path), "nsi": nsi.to_dict(), "evidence": evidence.to_dict()}, "versions": versions(), "loops": []}
     for start in starts:
         t0 = time.perf_counter()
-        loop = close_the_loop(signals, by_name[start], nsi_options=nsi, evidence_options=evidence, seed=config.seed)
-        before = identify(signals, by_name[start], **nsi)
+        loop = close_the_loop(signals, by_name[start], config.loop, nsi=nsi, evidence=evidence)
+        before = identify(signals, by_name[start], nsi)
         entry = {
             "start": start,
             "added": [

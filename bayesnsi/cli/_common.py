@@ -1,11 +1,22 @@
-"""Orchestration shared by the commands: identify the candidates of a config, progress lines."""
+"""Orchestration shared by the commands: load a run, options from the command line, progress lines."""
 
 from __future__ import annotations
 
+import contextlib
 import sys
+from dataclasses import fields
 from pathlib import Path
 
-__all__ = ["add_run_arguments", "identify_all", "progress", "progress_bar", "run_options", "start_run"]
+__all__ = [
+    "add_option_flags",
+    "add_run_arguments",
+    "execution",
+    "option_overrides",
+    "progress",
+    "progress_bar",
+    "refuse_if_nothing_identified",
+    "start_run",
+]
 
 
 def add_run_arguments(parser) -> None:
@@ -18,7 +29,10 @@ def add_run_arguments(parser) -> None:
     )
     parser.add_argument("--quiet", action="store_true", help="no progress messages")
     parser.add_argument("--no-figures", action="store_true", help="skip the report and its figures")
-    parser.add_argument("--jobs", type=int, default=1, help="candidates (and the effects of each diagnose step) run in N local worker processes (default 1)")
+    parser.add_argument(
+        "--jobs", type=int, default=1,
+        help="candidates (and the effects of each diagnose step) run in N local worker processes (default 1)",
+    )
     parser.add_argument(
         "--scheduler", metavar="ADDRESS", default=None,
         help="run the candidates (and diagnose effects) on a Dask cluster, e.g. tcp://10.0.0.5:8786 (overrides --jobs)",
@@ -27,6 +41,65 @@ def add_run_arguments(parser) -> None:
         "--no-cache", action="store_true",
         help="recompute every candidate instead of reusing results cached in DIR/.cache by an earlier run",
     )
+
+
+_NONE = object()  # "none" given on the command line, as opposed to a flag not given
+
+
+def add_option_flags(parser, options_class, names) -> None:
+    """``--field-name`` flags for fields of an options class; help, type and range from the field.
+
+    A flag not given leaves the config's value (:func:`option_overrides`); for fields that may
+    be none, the word ``none`` sets none.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+    options_class : type
+        E.g. :class:`bayesnsi.options.LoopOptions`.
+    names : iterable of str
+        Field names to expose.
+    """
+    wanted = set(names)
+    for item in fields(options_class):
+        if item.name not in wanted:
+            continue
+        meta = item.metadata
+        text = f"{meta['help']} (default: the config's [{options_class.SECTION}] {item.name}, else {item.default!r}"
+        text += "; none: 'none')" if meta["none"] else ")"
+        parser.add_argument(
+            "--" + item.name.replace("_", "-"), dest=item.name, type=_flag_type(meta), default=None, help=text
+        )
+
+
+def option_overrides(options, args):
+    """``options`` with the values of the flags given on the command line (:func:`add_option_flags`).
+
+    Parameters
+    ----------
+    options : options dataclass
+        The config's options.
+    args : argparse.Namespace
+
+    Returns
+    -------
+    options dataclass
+        Validated again (a bad value raises ConfigError, exit 2).
+    """
+    given = {name: getattr(args, name) for name in options.names() if getattr(args, name, None) is not None}
+    return options.replace(**{name: None if value is _NONE else value for name, value in given.items()})
+
+
+def _flag_type(meta):
+    convert = {"int": int, "float": float}.get(meta["kind"], str)
+
+    def parse(text: str):
+        if meta["none"] and text.strip().lower() == "none":
+            return _NONE
+        return convert(text)
+
+    parse.__name__ = meta["kind"]  # argparse names the type in its error message
+    return parse
 
 
 def start_run(args):
@@ -39,9 +112,14 @@ def start_run(args):
     signals : Signals
     """
     from ..io import load_config, load_signals, prepare_output_dir
+    from ..io.results import output_folder
 
     config = load_config(args.config)
-    out = prepare_output_dir(args.out, force=args.force)
+    resources = getattr(args, "resources", None)  # main()'s ExitStack: the folder stays locked until the end
+    if resources is not None:
+        out = resources.enter_context(output_folder(args.out, args.force, config=config.path))
+    else:
+        out = prepare_output_dir(args.out, force=args.force)
     signals = load_signals(config)
     progress(f"{len(config.candidates)} candidates, {signals.n_samples} samples at {signals.fs:g} Hz", args.quiet)
     return config, out, signals
@@ -62,77 +140,86 @@ def progress_bar(total: int, description: str, quiet: bool):
     return tqdm(total=total, desc=description, unit="candidate", file=sys.stderr, disable=quiet or None, leave=False)
 
 
-def run_options(args, out) -> dict:
-    """Keyword arguments of :func:`identify_all` from the command line: backend and cache.
+@contextlib.contextmanager
+def execution(args, out, config):
+    """:class:`~bayesnsi.options.ExecutionOptions` from the command line, with progress output.
 
-    The cache lives in ``out/.cache`` (see :mod:`bayesnsi.io.cache`); ``--no-cache`` recomputes
-    every candidate (fresh entries are still written, so an interrupted run stays resumable).
+    Backend from ``--jobs`` / ``--scheduler``; the result cache lives in ``out/.cache`` (see
+    :mod:`bayesnsi.io.cache`; ``--no-cache`` recomputes every candidate, fresh entries are still
+    written so an interrupted run stays resumable); each finished candidate prints one line and
+    advances a progress bar (both silenced by ``--quiet``).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    out : Path
+        Output folder.
+    config : ExperimentConfig
+
+    Yields
+    ------
+    ExecutionOptions
     """
     from ..io.cache import CACHE_DIRNAME, ResultCache
+    from ..options import ExecutionOptions
 
-    return dict(
+    quiet, total = args.quiet, len(config.candidates)
+    options = ExecutionOptions(
         jobs=getattr(args, "jobs", 1),
         scheduler=getattr(args, "scheduler", None),
         cache=ResultCache(Path(out) / CACHE_DIRNAME, read=not getattr(args, "no_cache", False)),
     )
-
-
-def identify_all(config, signals, quiet=False, jobs: int = 1, evidence_options=None, scheduler=None, cache=None):
-    """Identify every candidate (and its evidence); failures are recorded, never raised.
-
-    Candidates run serially, in ``jobs`` local worker processes, or on the Dask scheduler
-    ``scheduler`` (:func:`bayesnsi.run.dispatch`); each has its own seed sequence spawned from
-    the config's seed in config order, so the numbers do not depend on the backend. With a
-    ``cache`` (:class:`~bayesnsi.io.cache.ResultCache`) finished candidates are stored as they
-    arrive and reused by a rerun.
-
-    Returns
-    -------
-    results : dict name -> NSIResult (successful candidates only)
-    records : list of dict (results.json candidate records, in config order)
-    evidences : dict name -> dict likelihood -> EvidenceResult (empty without evidence_options)
-    """
-    from ..run import run_candidates
-
-    total = len(config.candidates)
-    if total > 1 or scheduler is not None:
-        progress(f"running {total} candidates ({_backend_text(jobs, scheduler)})", quiet)
+    if total > 1 or options.scheduler is not None:
+        progress(f"running {total} candidates ({_backend_text(options)})", quiet)
     with progress_bar(total, "candidates", quiet) as bar:
         done = []
 
-        def report(k, outcome, cached):
+        def report(k, outcome):
             done.append(k)
-            _report_progress(len(done), total, config.candidates[k], outcome, evidence_options, quiet, cached)
+            progress(f"[{len(done)}/{total}] {_outcome_text(outcome, config.evidence.likelihood)}", quiet)
             bar.update()
 
-        outcomes = run_candidates(
-            signals, config.candidates, config.nsi, evidence_options, config.seed,
-            jobs=jobs, scheduler=scheduler, cache=cache, on_result=report,
-        )
-    results, records, evidences = {}, [], {}
-    for candidate, (record, result, evidence) in zip(config.candidates, outcomes):
-        records.append(record)
-        if result is not None:
-            results[candidate.name] = result
-        if evidence is not None:
-            evidences[candidate.name] = evidence
-    return results, records, evidences
+        yield options.replace(progress=report)
 
 
-def _backend_text(jobs, scheduler) -> str:
-    if scheduler is not None:
-        return f"Dask scheduler {scheduler}"
-    return f"{jobs} local worker processes" if jobs > 1 else "serially"
+def _backend_text(options) -> str:
+    if options.scheduler is not None:
+        return f"Dask scheduler {options.scheduler}"
+    return f"{options.jobs} local worker processes" if options.jobs > 1 else "serially"
 
 
-def _report_progress(k, total, candidate, outcome, evidence_options, quiet, cached=False):
-    record, result, evidence = outcome
-    origin = "cached" if cached else f"{record['seconds']:.1f} s"
-    if result is None:
-        progress(f"[{k}/{total}] {candidate.name}: failed - {record['error']} ({origin})", quiet)
-        return
-    text = f"[{k}/{total}] {candidate.name}: order {result.order}, NRMSE {record['nrmse']:.4f}"
-    if evidence:
-        primary = evidence[evidence_options.likelihood]
+def _outcome_text(outcome, likelihood) -> str:
+    origin = "cached" if outcome.cached else f"{outcome.seconds:.1f} s"
+    if outcome.result is None:
+        return f"{outcome.name}: failed - {outcome.error} ({origin})"
+    text = f"{outcome.name}: order {outcome.result.order}, NRMSE {outcome.nrmse:.4f}"
+    if outcome.evidences:
+        primary = outcome.evidences[likelihood]
         text += f", log Z ({primary.likelihood}) = {primary.log_evidence:.2f} ± {primary.log_evidence_se:.2f}"
-    progress(f"{text} ({origin})", quiet)
+    elif outcome.error is not None:
+        text += f", evidence failed - {outcome.error}"
+    return f"{text} ({origin})"
+
+
+def refuse_if_nothing_identified(outcomes, results_path) -> None:
+    """Exit 2 (one line) when no candidate could be identified; results.json holds every error.
+
+    Parameters
+    ----------
+    outcomes : sequence of CandidateOutcome
+    results_path : Path
+        Where the errors were written.
+
+    Raises
+    ------
+    NotIdentifiableError
+        When every candidate failed its identification.
+    """
+    from ..exceptions import NotIdentifiableError
+
+    if outcomes and all(o.result is None for o in outcomes):
+        raise NotIdentifiableError(
+            f"no candidate could be identified (first error: {outcomes[0].error}); "
+            f"every candidate's error is in {results_path}"
+        )
+

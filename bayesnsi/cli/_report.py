@@ -6,7 +6,8 @@ import numpy as np
 
 from ..io import versions
 from ..io.report import Report
-from ..nsi import coefficients_table, modes_table, stabilization
+from ..nsi import stabilization
+from ..tables import coefficients_table, modes_table
 
 __all__ = ["identification_report"]
 
@@ -29,16 +30,15 @@ def first_result(results):
 
 
 def _exact_frf(config, result, freqs):
-    """Exact H[out0, in0](ω) = [K - ω²M + jωC]⁻¹ from the simulated case's matrices, if known."""
+    """Exact H[out0, in0] of the simulated case's underlying linear structure, if its matrices are known."""
+    from ..simulate import underlying_frf
+
     meta = config.meta or {}
-    if not all(k in meta for k in ("M", "C", "K")):
+    dofs = (result.output_dofs[0], result.input_dofs[0])
+    if not all(k in meta for k in ("M", "C", "K")) or len(meta["M"]) < max(dofs):
         return None
-    M, C, K = (np.asarray(meta[k], dtype=float) for k in ("M", "C", "K"))
-    if M.shape[0] < max(result.output_dofs[0], result.input_dofs[0]):
-        return None
-    omega = 2 * np.pi * np.asarray(freqs)
-    out, inp = result.output_dofs[0] - 1, result.input_dofs[0] - 1
-    return np.array([np.linalg.solve(K - w**2 * M + 1j * w * C, np.eye(len(M))[:, inp])[out] for w in omega])
+    frf = underlying_frf(meta["M"], meta["C"], meta["K"], freqs, result.output_dofs[:1], result.input_dofs[:1])
+    return frf[:, 0, 0]
 
 
 def identification_report(config, signals, results, records, title, report=None) -> Report:
@@ -98,10 +98,13 @@ _RESIDUAL_TEXT = {
 }
 
 
-def selection_sections(report, signals, results, evidences, table, opts, selected):
-    """Sections of a selection: probabilities side by side, posteriors, reconstruction errors."""
+def selection_sections(report, signals, selection, selected):
+    """Sections of a selection: probabilities side by side, adequacy, posteriors, reconstruction errors."""
+    import pandas as pd
+
     from ..plots import plot_model_probabilities, plot_posterior_pairs, plot_reconstruction_errors, plot_traces
 
+    results, evidences, table, opts = selection.results, selection.evidences, selection.table, selection.evidence
     head = report.section("Model selection (paper Eqs. 1-4 and marginal evidence)")
     head.append(
         f"Selected: {selected} (posterior under the marginal evidence with an {opts.likelihood} model of the "
@@ -111,6 +114,25 @@ def selection_sections(report, signals, results, evidences, table, opts, selecte
         "proper priors (emcee + bridge sampling)."
     )
     head.append(table)
+    if selection.adequacy:
+        head.append(
+            "Adequacy: the probabilities compare the candidates with each other; the Ljung-Box test of each "
+            f"candidate's {_RESIDUAL_TEXT.get(opts.residual, opts.residual)} asks whether it explains the data "
+            "(a white residual). A selected model that is not adequate lacks an effect no candidate declares: "
+            "`bayesnsi diagnose` searches for it."
+        )
+        head.append(
+            pd.DataFrame(
+                {
+                    name: {
+                        "Ljung-Box p (worst channel)": min(w.p_value),
+                        "lags outside ±1.96/√N (worst channel)": max(w.fraction_outside),
+                        "white residual": w.adequate,
+                    }
+                    for name, w in selection.adequacy.items()
+                }
+            ).T
+        )
     fig = plot_model_probabilities(table)
     fig.set_label("Posterior model probabilities under each ranking (error bars: Monte-Carlo sd)")
     head.append(fig)

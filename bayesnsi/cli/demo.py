@@ -7,6 +7,7 @@ from argparse import Namespace
 from pathlib import Path
 
 from ..io import prepare_output_dir
+from ..io.results import output_folder
 from ._common import progress
 
 __all__ = ["add_parser", "run"]
@@ -33,11 +34,20 @@ def run(args) -> int:
     from . import select, simulate
 
     start = time.perf_counter()
-    out = prepare_output_dir(args.out, force=args.force)
+    resources = getattr(args, "resources", None)  # main()'s ExitStack: the folder stays locked until the end
+    if resources is not None:
+        out = resources.enter_context(output_folder(args.out, args.force))
+    else:
+        out = prepare_output_dir(args.out, force=args.force)
     csv = Path(out) / "data" / "two_dof.csv"
-    simulate.run(Namespace(case="two-dof", seed=args.seed, noise=None, duration=None, out=str(csv), force=True, quiet=args.quiet))
+    simulate.run(
+        Namespace(case="two-dof", seed=args.seed, noise=None, duration=None, out=str(csv), force=True, quiet=args.quiet)
+    )
     select.run(
-        Namespace(config=str(csv.with_suffix(".toml")), out=str(out), force=True, quiet=args.quiet, no_figures=False, jobs=1)
+        Namespace(
+            config=str(csv.with_suffix(".toml")), out=str(out), force=True, quiet=args.quiet, no_figures=False, jobs=1,
+            resources=getattr(args, "resources", None),
+        )
     )
     progress(f"demo finished in {time.perf_counter() - start:.1f} s; open {Path(out) / 'report.html'}", args.quiet)
     print(Path(out) / "report.html")

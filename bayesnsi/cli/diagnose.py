@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import numpy as np
-
-from ..io import RESULTS_FILENAME, atomic_write_json, load_validation, to_jsonable, versions
-from ..io.schema import term_record
-from ._common import add_run_arguments, progress, run_options, start_run
+from ..io import RESULTS_FILENAME, atomic_write_json, load_validation, selection_payload, term_record, to_jsonable
+from ..options import LoopOptions
+from ..validation import validate
+from ._common import add_option_flags, add_run_arguments, option_overrides, progress, start_run
 from ._report import identification_report, selection_sections
-from ._selection import select_all
-from .select import validate
+from .select import run_selection
 
 __all__ = ["add_parser", "run"]
 
@@ -27,15 +25,7 @@ def add_parser(sub) -> None:
     )
     add_run_arguments(p)
     p.add_argument("--start", default=None, help="candidate to start from (default: the selected one)")
-    p.add_argument("--max-steps", type=int, default=3, help="most effects to add (default 3)")
-    p.add_argument("--threshold", type=float, default=float(np.log(100.0)), help="log Bayes factor to accept (default log 100)")
-    p.add_argument(
-        "--screen",
-        type=int,
-        default=None,
-        help="re-identify only the N effects ranked best by the frequency-domain screen (default: close_the_loop's, "
-        "6; 0: every effect)",
-    )
+    add_option_flags(p, LoopOptions, ("max_steps", "threshold", "screen"))
     p.set_defaults(run=run)
 
 
@@ -43,30 +33,22 @@ def run(args) -> int:
     """Execute the command."""
     from ..diagnose import close_the_loop
     from ..exceptions import ConfigError
+    from ..options import ExecutionOptions
 
     config, out, signals = start_run(args)
-    results, records, evidences, table, opts = select_all(config, signals, quiet=args.quiet, **run_options(args, out))
-    ranked = [r for r in records if r["status"] == "ok"]
-    if not ranked:
+    selection = run_selection(config, signals, args, out)
+    results = selection.results
+    if not results:
         raise ConfigError("no candidate could be identified, so there is no model to start the loop from")
-    start = args.start or max(ranked, key=lambda r: r["posterior"])["name"]
+    start = args.start or selection.selected or next(iter(results))
     if start not in results:
         raise ConfigError(f"--start {start!r} is not an identified candidate; choose one of {sorted(results)}")
     progress(f"closing the loop from {start!r} ...", args.quiet)
-    loop_options = config.loop.replace(threshold=args.threshold, max_steps=args.max_steps)
-    if args.screen is not None:
-        loop_options = loop_options.replace(screen=args.screen or None)
+    loop_options = option_overrides(config.loop, args)
+    execution = ExecutionOptions(jobs=getattr(args, "jobs", 1), scheduler=getattr(args, "scheduler", None))
     loop = close_the_loop(
-        signals,
-        results[start].candidate,
-        nsi_options=config.nsi,
-        evidence_options=opts.replace(residual=loop_options.residual, compare=()),
-        threshold=loop_options.threshold,
-        max_steps=loop_options.max_steps,
-        screen=loop_options.screen,
-        seed=config.seed,
-        jobs=getattr(args, "jobs", 1),
-        scheduler=getattr(args, "scheduler", None),
+        signals, results[start].candidate, loop_options,
+        nsi=config.nsi, evidence=selection.evidence, execution=execution,
     )
     validation = load_validation(config)
     steps = []
@@ -74,7 +56,8 @@ def run(args) -> int:
         steps.append(
             {
                 "added": term_record(step.term),
-                "effect_type": step.effect_type,
+                "effect_type": step.effect.name,
+                "effect": _effect_record(step.effect),
                 "accepted": step.accepted,
                 "reason": step.reason,
                 "coefficient": step.coefficient,
@@ -89,30 +72,43 @@ def run(args) -> int:
             }
         )
         progress(f"{'added' if step.accepted else 'rejected'} {step.term.name}: {step.reason}", args.quiet)
-    payload = {
-        "command": "diagnose",
-        "config": str(config.path),
-        "selected": start,
-        "final_model": [term_record(t) for t in loop.final.terms],
-        "final_coefficients": [
+    payload = selection_payload(
+        selection,
+        "diagnose",
+        config,
+        selected=start,
+        final_model=[term_record(t) for t in loop.final.terms],
+        final_coefficients=[
             {"term": c.term.name, "value": c.value, "imag_ratio": c.imag_ratio} for c in loop.final.coefficients
         ],
-        "candidates": records,
-        "loop": [s for s in steps if s["accepted"]],
-        "loop_rejected": [s for s in steps if not s["accepted"]],
-        "validation_before": validate(loop.start, validation),
-        "validation": validate(loop.final, validation),
-        "settings": {"config": config.raw, "seed": config.seed, "evidence": opts.to_dict(), "loop": to_jsonable(loop.settings)},
-        "versions": versions(),
-    }
-    path = atomic_write_json(out / RESULTS_FILENAME, to_jsonable(payload))
+        loop=[s for s in steps if s["accepted"]],
+        loop_rejected=[s for s in steps if not s["accepted"]],
+        validation_before=[e.to_dict() for e in validate(loop.start, validation)],
+        validation=[e.to_dict() for e in validate(loop.final, validation)],
+    )
+    payload["settings"]["loop"] = to_jsonable(loop.settings)
+    payload["loop_scores"] = [[_score_record(row) for row in search] for search in loop.scores]
     if not args.no_figures:
-        report = identification_report(config, signals, results, records, f"bayesnsi diagnose - {config.path.name}")
-        selection_sections(report, signals, results, evidences, table, opts, start)
+        report = identification_report(
+            config, signals, results, payload["candidates"], f"bayesnsi diagnose - {config.path.name}"
+        )
+        selection_sections(report, signals, selection, start)
         _loop_section(report, signals, loop, payload)
         progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
+    path = atomic_write_json(out / RESULTS_FILENAME, payload)  # last: a complete folder, or a rerun resumes
     progress(f"wrote {path}", args.quiet)
     return 0
+
+
+def _effect_record(effect) -> dict:
+    """Type, location and parameters of a loop effect, as written to results.json."""
+    return {"type": effect.base, "at": list(effect.location), "gap": effect.gap}
+
+
+def _score_record(row) -> dict:
+    """One effect of a loop search with its Laplace log-evidence (NaN: screened out)."""
+    return {**_effect_record(row.effect), "term": row.term.name, "log_evidence_laplace": row.log_evidence,
+            "nrmse": row.nrmse}
 
 
 def _loop_section(report, signals, loop, payload):
@@ -131,7 +127,8 @@ def _loop_section(report, signals, loop, payload):
     )
     rows = payload["loop"] + payload["loop_rejected"]
     if rows:
-        blocks.append(pd.DataFrame(rows).drop(columns=["added"]).assign(effect=[r["added"]["expr"] + f" @ {r['added']['at']}" for r in rows]))
+        labels = [r["added"]["expr"] + f" @ {r['added']['at']}" for r in rows]
+        blocks.append(pd.DataFrame(rows).drop(columns=["added"]).assign(effect=labels))
     blocks.append(
         pd.DataFrame(
             {

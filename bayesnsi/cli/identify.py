@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from ..io import RESULTS_FILENAME, atomic_write_json, to_jsonable, versions
-from ._common import add_run_arguments, identify_all, progress, run_options, start_run
+from ..io import RESULTS_FILENAME, atomic_write_json, identification_payload
+from ..run import run_candidates
+from ._common import add_run_arguments, execution, progress, refuse_if_nothing_identified, start_run
 from ._report import identification_report
 
 __all__ = ["add_parser", "run"]
@@ -25,18 +26,15 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     """Execute the command."""
     config, out, signals = start_run(args)
-    results, records, _ = identify_all(config, signals, quiet=args.quiet, **run_options(args, out))
-    payload = {
-        "command": "identify",
-        "config": str(config.path),
-        "selected": None,
-        "candidates": records,
-        "settings": {"config": config.raw, "seed": config.seed},
-        "versions": versions(),
-    }
-    path = atomic_write_json(out / RESULTS_FILENAME, to_jsonable(payload))
+    with execution(args, out, config) as options:
+        outcomes = run_candidates(signals, config.candidates, config.nsi, execution=options)
+    payload = identification_payload(outcomes, "identify", config)
     if not args.no_figures:
-        report = identification_report(config, signals, results, records, f"bayesnsi identify - {config.path.name}")
+        results = {o.name: o.result for o in outcomes if o.result is not None}
+        title = f"bayesnsi identify - {config.path.name}"
+        report = identification_report(config, signals, results, payload["candidates"], title)
         progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
+    path = atomic_write_json(out / RESULTS_FILENAME, payload)  # last: a complete folder, or a rerun resumes
     progress(f"wrote {path}", args.quiet)
+    refuse_if_nothing_identified(outcomes, path)
     return 0

@@ -2,15 +2,12 @@
 
 from __future__ import annotations
 
-import numpy as np
-
-from ..exceptions import BayesNSIError
-from ..io import RESULTS_FILENAME, atomic_write_json, load_validation, to_jsonable, versions
-from ._common import add_run_arguments, progress, run_options, start_run
+from ..io import RESULTS_FILENAME, atomic_write_json, load_validation, selection_payload
+from ..selection import select
+from ._common import add_run_arguments, execution, progress, refuse_if_nothing_identified, start_run
 from ._report import identification_report, selection_sections
-from ._selection import select_all
 
-__all__ = ["add_parser", "run"]
+__all__ = ["add_parser", "run", "run_selection"]
 
 
 def add_parser(sub) -> None:
@@ -30,61 +27,50 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     """Execute the command."""
     config, out, signals = start_run(args)
-    results, records, evidences, table, opts = select_all(config, signals, quiet=args.quiet, **run_options(args, out))
-    ranked = [r for r in records if r.get("posterior") is not None and r["status"] == "ok"]
-    selected = max(ranked, key=lambda r: r["posterior"])["name"] if ranked else None
-    validation = load_validation(config)
-    for record in records:
-        if record["name"] in results:
-            record["validation"] = validate(results[record["name"]], validation)
-    payload = {
-        "command": "select",
-        "config": str(config.path),
-        "selected": selected,
-        "selected_gaussian": max(records, key=lambda r: r.get("posterior_gaussian") or 0.0)["name"] if ranked else None,
-        "likelihood": opts.likelihood,
-        "candidates": records,
-        "validation": next((r["validation"] for r in records if r["name"] == selected), []),
-        "ranking": to_jsonable(table.reset_index().to_dict(orient="records")),
-        "settings": {"config": config.raw, "seed": config.seed, "evidence": opts.to_dict()},
-        "versions": versions(),
-    }
-    path = atomic_write_json(out / RESULTS_FILENAME, to_jsonable(payload))
-    progress(f"selected: {selected}", args.quiet)
+    selection = run_selection(config, signals, args, out)
+    payload = selection_payload(selection, "select", config)
     if not args.no_figures:
-        report = identification_report(config, signals, results, records, f"bayesnsi select - {config.path.name}")
-        selection_sections(report, signals, results, evidences, table, opts, selected)
+        report = identification_report(
+            config, signals, selection.results, payload["candidates"], f"bayesnsi select - {config.path.name}"
+        )
+        selection_sections(report, signals, selection, selection.selected)
         progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
+    path = atomic_write_json(out / RESULTS_FILENAME, payload)  # last: a complete folder, or a rerun resumes
     progress(f"wrote {path}", args.quiet)
+    refuse_if_nothing_identified(selection.outcomes, path)
+    progress(f"selected: {selection.selected}{_adequacy_text(selection)}", args.quiet)
     return 0
 
 
-VALIDATION_INIT_SAMPLES = 50
-"""Samples at the start of each validation segment used only to estimate the initial state."""
+def run_selection(config, signals, args, out):
+    """:func:`bayesnsi.selection.select` on a config's candidates with the command line's backend.
 
+    Parameters
+    ----------
+    config : ExperimentConfig
+    signals : Signals
+        Estimation data of the config.
+    args : argparse.Namespace
+    out : Path
 
-def validate(result, segments) -> list[dict]:
-    """Closed-loop simulation of ``result`` on each validation segment (SPEC 9 ``validation``).
-
-    The first :data:`VALIDATION_INIT_SAMPLES` samples fix the initial state; the errors are
-    computed on the rest (rmse in the output's units, nrmse = rms(e)/rms(y)).
+    Returns
+    -------
+    Selection
     """
-    out = []
-    for name, signals in segments:
-        try:
-            rec = result.reconstruct(signals, closed_loop=True, n_init=VALIDATION_INIT_SAMPLES)
-        except BayesNSIError as err:
-            out.append({"name": name, "rmse": None, "nrmse": None, "error": str(err)})
-            continue
-        err = rec.residual[VALIDATION_INIT_SAMPLES:]
-        meas = rec.measured[VALIDATION_INIT_SAMPLES:]
-        rmse = np.sqrt(np.mean(err**2, axis=0))
-        out.append(
-            {
-                "name": name,
-                "rmse": float(np.sqrt(np.mean(rmse**2))),
-                "nrmse": float(np.sqrt(np.mean(np.mean(err**2, axis=0) / np.mean(meas**2, axis=0)))),
-                "rmse_per_channel": rmse.tolist(),
-            }
+    with execution(args, out, config) as options:
+        return select(
+            signals, config.candidates, config.nsi, config.evidence, execution=options,
+            validation=load_validation(config),
         )
-    return out
+
+
+def _adequacy_text(selection) -> str:
+    whiteness = selection.adequacy.get(selection.selected)
+    if whiteness is None:
+        return ""
+    if whiteness.adequate:
+        return f" (its {whiteness.residual} residual is white: Ljung-Box p >= {min(whiteness.p_value):.2g})"
+    return (
+        f" - but its {whiteness.residual} residual is not white (Ljung-Box p = {min(whiteness.p_value):.2g}): "
+        "an effect may be missing from every candidate; try `bayesnsi diagnose`"
+    )

@@ -1,15 +1,26 @@
-"""Closing the loop on measured data (SPEC section 7): find what the model lacks, add it."""
+"""Closing the loop on measured data (SPEC section 7): find what the model lacks, add it.
+
+Modules: :mod:`~bayesnsi.diagnose.search` (the loop), :mod:`~bayesnsi.diagnose.scoring` (Laplace
+evidence of each effect, the screen, clearance gaps), :mod:`~bayesnsi.diagnose.guards` (Bayes
+factor, quality index, record-half stability), :mod:`~bayesnsi.diagnose.moves` (prune, look
+ahead, re-examine), :mod:`~bayesnsi.diagnose.state` (the loop's context and state),
+:mod:`~bayesnsi.diagnose.results`, :mod:`~bayesnsi.diagnose.screen`, :mod:`~bayesnsi.diagnose.forces`.
+"""
 
 from .forces import ResidualForce, residual_force
+from .results import EffectScore, LoopResult, LoopStep
+from .scoring import refine_gap, score_effects
 from .screen import screen_effects
-from .search import LOOP_EVIDENCE_DEFAULTS, LoopResult, LoopStep, close_the_loop, refine_gap, score_effects
+from .search import close_the_loop, close_the_loop_with, loop_effects
 
 __all__ = [
-    "LOOP_EVIDENCE_DEFAULTS",
+    "EffectScore",
     "LoopResult",
     "LoopStep",
     "ResidualForce",
     "close_the_loop",
+    "close_the_loop_with",
+    "loop_effects",
     "refine_gap",
     "residual_force",
     "score_effects",

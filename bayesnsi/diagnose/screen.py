@@ -1,9 +1,9 @@
 """Cheap screening of candidate effects before they are re-identified (SPEC section 7, step 3).
 
 Re-identifying the model with every effect of the dictionary costs one NSI run and one
-reconstruction per effect (about 0.55 s each on the beam, whose dictionary holds 80 effects: 44 s
-a loop step, ``benchmarks/diagnose.py --no-screen``). The screen ranks all of them from the data
-alone in 0.3 s, so that only the best few are re-identified and scored by evidence.
+reconstruction per effect. The screen ranks all of them from the data alone, at a small fraction
+of that cost, so that only the best few are re-identified and scored by evidence (measurements:
+``docs/measurements.md``, closing the loop).
 
 The screen is a frequency-domain regression of the outputs on the extended input
 (``Y(ω) = H_E(ω) U(ω)``, paper Eq. 8 in the frequency domain; the nonlinear-feedback idea of
@@ -20,11 +20,6 @@ and channel, profiled out), the log-likelihood ratio of adding the effect's colu
 
 W bins and P regressors per group. Its absolute value is no evidence (the errors-in-variables
 bias and the local model error enter it): it only orders the effects.
-
-Measured on :mod:`bayesnsi.simulate.undeclared` (4 seeds × 1 and 5 % noise, first loop step):
-the missing effect ranked 1st-3rd by the screen in 39 of 40 runs and 5th once (two missing effects
-at 5 % noise, where the full Laplace score ranked it 3rd); 7 ms for the 27-effect two-DOF
-dictionary against 0.6 s for re-identifying every effect.
 """
 
 from __future__ import annotations
@@ -32,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..exceptions import BayesNSIError
-from ..nsi.identify import extended_input
+from ..nsi import extended_input
 
 __all__ = ["screen_effects"]
 
@@ -62,7 +57,7 @@ def screen_effects(
     max_frequency_hz: float | None = None,
     group_bins: int = 8,
     velocity_method: str = "fourth",
-) -> list[tuple[str, object, float]]:
+) -> list[tuple[object, float]]:
     """Rank effects by how much of the outputs their nonlinear input explains (see module notes).
 
     Parameters
@@ -71,7 +66,7 @@ def screen_effects(
         Estimation data.
     candidate : CandidateModel
         The current model; its terms are regressors of every group.
-    effects : list of (str, Term)
+    effects : list of Effect
         Effects to rank (those already in ``candidate`` are skipped).
     max_frequency_hz : float, optional
         Highest frequency used (default: the Nyquist frequency). Above the structure's modes the
@@ -85,9 +80,9 @@ def screen_effects(
 
     Returns
     -------
-    list of (effect type, Term, score)
-        Best first; ``-inf`` for an effect whose input cannot be built (unmeasured DOF, NaN or
-        constant on the data).
+    list of (Effect, float)
+        Each effect with its score, best first; ``-inf`` for an effect whose input cannot be
+        built (unmeasured DOF, NaN or constant on the data).
 
     Raises
     ------
@@ -96,7 +91,7 @@ def screen_effects(
         own extended input cannot be built.
     """
     present = {t.name for t in candidate.terms}
-    effects = [(kind, term) for kind, term in effects if term.name not in present]
+    effects = [effect for effect in effects if effect.term.name not in present]
     base = extended_input(signals, candidate.terms, velocity_method, input_hold="sample")
     freqs = np.fft.rfftfreq(signals.n_samples, signals.dt)
     top = signals.fs / 2 if max_frequency_hz is None else min(float(max_frequency_hz), signals.fs / 2)
@@ -118,20 +113,21 @@ def screen_effects(
     x, v = signals.state_arrays(velocity_method=velocity_method)
     n_dofs = x.shape[0]
     scored = []
-    for kind, term in effects:
-        value = None
+    for effect in effects:
+        term, value = effect.term, None
         if max(term.expr.dofs, default=0) <= n_dofs:
             with np.errstate(all="ignore"):
                 value = -term.evaluate(x, v)
         if value is None or not np.all(np.isfinite(value)) or not np.std(value) > 0:
-            scored.append((kind, term, -np.inf))
+            scored.append((effect, -np.inf))
             continue
         # Adding one regressor e: RSS_with = RSS_without - |<ẽ, r>|² / |ẽ|², ẽ = e projected out.
         new = _project_out(basis, _group_spectra(value[:, None], bins, n_groups, group_bins))[:, :, 0]
         new_power = (np.abs(new) ** 2).sum(axis=1)  # (G,)
-        explained = np.abs(np.einsum("gw,gwo->go", new.conj(), residual)) ** 2 / np.maximum(new_power, np.finfo(float).tiny)[:, None]
+        projection = np.abs(np.einsum("gw,gwo->go", new.conj(), residual)) ** 2
+        explained = projection / np.maximum(new_power, np.finfo(float).tiny)[:, None]
         fraction = np.clip(explained / residual_power, 0.0, 1.0 - 1e-12)
         score = -(group_bins - size) * float(np.sum(np.log1p(-fraction)))
-        scored.append((kind, term, score))
-    order = sorted(range(len(scored)), key=lambda k: -scored[k][2])  # stable: ties in dictionary order
+        scored.append((effect, score))
+    order = sorted(range(len(scored)), key=lambda k: -scored[k][1])  # stable: ties in dictionary order
     return [scored[k] for k in order]

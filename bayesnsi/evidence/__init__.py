@@ -15,6 +15,8 @@ Conventions: posterior draws are ``(chain, draw, ...)`` with one chain per emcee
 sampled noise parameter is ``log σ`` per output channel; log evidences are in nats.
 """
 
+from .analytic import closed_form_log_evidence, laplace_log_evidence
+from .bridge import BridgeEstimate, bridge_sampling
 from .candidate import RESIDUALS, candidate_affine, candidate_evidence, candidate_priors
 from .convergence import ConvergenceReport, convergence_report, posterior_summary, warn_if_unconverged
 from .likelihood import (
@@ -24,24 +26,9 @@ from .likelihood import (
     plain_log_likelihood,
     sufficient_statistics,
 )
-from .marginal import (
-    BridgeEstimate,
-    EvidenceResult,
-    bridge_sampling,
-    closed_form_log_evidence,
-    evidence_from_statistics,
-    laplace_log_evidence,
-    marginal_evidence,
-)
-from .priors import (
-    ARPrior,
-    CoefficientPrior,
-    NoisePrior,
-    Priors,
-    coefficient_prior,
-    default_coefficient_scales,
-    default_priors,
-)
+from .marginal import EvidenceResult, evidence_from_statistics, marginal_evidence
+from .prior_defaults import coefficient_prior, default_coefficient_scales, default_priors
+from .priors import ARPrior, CoefficientPrior, NoisePrior, Priors
 from .ranking import ModelProbabilities, compare_evidence, plain_ranking, posterior_probabilities, ranking_table
 from .sampling import PosteriorSamples, sample_posterior
 

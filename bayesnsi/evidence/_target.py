@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..options import parse_likelihood as _likelihood_order
 from ..exceptions import InputDataError, ShapeError
+from ..options import parse_likelihood as _likelihood_order
 from .likelihood import SufficientStatistics, _beta
 from .priors import Priors
 

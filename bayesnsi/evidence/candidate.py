@@ -8,7 +8,7 @@ import numpy as np
 
 from ..options import EvidenceOptions
 from .marginal import marginal_evidence
-from .priors import default_priors
+from .prior_defaults import default_priors
 
 __all__ = ["RESIDUALS", "candidate_affine", "candidate_evidence", "candidate_priors"]
 
@@ -56,6 +56,24 @@ def candidate_affine(result, signals, residual: str = "innovations"):
     for the measurement noise carried into the nonlinear inputs
     (:func:`bayesnsi.nsi.predictor_reconstruction`); it does not count that propagated noise
     as misfit, which a spurious superset term would otherwise absorb (SPEC 10).
+
+    Parameters
+    ----------
+    result : NSIResult
+        The identified candidate.
+    signals : Signals
+        The estimation data.
+    residual : {"innovations", "reconstruction"}
+        Which residual (see :data:`RESIDUALS`).
+
+    Returns
+    -------
+    AffineReconstruction
+
+    Raises
+    ------
+    ConfigError
+        When ``residual`` is unknown.
     """
     from ..exceptions import ConfigError
     from ..nsi import affine_reconstruction, predictor_reconstruction

@@ -65,7 +65,12 @@ class ConvergenceReport:
         return bool(self.rhat_max <= self.rhat_threshold and self.ess_min >= self.ess_threshold)
 
     def message(self) -> str:
-        """What failed, by how much, and what to do."""
+        """What failed, by how much, and what to do.
+
+        Returns
+        -------
+        str
+        """
         parts = []
         if not self.rhat_max <= self.rhat_threshold:
             parts.append(f"r_hat = {self.rhat_max:.4f} > {self.rhat_threshold} (worst: {self.worst_rhat})")

@@ -6,7 +6,7 @@ factor, and a superset model could then never lose; therefore:
 
 * coefficients ``λ_i ~ N(0, s_i²)``, independent, with ``s_i`` chosen so that the term's force
   ``λ_i n_i`` is comparable to the linear restoring force at the measured amplitude
-  (:func:`default_coefficient_scales`), overridable per term;
+  (:func:`bayesnsi.evidence.default_coefficient_scales`), overridable per term;
 * noise level ``σ_j`` log-uniform on ``[lo_j, hi_j]`` per channel (default
   ``[1e-4, 10] × std(y_j)``), i.e. ``log σ_j`` uniform;
 * AR coefficients ``φ`` uniform on ``(-0.9999, 0.9999)`` each.
@@ -17,22 +17,14 @@ sensitivity (EVIDENCE.md: about ``log 10`` nat per decade per truly-zero coeffic
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from ..exceptions import InputDataError, ShapeError
 
-__all__ = [
-    "CoefficientPrior",
-    "NoisePrior",
-    "ARPrior",
-    "Priors",
-    "default_coefficient_scales",
-    "coefficient_prior",
-    "default_priors",
-]
+__all__ = ["ARPrior", "CoefficientPrior", "NoisePrior", "Priors"]
 
 _LOG_2PI = float(np.log(2.0 * np.pi))
 
@@ -72,18 +64,50 @@ class CoefficientPrior:
         return len(self.names)
 
     def log_pdf(self, lam) -> np.ndarray:
-        """Log prior density of ``λ``, shape (...) for ``lam`` of shape (..., q)."""
+        """Log prior density of ``λ``.
+
+        Parameters
+        ----------
+        lam : array_like, shape (..., q)
+            Coefficients.
+
+        Returns
+        -------
+        ndarray, shape (...)
+        """
         z = np.asarray(lam, dtype=float) / self.scale
         return np.sum(-0.5 * z**2 - np.log(self.scale) - 0.5 * _LOG_2PI, axis=-1)
 
     def sample(self, size: int | tuple = (), rng=None) -> np.ndarray:
-        """Prior draws, shape ``size + (q,)``; ``rng`` as for :func:`numpy.random.default_rng`."""
+        """Draw coefficients from the prior.
+
+        Parameters
+        ----------
+        size : int or tuple of int
+            Leading shape of the draws.
+        rng : int or numpy.random.Generator, optional
+            As for :func:`numpy.random.default_rng`.
+
+        Returns
+        -------
+        ndarray, shape ``size + (q,)``
+        """
         rng = np.random.default_rng(rng)
         size = (size,) if np.isscalar(size) else tuple(size)
         return rng.normal(0.0, 1.0, size + (self.n_coefficients,)) * self.scale
 
     def with_scales(self, overrides: Mapping[str, float]) -> CoefficientPrior:
-        """A copy with the scales of the named terms replaced (user override per term)."""
+        """A copy with the scales of the named terms replaced (user override per term).
+
+        Parameters
+        ----------
+        overrides : mapping of str to float
+            Prior standard deviation per term name.
+
+        Returns
+        -------
+        CoefficientPrior
+        """
         scale = self.scale.copy()
         for name, value in overrides.items():
             if name not in self.names:
@@ -92,7 +116,12 @@ class CoefficientPrior:
         return replace(self, scale=scale, source=f"{self.source}; overridden for {sorted(overrides)}")
 
     def describe(self) -> str:
-        """One line per term: ``name ~ N(0, s²)``."""
+        """Describe the prior, one line per term: ``name ~ N(0, s²)``.
+
+        Returns
+        -------
+        str
+        """
         lines = [f"coefficients: independent zero-mean Normal ({self.source})"]
         lines += [f"  {n} ~ N(0, {s:.4g}^2)" for n, s in zip(self.names, self.scale)]
         return "\n".join(lines)
@@ -166,27 +195,62 @@ class NoisePrior:
         return np.log(self.upper / self.lower)
 
     def log_pdf_log_sigma(self, log_sigma) -> np.ndarray:
-        """Log density of ``u = log σ`` (uniform), summed over channels; shape (...)."""
+        """Log density of ``u = log σ`` (uniform), summed over channels.
+
+        Parameters
+        ----------
+        log_sigma : array_like, shape (..., l)
+            ``log σ`` per channel.
+
+        Returns
+        -------
+        ndarray, shape (...)
+        """
         u = np.asarray(log_sigma, dtype=float)
         inside = np.all((u >= np.log(self.lower)) & (u <= np.log(self.upper)), axis=-1)
         return np.where(inside, -np.sum(np.log(self.log_width)), -np.inf)
 
     def log_pdf(self, sigma) -> np.ndarray:
-        """Log density of ``σ`` itself (``1/(σ log(hi/lo))``), summed over channels."""
+        """Log density of ``σ`` itself (``1/(σ log(hi/lo))``), summed over channels.
+
+        Parameters
+        ----------
+        sigma : array_like, shape (..., l)
+            Noise standard deviation per channel.
+
+        Returns
+        -------
+        ndarray, shape (...)
+        """
         sigma = np.asarray(sigma, dtype=float)
         with np.errstate(divide="ignore", invalid="ignore"):
             u = np.log(sigma)
         return self.log_pdf_log_sigma(u) - np.sum(np.where(np.isfinite(u), u, 0.0), axis=-1)
 
     def sample(self, size: int | tuple = (), rng=None) -> np.ndarray:
-        """Prior draws of ``σ``, shape ``size + (l,)``."""
+        """Draw noise standard deviations ``σ`` (log-uniform) from the prior.
+
+        Parameters
+        ----------
+        size, rng
+            As in :meth:`CoefficientPrior.sample`.
+
+        Returns
+        -------
+        ndarray, shape ``size + (l,)``
+        """
         rng = np.random.default_rng(rng)
         size = (size,) if np.isscalar(size) else tuple(size)
         u = rng.uniform(np.log(self.lower), np.log(self.upper), size + (self.n_channels,))
         return np.exp(u)
 
     def describe(self) -> str:
-        """One line per channel."""
+        """Describe the prior, one line per channel.
+
+        Returns
+        -------
+        str
+        """
         lines = [f"noise sigma: log-uniform per channel ({self.source})"]
         lines += [f"  {n}: [{a:.4g}, {b:.4g}]" for n, a, b in zip(self.channel_names, self.lower, self.upper)]
         return "\n".join(lines)
@@ -210,18 +274,44 @@ class ARPrior:
             raise InputDataError(f"AR prior needs -1 <= lower < upper <= 1, got ({self.lower}, {self.upper})")
 
     def log_pdf(self, rho) -> np.ndarray:
-        """Elementwise log density of AR coefficients (uniform); ``-inf`` outside the bounds."""
+        """Elementwise log density of AR coefficients (uniform).
+
+        Parameters
+        ----------
+        rho : array_like
+            AR coefficients.
+
+        Returns
+        -------
+        ndarray, shape of ``rho``
+            ``-inf`` outside the bounds.
+        """
         rho = np.asarray(rho, dtype=float)
         inside = (rho > self.lower) & (rho < self.upper)
         return np.where(inside, -np.log(self.upper - self.lower), -np.inf)
 
     def sample(self, size: int | tuple = (), rng=None) -> np.ndarray:
-        """Prior draws of shape ``size``."""
+        """Draw AR coefficients (uniform) from the prior.
+
+        Parameters
+        ----------
+        size, rng
+            As in :meth:`CoefficientPrior.sample` (``size`` is the whole shape here).
+
+        Returns
+        -------
+        ndarray, shape ``size``
+        """
         rng = np.random.default_rng(rng)
         return rng.uniform(self.lower, self.upper, size)
 
     def describe(self) -> str:
-        """One line."""
+        """Describe the prior in one line.
+
+        Returns
+        -------
+        str
+        """
         return f"AR coefficients: uniform({self.lower:g}, {self.upper:g}) each, per channel"
 
 
@@ -262,101 +352,16 @@ class Priors:
         return out
 
     def describe(self, include_ar: bool = True) -> str:
-        """Readable statement of all priors, for reports (``include_ar=False`` for white noise)."""
+        """Readable statement of all priors, for reports.
+
+        Parameters
+        ----------
+        include_ar : bool
+            Include the AR prior (False for white noise).
+
+        Returns
+        -------
+        str
+        """
         parts = [self.coefficients.describe(), self.noise.describe()]
         return "\n".join(parts + [self.ar.describe()] if include_ar else parts)
-
-
-def default_coefficient_scales(term_rms, reference_force_rms) -> np.ndarray:
-    """Default prior scales ``s_i = F_ref / rms(n_i)`` (SPEC 6).
-
-    With this scale a coefficient one standard deviation from zero makes the term's force
-    ``λ_i n_i(x, ẋ)`` as large (in RMS) as the reference force, typically the linear restoring
-    force at the measured amplitude, e.g. ``k · rms(x)`` at the term's location.
-
-    Parameters
-    ----------
-    term_rms : array_like, shape (q,)
-        RMS of each nonlinear function ``n_i`` evaluated on the measured data (the extended
-        input columns), in its own units.
-    reference_force_rms : float or array_like, shape (q,)
-        Reference force RMS [N], one for all terms or one per term.
-
-    Returns
-    -------
-    ndarray, shape (q,)
-    """
-    term_rms = np.atleast_1d(np.asarray(term_rms, dtype=float))
-    ref = np.broadcast_to(np.asarray(reference_force_rms, dtype=float), term_rms.shape)
-    if not np.all(np.isfinite(term_rms) & (term_rms > 0)):
-        raise InputDataError(f"term RMS values must be positive and finite, got {term_rms}")
-    if not np.all(np.isfinite(ref) & (ref > 0)):
-        raise InputDataError(f"reference force RMS must be positive and finite, got {ref}")
-    return ref / term_rms
-
-
-def coefficient_prior(
-    names: Sequence[str], term_rms, reference_force_rms, overrides: Mapping[str, float] | None = None
-) -> CoefficientPrior:
-    """Default coefficient prior with optional per-term overrides.
-
-    Parameters
-    ----------
-    names : sequence of str
-        Term names, length ``q``.
-    term_rms, reference_force_rms
-        See :func:`default_coefficient_scales`.
-    overrides : mapping of str to float, optional
-        Prior scales set by the user for some terms.
-
-    Returns
-    -------
-    CoefficientPrior
-    """
-    scale = default_coefficient_scales(term_rms, reference_force_rms)
-    ref = np.atleast_1d(np.asarray(reference_force_rms, dtype=float))
-    ref_text = f"{ref[0]:.4g}" if ref.size == 1 else "per term"
-    prior = CoefficientPrior(
-        names=tuple(names),
-        scale=scale,
-        source=f"scale = reference force RMS ({ref_text}) / rms(n_i)",
-    )
-    return prior.with_scales(overrides) if overrides else prior
-
-
-def default_priors(
-    affine,
-    term_rms,
-    reference_force_rms,
-    overrides: Mapping[str, float] | None = None,
-    channel_names: Sequence[str] = (),
-    noise_factors: tuple[float, float] = (1e-4, 10.0),
-    ar_bounds: tuple[float, float] = (-0.9999, 0.9999),
-) -> Priors:
-    """The default priors of SPEC 6 for an affine reconstruction.
-
-    Parameters
-    ----------
-    affine : AffineReconstruction
-        Supplies the term names and ``std`` of the measured channels.
-    term_rms, reference_force_rms
-        See :func:`default_coefficient_scales`.
-    overrides : mapping of str to float, optional
-        Per-term coefficient prior scales.
-    channel_names : sequence of str, optional
-    noise_factors : (float, float)
-        ``σ_j`` range as multiples of ``std(y_j)``.
-    ar_bounds : (float, float)
-        Bounds of each AR coefficient.
-
-    Returns
-    -------
-    Priors
-    """
-    measured = np.asarray(affine.measured, dtype=float)
-    std = measured.reshape(len(measured), -1).std(axis=0)
-    return Priors(
-        coefficients=coefficient_prior(affine.names, term_rms, reference_force_rms, overrides),
-        noise=NoisePrior.from_std(std, *noise_factors, channel_names=channel_names),
-        ar=ARPrior(*ar_bounds),
-    )

@@ -11,14 +11,12 @@ Array convention: posterior draws are ``(chain, draw, ...)`` with one chain per 
 
 from __future__ import annotations
 
-import signal
-import threading
 from collections.abc import Mapping
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._interrupt import interrupt_after
 from ..exceptions import InputDataError
 from ._target import Target
 from .likelihood import SufficientStatistics
@@ -210,12 +208,11 @@ def sample_posterior(
     The walkers start from ``N(θ*, (-H)⁻¹)`` at the mode ``θ*`` restricted to the prior support,
     so little burn-in is needed.
 
-    Efficiency (measured, q = 3, l = 2, N = 1e4, 32 walkers): integrated autocorrelation time
-    ≈ 4.5 steps with ``"mixed"``, ≈ 20 with ``"de"``, ≈ 40-50 with ``"stretch"``. Because
-    ``r_hat`` is computed with one chain per walker, reaching ``r_hat <= 1.01`` needs about
-    100 autocorrelation times per walker, which the stretch move alone gets only after ≈ 5000
-    steps. The independence move's proposal is fixed before sampling (from the mode), so every
-    move is a valid Metropolis-Hastings kernel and their mixture leaves the posterior invariant.
+    Because ``r_hat`` is computed with one chain per walker, reaching ``r_hat <= 1.01`` needs
+    about 100 autocorrelation times per walker; the ``"mixed"`` moves have the shortest
+    autocorrelation time (measurements in ``docs/measurements.md``). The independence move's
+    proposal is fixed before sampling (from the mode), so every move is a valid
+    Metropolis-Hastings kernel and their mixture leaves the posterior invariant.
     """
     target = Target.build(stats, priors, likelihood)
     return _sample(target, rng, n_walkers, n_steps, n_burn, start, moves)
@@ -246,7 +243,7 @@ def _sample(
     sampler = emcee.EnsembleSampler(
         n_walkers, ndim, target.log_posterior, vectorize=True, moves=_moves(moves, mode, cov)
     )
-    with _interrupt_after():
+    with interrupt_after():
         sampler.run_mcmc(
             emcee.State(p0, random_state=random_state), n_steps, progress=False, skip_initial_state_check=True
         )
@@ -275,30 +272,6 @@ def _sample(
             "moves": moves,
         },
     )
-
-
-@contextmanager
-def _interrupt_after():
-    """Hold a Ctrl-C (SIGINT) until the block ends, then raise KeyboardInterrupt.
-
-    emcee prints a traceback of any exception raised inside the log-probability function before
-    re-raising it, so a Ctrl-C that lands there would spill a traceback on the user's terminal.
-    A run takes about half a second at the default settings, so deferring the interrupt to its
-    end costs nothing noticeable. Only on the main thread, and only while Python's default
-    handler is installed (a caller's own handler is left alone).
-    """
-    main_thread = threading.current_thread() is threading.main_thread()
-    if not main_thread or signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
-        yield
-        return
-    received = []
-    signal.signal(signal.SIGINT, lambda signum, frame: received.append(signum))
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
-    if received:
-        raise KeyboardInterrupt
 
 
 def _moves(kind: str, mode: np.ndarray, cov: np.ndarray):

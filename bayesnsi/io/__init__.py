@@ -4,8 +4,10 @@
 - :mod:`~bayesnsi.io.measurements`: measurements (CSV, MATLAB .mat, HDF5, UFF58) ->
   :class:`~bayesnsi.signals.Signals`; Signals -> CSV.
 - :mod:`~bayesnsi.io.results`: atomic writes, JSON conversion, versions, output folders.
+- :mod:`~bayesnsi.io.schema`: results.json records from the library's result objects.
 """
 
+from ._formats import UFF_DIRECTIONS, uff_channel_key
 from .config import (
     DataSpec,
     ExperimentConfig,
@@ -29,7 +31,6 @@ from .measurements import (
     read_signals,
     write_signals_csv,
 )
-from ._formats import UFF_DIRECTIONS, uff_channel_key
 from .results import (
     RESULTS_FILENAME,
     atomic_open,
@@ -39,6 +40,7 @@ from .results import (
     to_jsonable,
     versions,
 )
+from .schema import candidate_record, identification_payload, selection_payload, term_record
 
 __all__ = [
     "DataSpec",
@@ -69,4 +71,8 @@ __all__ = [
     "to_jsonable",
     "versions",
     "prepare_output_dir",
+    "candidate_record",
+    "identification_payload",
+    "selection_payload",
+    "term_record",
 ]

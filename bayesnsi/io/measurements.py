@@ -10,7 +10,10 @@ units label); units are reported, never converted.
 
 **CSV**: a header line naming the columns; optionally a units row right below it (every
 cell non-numeric, e.g. ``"s","N","m"``), then one row per sample. Trailing empty columns (the
-Silverbox files end every line with a comma: ``"V1","V2",``) are ignored.
+Silverbox files end every line with a comma: ``"V1","V2",``) are ignored. Before parsing, a
+file with a line over 4 MiB (:data:`bayesnsi.io._csv.MAX_LINE_BYTES`) or a NUL byte, or whose
+columns would need more memory than ``BAYESNSI_MAX_MEMORY`` allows (:mod:`bayesnsi._limits`), is
+refused; error messages name the file and line, never quote its content.
 
 **MAT / HDF5**: one variable per channel, named like a CSV column (case-sensitive); each a
 real numeric vector, 1×N or N×1 (MATLAB classes double, single and the integer types; a
@@ -31,6 +34,9 @@ mapped as a displacement output) is an error; inputs are not checked (a base acc
 may be the input). The ordinate units label is reported in :attr:`MeasurementColumns.units`.
 Note that pyuff writes ``abscissa_inc`` with 6 significant digits (E13.5) and ASCII data
 with 12, so give ``[data] fs`` for an exact rate and prefer binary UFF58 for full precision.
+
+h5py (MAT v7.3, HDF5) and pyuff (UFF58) are optional: ``pip install 'bayesnsi[hdf5]'`` or
+``'bayesnsi[uff]'``; without them reading such a file is an error that names the extra.
 
 **Sampling**: ``[data] fs`` [Hz], or, when it is absent, the file's: a time column/vector
 (default ``t``, in seconds) that must be uniformly sampled - fs = (n - 1) / (t[n-1] - t[0]),
@@ -53,16 +59,17 @@ import csv
 import math
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from .. import preprocess
-from ..exceptions import ConfigError, InputDataError
+from ..exceptions import InputDataError
 from ..signals import Signals
-from .config import DataSpec, ExperimentConfig
+from ._columns import FORMATS, FS_TOLERANCE, TIME_TOLERANCE, MeasurementColumns, file_format
+from ._csv import CSVColumns, read_csv_columns
+from ._record import Record, read_any
+from ._specs import DataSpec, ExperimentConfig
 from .results import atomic_open
 
 __all__ = [
@@ -80,105 +87,6 @@ __all__ = [
     "FS_TOLERANCE",
     "TIME_TOLERANCE",
 ]
-
-TIME_TOLERANCE = 0.01
-"""Largest allowed deviation of a time stamp from the uniform grid, as a fraction of 1/fs."""
-
-FS_TOLERANCE = 1e-4
-"""Largest relative difference between ``[data] fs`` and a rate stored in the file as a number
-(a scalar ``fs`` variable, UFF ``abscissa_inc``, which pyuff writes with 6 significant digits)."""
-
-FORMATS = {".mat": "mat", ".h5": "hdf5", ".hdf5": "hdf5", ".uff": "uff", ".unv": "uff"}
-"""File extension (lower case) -> format; every other extension is read as CSV text."""
-
-
-def file_format(path: str | os.PathLike) -> str:
-    """The format a file is read as: "csv", "mat", "hdf5" or "uff" (from its extension)."""
-    return FORMATS.get(Path(path).suffix.lower(), "csv")
-
-
-@dataclass(frozen=True)
-class CSVColumns:
-    """Some columns of a measurement CSV, as read.
-
-    Parameters
-    ----------
-    path : Path
-        The file.
-    names : tuple of str
-        Every column named in the header, in file order (trailing empty columns dropped).
-    values : dict of str to ndarray, shape (n_samples,)
-        The columns that were asked for, as float arrays (NaN where a cell was empty).
-    units : dict of str to str
-        Units row (empty if the file has none), for every named column.
-    first_line : int
-        Line number (1-based) of the first sample in the file, for messages.
-    """
-
-    path: Path
-    names: tuple[str, ...]
-    values: dict[str, np.ndarray]
-    units: dict[str, str]
-    first_line: int
-
-    @property
-    def n_samples(self) -> int:
-        """Number of data rows."""
-        return len(next(iter(self.values.values()))) if self.values else 0
-
-    def locate(self, sample: int) -> str:
-        """Where sample ``sample`` is in the file, for messages: ``" (line 12)"``."""
-        return f" (line {self.first_line + sample})"
-
-
-@dataclass(frozen=True)
-class MeasurementColumns:
-    """Some channels of a measurement file of any supported format, as read.
-
-    Parameters
-    ----------
-    path : Path
-        The file.
-    format : {"csv", "mat", "hdf5", "uff"}
-    names : tuple of str
-        Every channel the file offers: CSV header names, MAT/HDF5 variable names, or UFF58
-        records as ``"'id1' (node:dir)"``.
-    values : dict of str to ndarray, shape (n_samples,)
-        The channels asked for, as float arrays, under the names used to ask for them.
-    units : dict of str to str
-        Units stated in the file (CSV units row, UFF ordinate units label); may be empty.
-    fs : float or None
-        Sampling frequency stored in the file [Hz] (time column/vector, scalar ``fs``,
-        UFF ``abscissa_inc``); None when the file has none.
-    fs_source : str
-        Where ``fs`` came from, for messages.
-    fs_tolerance : float
-        Relative tolerance when ``fs`` is compared with ``[data] fs``.
-    first_line : int or None
-        CSV only: line number (1-based) of the first sample.
-    hint : str
-        What to do when the file has no sampling information.
-    """
-
-    path: Path
-    format: str
-    names: tuple[str, ...]
-    values: dict[str, np.ndarray]
-    units: dict[str, str]
-    fs: float | None
-    fs_source: str = ""
-    fs_tolerance: float = FS_TOLERANCE
-    first_line: int | None = None
-    hint: str = "set fs in [data]"
-
-    @property
-    def n_samples(self) -> int:
-        """Number of samples."""
-        return len(next(iter(self.values.values()))) if self.values else 0
-
-    def locate(self, sample: int) -> str:
-        """Where sample ``sample`` is in the file, for messages (a CSV line number, else empty)."""
-        return f" (line {self.first_line + sample})" if self.first_line is not None else ""
 
 
 def read_columns(path: str | os.PathLike, columns, time_column: str = "t") -> MeasurementColumns:
@@ -207,45 +115,7 @@ def read_columns(path: str | os.PathLike, columns, time_column: str = "t") -> Me
         sampling intervals or start times, or non-uniform time stamps.
     """
     wanted = list(dict.fromkeys(columns))
-    return _read_any(Path(path), wanted, {}, time_column, {})
-
-
-def read_csv_columns(path: str | os.PathLike, columns) -> CSVColumns:
-    """Read the named columns of a CSV file (header required, optional units row).
-
-    Parameters
-    ----------
-    path : str or path-like
-        The CSV file; opened read-only.
-    columns : iterable of str
-        Column names to parse, as in the header (case-sensitive).
-
-    Returns
-    -------
-    CSVColumns
-
-    Raises
-    ------
-    InputDataError
-        If the file is missing or has no header, repeats a column name, lacks a requested
-        column (the message lists the available ones) or holds a non-numeric cell (the
-        message gives column, line and value).
-    """
-    path = Path(path)
-    header, first_row = _read_head(path)
-    wanted = list(dict.fromkeys(columns))
-    missing = [c for c in wanted if c not in header]
-    if missing:
-        raise InputDataError(
-            f"{path}: column(s) {missing} not found; available columns: {', '.join(map(repr, header))}. "
-            "Column names are case-sensitive: fix [data] in the config or the CSV header"
-        )
-    units = _units(header, first_row)
-    skip = 2 if units else 1
-    positions = [header.index(c) for c in wanted]
-    frame = _read_frame(path, positions, skip)
-    values = {c: _numeric(frame[p], c, path, skip + 1) for c, p in zip(wanted, positions)}
-    return CSVColumns(path=path, names=tuple(header), values=values, units=units, first_line=skip + 1)
+    return read_any(Path(path), wanted, {}, time_column, {})
 
 
 def read_signals(path: str | os.PathLike, data: DataSpec) -> Signals:
@@ -274,7 +144,7 @@ def read_signals(path: str | os.PathLike, data: DataSpec) -> Signals:
         different lengths or sampling intervals, or a sampling rate in the file that
         disagrees with ``data.fs``.
     """
-    record = _Record.read(Path(path), data)
+    record = Record(Path(path), data)
     return record.signals(0, record.n_samples, None)
 
 
@@ -303,7 +173,7 @@ def load_signals(config: ExperimentConfig) -> Signals:
     InputDataError
         As :func:`read_signals`, for the samples inside the window.
     """
-    record = _Record.read(config.data.file, config.data)
+    record = Record(config.data.file, config.data)
     start, stop = record.window(config.data.estimation, "[data] estimation", config.path)
     return record.signals(start, stop, record.means(start, stop) if config.data.remove_mean else None)
 
@@ -330,14 +200,14 @@ def load_validation(config: ExperimentConfig) -> list[tuple[str, Signals]]:
     """
     if not config.validation:
         return []
-    main = _Record.read(config.data.file, config.data)
+    main = Record(config.data.file, config.data)
     means = None
     if config.data.remove_mean:
         means = main.means(*main.window(config.data.estimation, "[data] estimation", config.path))
     out = []
     for segment in config.validation:
         same_file = segment.file is None or segment.file == config.data.file
-        record = main if same_file else _Record.read(segment.file, config.data)
+        record = main if segment.file is None or same_file else Record(segment.file, config.data)
         start, stop = record.window(
             (segment.start, segment.stop), f"[[validation]] {segment.name!r} start/stop", config.path
         )
@@ -410,299 +280,6 @@ def write_signals_csv(
         else:
             frame.to_csv(fh, index=False, float_format=float_format, lineterminator="\n")
     return {"file": Path(path).name, "fs": float(fs), **maps}
-
-
-# ---------------------------------------------------------------------------------------------
-# reading
-
-
-class _Record:
-    """The mapped channels of one file (raw, may hold NaN until a window is checked), and the
-    processing of a window into Signals: cut -> integrate -> decimate -> remove means."""
-
-    def __init__(self, path: Path, data: DataSpec):
-        self.path = Path(path)
-        self.data = data
-        self.integrate = data.integrate
-        if self.integrate is not None:
-            responses = {c: "acceleration" for c in data.accelerations}
-        else:
-            responses = {c: "displacement" for c in data.outputs}
-            responses.update({c: "velocity" for c in data.velocities or {}})
-        roles = {c: "input" for c in data.inputs} | responses
-        present = {} if self.integrate is not None else {c: "acceleration" for c in data.accelerations}
-        table = _read_any(self.path, list(roles), roles, data.time_column, present)
-        self.table = table
-        self.fs = _resolve_fs(table, data)
-        _check_units(table, roles)
-        self.force = _stack(table, data.inputs)
-        self.velocity = None
-        self.acceleration = None
-        self.displacement = None
-        if self.integrate is not None:
-            self.acceleration = _stack(table, data.accelerations)
-        else:
-            self.displacement = _stack(table, data.outputs)
-            if data.velocities:
-                by_dof = {dof: column for column, dof in data.velocities.items()}
-                self.velocity = _stack(table, [by_dof[dof] for dof in data.outputs.values()])
-        self._cache: dict[tuple[int, int], dict[str, np.ndarray | None]] = {}
-
-    @classmethod
-    def read(cls, path: Path, data: DataSpec) -> "_Record":
-        return cls(path, data)
-
-    @property
-    def n_samples(self) -> int:
-        return self.force.shape[0]
-
-    def window(self, bounds, key: str, config_path: Path) -> tuple[int, int]:
-        start, stop = bounds if bounds is not None else (None, None)
-        start = 0 if start is None else start
-        stop = self.n_samples if stop is None else stop
-        if stop > self.n_samples or start >= stop:
-            raise ConfigError(
-                f"{config_path}: {key}: expected a window inside the record of {self.n_samples} samples "
-                f"in {self.path.name}, found [{start}, {stop}); shrink the window"
-            )
-        return start, stop
-
-    def means(self, start: int, stop: int) -> dict[str, np.ndarray]:
-        parts = self._processed(start, stop)
-        return {k: v.mean(axis=0) for k, v in parts.items() if v is not None}
-
-    def signals(self, start: int, stop: int, means: dict | None) -> Signals:
-        parts = self._processed(start, stop)
-        cut = {k: (None if v is None else v - (means[k] if means else 0.0)) for k, v in parts.items()}
-        return Signals(
-            force=cut["force"], displacement=cut["displacement"], velocity=cut["velocity"],
-            fs=self.fs / self.data.decimate,
-            input_dofs=tuple(self.data.inputs.values()), output_dofs=tuple(self.data.outputs.values()),
-            input_names=tuple(self.data.inputs), output_names=tuple(self.data.outputs),
-        )
-
-    def _processed(self, start: int, stop: int) -> dict[str, np.ndarray | None]:
-        """Window [start, stop) of the file, integrated and decimated as [data] asks (cached)."""
-        key = (start, stop)
-        if key in self._cache:
-            return self._cache[key]
-        self._check_finite(start, stop)
-        force = self.force[start:stop]
-        spec = self.integrate
-        try:
-            if spec is not None:
-                options = {"taper": spec.taper, "filter_order": spec.filter_order}
-                velocity, displacement = preprocess.integrate_acceleration(
-                    self.acceleration[start:stop], self.fs, spec.band_hz, spec.method,
-                    detrend_order=spec.detrend_order, **options,
-                )
-                if spec.filter_inputs:
-                    force = preprocess.band_filter(force, self.fs, spec.band_hz, spec.method, **options)
-            else:
-                displacement = self.displacement[start:stop]
-                velocity = None if self.velocity is None else self.velocity[start:stop]
-            parts = {"force": force, "displacement": displacement, "velocity": velocity}
-            if self.data.decimate > 1:
-                parts = {k: None if v is None else preprocess.decimate(v, self.data.decimate) for k, v in parts.items()}
-        except InputDataError as exc:
-            raise InputDataError(f"{self.path}: samples [{start}, {stop}): {exc}") from exc
-        self._cache[key] = parts
-        return parts
-
-    def _check_finite(self, start: int, stop: int) -> None:
-        groups = [(self.data.inputs, self.force)]
-        if self.integrate is not None:
-            groups.append((self.data.accelerations, self.acceleration))
-        else:
-            groups.append((self.data.outputs, self.displacement))
-            if self.velocity is not None:
-                by_dof = {dof: column for column, dof in self.data.velocities.items()}
-                groups.append(({by_dof[d]: d for d in self.data.outputs.values()}, self.velocity))
-        for names, values in groups:
-            bad = ~np.isfinite(values[start:stop])
-            if bad.any():
-                row, col = np.argwhere(bad)[0]
-                raise InputDataError(
-                    f"{self.path}: column {list(names)[col]!r} has {int(bad.sum())} missing or non-finite value(s) "
-                    f"in samples [{start}, {stop}), the first at sample {start + row}"
-                    f"{self.table.locate(start + row)}; fill or remove them, or choose a window that excludes them"
-                )
-
-
-def _read_any(path: Path, columns: list[str], roles: Mapping[str, str], time_column: str,
-              present: Mapping[str, str]) -> MeasurementColumns:
-    """Read ``columns`` of any supported file; check that the ``present`` ones exist."""
-    kind = file_format(path)
-    if not path.is_file():
-        raise InputDataError(f"data file {path} not found; check the name and folder")
-    if kind == "csv":
-        return _read_csv_any(path, columns, time_column, present)
-    from ._formats import read_matlike, read_uff  # binary formats; they reuse this module's helpers
-
-    if kind == "uff":
-        return read_uff(path, columns, roles, present)
-    return read_matlike(path, columns, time_column, present)
-
-
-def _read_csv_any(path: Path, columns: list[str], time: str, present: Mapping[str, str]) -> MeasurementColumns:
-    header = _read_head(path)[0]
-    use_time = time in header and time not in columns and time not in present
-    missing = [c for c in present if c not in header]
-    if missing:
-        raise InputDataError(
-            f"{path}: acceleration column(s) {missing} not found; available columns: {', '.join(header)}"
-        )
-    table = read_csv_columns(path, list(columns) + ([time] if use_time else []))
-    fs = None
-    if use_time:
-        fs = _sampling_frequency(table.values[time], f"{path}: time column {time!r}", table.locate, None)
-    values = {c: table.values[c] for c in columns}
-    return MeasurementColumns(
-        path=path, format="csv", names=table.names, values=values, units=table.units, fs=fs,
-        fs_source=f"time column {time!r}" if use_time else "", fs_tolerance=1e-3, first_line=table.first_line,
-        hint=f"set fs in [data], or name the time column with [data] time_column (columns: {', '.join(header)})",
-    )
-
-
-def _resolve_fs(table: MeasurementColumns, data: DataSpec) -> float:
-    if table.fs is None:
-        if data.fs is None:
-            raise InputDataError(f"{table.path}: no sampling frequency - [data] fs is not set and {table.hint}")
-        return data.fs
-    if data.fs is not None and abs(table.fs - data.fs) > table.fs_tolerance * data.fs:
-        fix = "correct fs, or drop it to use the " + ("time column" if table.format == "csv" else table.fs_source)
-        raise InputDataError(
-            f"{table.path}: {table.fs_source} gives fs = {table.fs:.9g} Hz but [data] fs = {data.fs:g} Hz; {fix}"
-        )
-    return data.fs if data.fs is not None else table.fs
-
-
-def _check_units(table: MeasurementColumns, roles: Mapping[str, str]) -> None:
-    """Channels of one response kind must share a unit where the file states units."""
-    by_role: dict[str, dict[str, str]] = {}
-    for name, role in roles.items():
-        unit = table.units.get(name, "").strip()
-        if unit and role != "input":
-            by_role.setdefault(role, {})[name] = unit
-    for role, units in by_role.items():
-        if len(set(units.values())) > 1:
-            raise InputDataError(
-                f"{table.path}: the {role} channels are in different units ({units}); one model needs one unit "
-                "per quantity - convert them to a common unit before loading"
-            )
-
-
-def _sampling_frequency(t: np.ndarray, where: str, locate, fs: float | None, slack: float = 0.0) -> float:
-    """fs from uniformly spaced time stamps [s] (``slack``: extra absolute tolerance [s])."""
-    if not np.all(np.isfinite(t)):
-        row = int(np.argmax(~np.isfinite(t)))
-        raise InputDataError(f"{where} has a missing value at sample {row}{locate(row)}; fill it or set [data] fs")
-    if len(t) < 2:
-        raise InputDataError(f"{where}: need at least two samples to derive fs")
-    dt = (t[-1] - t[0]) / (len(t) - 1)
-    deviation = np.abs(t - (t[0] + dt * np.arange(len(t))))
-    tolerance = TIME_TOLERANCE * abs(dt) + slack
-    if not dt > 0 or np.any(np.diff(t) <= 0) or deviation.max() > tolerance:
-        row = int(np.argmax(deviation)) if dt > 0 else 0
-        raise InputDataError(
-            f"{where} is not uniformly sampled: expected increasing time stamps within {TIME_TOLERANCE:g} of a "
-            f"sample interval ({dt:.6g} s) of a uniform grid, found a deviation of {deviation.max():.3g} s at sample "
-            f"{row}{locate(row)}; resample the record to a uniform rate"
-        )
-    derived = 1.0 / dt
-    if fs is not None and abs(derived - fs) > 1e-3 * fs:
-        raise InputDataError(
-            f"{where} gives fs = {derived:.9g} Hz but [data] fs = {fs:g} Hz; correct fs, or drop it to use the time column"
-        )
-    return fs if fs is not None else derived
-
-
-def _stack(table, columns) -> np.ndarray:
-    return np.column_stack([table.values[c] for c in columns])
-
-
-def _missing_message(path: Path, what: str, missing, available, hint: str) -> InputDataError:
-    shown = ", ".join(map(repr, available)) if available else "none"
-    return InputDataError(f"{path}: {what} {missing} not found; available: {shown}. {hint}")
-
-
-def _check_lengths(path: Path, values: Mapping[str, np.ndarray], what: str) -> None:
-    lengths = {name: len(v) for name, v in values.items()}
-    if len(set(lengths.values())) > 1:
-        raise InputDataError(
-            f"{path}: the {what} have different lengths {lengths}; all channels must be sampled together - "
-            "store them with the same number of samples"
-        )
-
-
-def _read_head(path: Path) -> tuple[list[str], list[str] | None]:
-    """Header names (trailing empty ones dropped) and the first data row, via the csv module."""
-    if not path.is_file():
-        raise InputDataError(f"data file {path} not found; check the name and folder")
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            reader = csv.reader(fh, skipinitialspace=True)
-            header = [h.strip() for h in next(reader, [])]
-            first_row = next(reader, None)
-    except (UnicodeDecodeError, csv.Error) as exc:
-        raise InputDataError(f"{path}: cannot read it as UTF-8 CSV text ({exc}); save it as comma-separated UTF-8") from exc
-    while header and header[-1] == "":
-        header.pop()
-    if not header or all(_is_number(h) for h in header if h):
-        raise InputDataError(
-            f"{path}: the first line must be a header naming the columns, found {header[:6]}; add a header line"
-        )
-    named = [h for h in header if h]
-    duplicated = sorted({h for h in named if named.count(h) > 1})
-    if duplicated:
-        raise InputDataError(f"{path}: column name(s) {duplicated} appear more than once in the header; rename them")
-    if first_row is None:
-        raise InputDataError(f"{path}: the file has a header but no data rows")
-    return header, first_row
-
-
-def _units(header: list[str], first_row: list[str]) -> dict[str, str]:
-    cells = [c.strip() for c in first_row[: len(header)]]
-    if not any(cells) or any(_is_number(c) for c in cells if c):
-        return {}
-    cells += [""] * (len(header) - len(cells))
-    return {name: cell for name, cell in zip(header, cells) if name}
-
-
-def _read_frame(path: Path, positions: list[int], skip: int) -> pd.DataFrame:
-    try:
-        return pd.read_csv(
-            path, header=None, skiprows=skip, usecols=positions, index_col=False, skipinitialspace=True,
-            encoding="utf-8-sig",
-        )
-    except (ValueError, pd.errors.ParserError) as exc:  # UnicodeDecodeError is a ValueError
-        raise InputDataError(
-            f"{path}: cannot parse the data rows ({exc}); the file must be comma-separated UTF-8 text "
-            "with one field per header column on every row"
-        ) from exc
-
-
-def _numeric(series: pd.Series, name: str, path: Path, first_line: int) -> np.ndarray:
-    if series.dtype.kind in "fiu":
-        return series.to_numpy(dtype=float)
-    coerced = pd.to_numeric(series, errors="coerce")
-    bad = (coerced.isna() & series.notna()).to_numpy()
-    if bad.any():
-        row = int(np.argmax(bad))
-        raise InputDataError(
-            f"{path}: column {name!r}, line {first_line + row} (sample {row}): {series.iloc[row]!r} is not a number; "
-            "fix the cell, or remove the row (and keep the time column uniform)"
-        )
-    return coerced.to_numpy(dtype=float)
-
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 # ---------------------------------------------------------------------------------------------

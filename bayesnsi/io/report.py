@@ -54,7 +54,7 @@ class Report:
     def to_html(self) -> str:
         """The whole document."""
         parts = [
-            "<!DOCTYPE html><html><head><meta charset='utf-8'>",
+            "<!DOCTYPE html><html><head><meta charset='utf-8'><meta name='generator' content='bayesnsi'>",
             f"<title>{html.escape(self.title)}</title><style>{_STYLE}</style></head><body>",
             f"<h1>{html.escape(self.title)}</h1>",
         ]

@@ -37,10 +37,20 @@ __all__ = [
     "to_jsonable",
     "versions",
     "prepare_output_dir",
+    "output_folder",
 ]
 
 RESULTS_FILENAME = "results.json"
 """Name of the results file that ``bayesnsi select`` and ``bayesnsi diagnose`` write."""
+
+_OUTPUT_FILENAMES = (RESULTS_FILENAME, "report.html")
+"""Files whose presence marks a folder as holding the outputs of an earlier run."""
+
+_REPORT_MARK = b"<meta name='generator' content='bayesnsi'>"
+"""Marks a report written by bayesnsi (:class:`bayesnsi.io.report.Report`), in its first bytes."""
+
+_CACHE_DIRNAME = ".cache"
+"""Folder of the candidate cache (:data:`bayesnsi.io.cache.CACHE_DIRNAME`, which imports this module)."""
 
 _OPTIONAL_PACKAGES = (
     "pandas",
@@ -212,14 +222,15 @@ def versions() -> dict[str, str]:
 
 
 def prepare_output_dir(path: str | os.PathLike, force: bool = False) -> Path:
-    """Create an output directory, refusing to overwrite earlier results unless forced.
+    """Create an output directory, refusing to overwrite earlier outputs unless forced.
 
     Parameters
     ----------
     path : str or path-like
         Directory to create (with its parents).
     force : bool
-        When True an existing ``results.json`` may be overwritten later; nothing is deleted here.
+        When True existing outputs (``results.json``, ``report.html``) may be overwritten later;
+        nothing is deleted here.
 
     Returns
     -------
@@ -229,22 +240,113 @@ def prepare_output_dir(path: str | os.PathLike, force: bool = False) -> Path:
     Raises
     ------
     OutputExistsError
-        If ``path`` is a file, or a directory that already holds ``results.json`` and
-        ``force`` is False.
+        If ``path`` (or one of its parents, or ``path/.cache``) is a file, or ``path`` already
+        holds ``results.json`` or ``report.html`` and ``force`` is False. A ``report.html``
+        written by bayesnsi without a ``results.json`` beside it (a run that failed before its
+        last file, which is ``results.json``) does not count: such a folder is resumed.
+    ConfigError
+        If ``path`` starts with ``~user`` for a user that does not exist.
     """
+    folder = _resolve_output(path)
+    _check_outputs(folder, force)
+    _make_folder(folder)
+    return folder
+
+
+@contextlib.contextmanager
+def output_folder(
+    path: str | os.PathLike, force: bool = False, *, config: str | os.PathLike | None = None
+) -> Iterator[Path]:
+    """Create and lock an output directory for one run; refuse earlier outputs unless forced.
+
+    Does what :func:`prepare_output_dir` does while holding an exclusive lock on the folder
+    (``DIR/.bayesnsi.lock``, see :func:`bayesnsi.io._lock.folder_lock`), so two runs started at
+    once into the same folder cannot both write it: the second stops with one line. The check
+    for earlier outputs is made under the lock. A lock left by a killed run is taken over.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Directory to create (with its parents).
+    force : bool
+        When True existing outputs may be overwritten.
+    config : str or path-like, optional
+        The run's config, recorded in the lock file for the message a second run prints.
+
+    Yields
+    ------
+    Path
+        The directory, absolute; the lock is released when the block ends (also on error).
+
+    Raises
+    ------
+    OutputExistsError
+        As :func:`prepare_output_dir`, or when another live bayesnsi run holds the folder.
+    OSError
+        If the folder or its lock cannot be written (read-only file system, full disk).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> with output_folder(pathlib.Path(tempfile.mkdtemp()) / "run") as out:
+    ...     _ = atomic_write_text(out / "note.txt", "done")
+    """
+    from ._lock import folder_lock
+
+    folder = _resolve_output(path)
+    _make_folder(folder)
+    with folder_lock(folder, config):
+        _check_outputs(folder, force)
+        yield folder
+
+
+def _resolve_output(path: str | os.PathLike) -> Path:
     try:
         folder = Path(path).expanduser().resolve()
     except RuntimeError as exc:  # "~user" that names no user
         raise ConfigError(f"output path {str(path)!r}: {exc}; write the path without '~'") from exc
-    if folder.exists() and not folder.is_dir():
-        raise OutputExistsError(f"output path {folder} exists and is a file, not a directory; choose another --out")
-    if (folder / RESULTS_FILENAME).exists() and not force:
-        raise OutputExistsError(
-            f"output directory {folder} already holds {RESULTS_FILENAME} from an earlier run; "
-            "pass --force to overwrite it, or choose another directory with --out"
-        )
-    folder.mkdir(parents=True, exist_ok=True)
+    for part in (folder, *folder.parents):
+        if part.exists() and not part.is_dir():
+            raise OutputExistsError(f"output path {part} exists and is a file, not a directory; choose another --out")
     return folder
+
+
+def _check_outputs(folder: Path, force: bool) -> None:
+    cache = folder / _CACHE_DIRNAME
+    if cache.exists() and not cache.is_dir():
+        raise OutputExistsError(
+            f"{cache} is a file, but bayesnsi keeps its candidate cache in a folder of that name; "
+            "move the file away or choose another --out"
+        )
+    if force:
+        return
+    for name in _OUTPUT_FILENAMES:
+        if (folder / name).exists() and not _resumable(folder, name):
+            raise OutputExistsError(
+                f"output directory {folder} already holds {name}; pass --force to overwrite it, "
+                "or choose another directory with --out"
+            )
+
+
+def _resumable(folder: Path, name: str) -> bool:
+    """True for a bayesnsi report without results.json: a run that failed before its last file."""
+    if name != "report.html" or (folder / RESULTS_FILENAME).exists():
+        return False
+    try:
+        with open(folder / name, "rb") as fh:
+            head = fh.read(512)
+    except OSError:
+        return False
+    return _REPORT_MARK in head
+
+
+def _make_folder(folder: Path) -> None:
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError) as exc:
+        raise OutputExistsError(
+            f"cannot create output directory {folder}: {exc.strerror}; choose another --out"
+        ) from exc
 
 
 def _convert(obj: Any, where: str) -> Any:

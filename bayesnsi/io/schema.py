@@ -1,46 +1,82 @@
-"""results.json records (SPEC section 9): plain dicts built from result objects.
+"""results.json records (SPEC section 9): plain dicts built from the library's result objects.
 
-Field names listed in SPEC 9 are stable; further fields are additions.
+Field names listed in SPEC 9 are stable; further fields are additions. Every record of a run is
+assembled here, from a :class:`bayesnsi.selection.Selection` or a list of
+:class:`bayesnsi.run.CandidateOutcome`, so the commands and workflows write the same shape.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
-from ..models import CandidateModel, Term
+from ..models import Term
+from .results import to_jsonable, versions
 
-__all__ = ["term_record", "candidate_record", "failed_candidate_record"]
+__all__ = ["term_record", "candidate_record", "identification_payload", "selection_payload"]
 
 
 def term_record(term: Term) -> dict[str, Any]:
-    """``{expr, at}`` of a term, ``at`` an int or a pair as in the config."""
-    return {"expr": term.expr.text, "at": term.at_value}
-
-
-def candidate_record(result, reconstruction=None, closed_loop=None) -> dict[str, Any]:
-    """Record of one identified candidate.
+    """``{expr, at}`` of a term, ``at`` an int or a pair as in the config.
 
     Parameters
     ----------
-    result : NSIResult
-    reconstruction : Reconstruction, optional
-        Open-loop reconstruction of the estimation data (gives ``nrmse``).
-    closed_loop : Reconstruction, optional
-        Closed-loop simulation of the estimation data (gives ``nrmse_closed_loop``).
+    term : Term
+
+    Returns
+    -------
+    dict
     """
+    return {"expr": term.expr.text, "at": term.at_value}
+
+
+def candidate_record(outcome, row=None, likelihood: str | None = None) -> dict[str, Any]:
+    """Record of one candidate: identification, errors and, with a ranking row, its evidence.
+
+    Parameters
+    ----------
+    outcome : CandidateOutcome
+        What the candidate gave (:func:`bayesnsi.run.run_candidates`).
+    row : pandas.Series, optional
+        Its row of the ranking table (:attr:`bayesnsi.selection.Selection.table`).
+    likelihood : str, optional
+        The likelihood whose evidence selects (``EvidenceOptions.likelihood``).
+
+    Returns
+    -------
+    dict
+        ``status`` is ``ok``, ``failed`` (no model: ``error``) or ``evidence_failed`` (a model but
+        no evidence: ``error``); an internal error adds ``internal_error`` and ``traceback``.
+    """
+    candidate, result = outcome.candidate, outcome.result
     record: dict[str, Any] = {
-        "name": result.candidate.name,
-        "status": "ok",
-        "prior": result.candidate.prior,
+        "name": candidate.name,
+        "status": outcome.status,
+        "prior": candidate.prior,
+        "terms": [term_record(t) for t in candidate.terms],
+        "coefficients": [],
+        "modes": [],
+        "nrmse": outcome.nrmse,
+    }
+    if outcome.error is not None:
+        prefix = {"evidence": "evidence: ", "internal": "internal error: "}.get(outcome.failed_stage, "")
+        record["error"] = prefix + outcome.error
+    if outcome.failed_stage == "internal":
+        record.update(internal_error=True, traceback=outcome.traceback)
+    if result is not None:
+        record.update(_identification(result))
+        record["nrmse_per_channel"] = list(outcome.nrmse_per_channel)
+    if row is not None:
+        record.update(_evidence(outcome, row, likelihood))
+    record.update(warnings=list(outcome.warnings), seconds=outcome.seconds, cached=outcome.cached)
+    return record
+
+
+def _identification(result) -> dict[str, Any]:
+    return {
         "terms": [term_record(t) for t in result.terms],
         "coefficients": [
-            {
-                **term_record(c.term),
-                "value": c.value,
-                "imag_ratio": c.imag_ratio,
-                "spread": c.spread,
-                "ci95": None,
-            }
+            {**term_record(c.term), "value": c.value, "imag_ratio": c.imag_ratio, "spread": c.spread, "ci95": None}
             for c in result.coefficients
         ],
         "modes": [{"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio} for m in result.modes],
@@ -50,23 +86,127 @@ def candidate_record(result, reconstruction=None, closed_loop=None) -> dict[str,
         "band_hz": list(result.band_hz),
         "singular_values": [float(s) for s in result.singular_values[: 2 * result.order + 10]],
     }
-    if reconstruction is not None:
-        record["nrmse"] = reconstruction.nrmse
-        record["nrmse_per_channel"] = list(reconstruction.nrmse_per_channel)
-    if closed_loop is not None:
-        record["nrmse_closed_loop"] = closed_loop.nrmse
-    return record
 
 
-def failed_candidate_record(candidate: CandidateModel, error: BaseException) -> dict[str, Any]:
-    """Record of a candidate whose identification failed, with the reason."""
-    return {
-        "name": candidate.name,
-        "status": "failed",
-        "error": f"{type(error).__name__}: {error}",
-        "prior": candidate.prior,
-        "terms": [term_record(t) for t in candidate.terms],
-        "coefficients": [],
-        "modes": [],
-        "nrmse": None,
+def _evidence(outcome, row, likelihood) -> dict[str, Any]:
+    out: dict[str, Any] = {
+        "log_likelihood_gaussian": _finite(row["log_likelihood_plain"]),
+        "posterior_gaussian": float(row["p_plain"]),
     }
+    evidences = outcome.evidences
+    if evidences is None:
+        out.update(log_evidence=None, log_evidence_se=None, posterior=0.0, rhat_max=None, ess_min=None)
+        return out
+    primary = evidences[likelihood]
+    out.update(
+        log_evidence=primary.log_evidence,
+        log_evidence_se=primary.log_evidence_se,
+        log_evidence_laplace=primary.laplace_log_evidence,
+        log_evidence_closed_form=primary.closed_form_log_evidence,
+        posterior=float(row[f"p_{likelihood}"]),
+        posterior_sd=float(row[f"p_{likelihood}_sd"]),
+        rhat_max=primary.rhat_max,
+        ess_min=primary.ess_min,
+        likelihood=likelihood,
+        evidence_by_likelihood={
+            name: {
+                "log_evidence": e.log_evidence,
+                "log_evidence_se": e.log_evidence_se,
+                "posterior": float(row[f"p_{name}"]),
+            }
+            for name, e in evidences.items()
+        },
+    )
+    if outcome.result is not None:
+        out["coefficients"] = [
+            {**coefficient, "ci95": [float(ci[0]), float(ci[1])]}
+            for coefficient, ci in zip(_identification(outcome.result)["coefficients"], primary.ci95)
+        ]
+    return out
+
+
+def identification_payload(outcomes, command: str, config) -> dict[str, Any]:
+    """results.json of a run without evidence (``bayesnsi identify``).
+
+    Parameters
+    ----------
+    outcomes : sequence of CandidateOutcome
+        One per candidate.
+    command : str
+        The command that ran.
+    config : ExperimentConfig
+        The config it ran (its path, raw tables and settings are recorded).
+
+    Returns
+    -------
+    dict
+        JSON-ready.
+    """
+    payload = {
+        "command": command,
+        "config": str(config.path),
+        "selected": None,
+        "candidates": [candidate_record(o) for o in outcomes],
+        "settings": _settings(config, evidence=None),
+        "versions": versions(),
+    }
+    return to_jsonable(payload)
+
+
+def selection_payload(selection, command: str, config, **extra) -> dict[str, Any]:
+    """results.json of a selection (``bayesnsi select``, ``demo``, ``diagnose``).
+
+    Parameters
+    ----------
+    selection : Selection
+        What :func:`bayesnsi.selection.select` returned.
+    command : str
+        The command that ran.
+    config : ExperimentConfig
+        The config it ran.
+    **extra
+        Further top-level fields (e.g. the loop of ``diagnose``).
+
+    Returns
+    -------
+    dict
+        JSON-ready: ``selected`` (marginal evidence), ``selected_gaussian`` (plain likelihood),
+        ``candidates`` with evidence and validation, ``ranking``, ``settings``, ``versions``.
+    """
+    likelihood = selection.likelihood
+    records = []
+    for outcome in selection.outcomes:
+        row = None if selection.table is None else selection.table.loc[outcome.name]
+        record = candidate_record(outcome, row, likelihood)
+        if outcome.name in selection.validation:
+            record["validation"] = [e.to_dict() for e in selection.validation[outcome.name]]
+        if outcome.name in selection.adequacy:
+            record["adequacy"] = selection.adequacy[outcome.name].to_dict()
+        records.append(record)
+    selected = selection.selected
+    payload = {
+        "command": command,
+        "config": str(config.path),
+        "selected": selected,
+        "selected_gaussian": selection.selected_gaussian,
+        "likelihood": likelihood,
+        "candidates": records,
+        "validation": [e.to_dict() for e in selection.validation.get(selected, ())] if selected else [],
+        "ranking": [] if selection.table is None else selection.table.reset_index().to_dict(orient="records"),
+        "settings": _settings(config, selection.evidence),
+        "versions": versions(),
+        **extra,
+    }
+    return to_jsonable(payload)
+
+
+def _settings(config, evidence) -> dict[str, Any]:
+    settings = {"config": config.raw, "seed": config.seed, "nsi": config.nsi.to_dict()}
+    if evidence is not None:
+        settings["evidence"] = evidence.to_dict()
+    return settings
+
+
+def _finite(value):
+    value = float(value)
+    return value if math.isfinite(value) else None

@@ -1,6 +1,6 @@
 """Candidate nonlinear terms and models: the lowest layer (numpy only)."""
 
-from .dictionary import EFFECT_TYPES, clearance_expression, default_gaps, effect_dictionary
+from .dictionary import EFFECT_TYPES, Effect, clearance_expression, default_gaps, effect_dictionary
 from .expressions import Expression, parse_expression
 from .terms import CandidateModel, Term, nonlinear_force
 
@@ -11,6 +11,7 @@ __all__ = [
     "CandidateModel",
     "nonlinear_force",
     "EFFECT_TYPES",
+    "Effect",
     "effect_dictionary",
     "clearance_expression",
     "default_gaps",

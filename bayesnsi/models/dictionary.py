@@ -3,18 +3,20 @@
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
+from ..exceptions import ConfigError
 from .terms import Term
 
 __all__ = [
+    "CLEARANCE",
     "EFFECT_TYPES",
+    "Effect",
     "clearance_effect",
     "clearance_expression",
-    "clearance_gap",
     "default_gaps",
-    "effect_base_type",
     "effect_dictionary",
 ]
 
@@ -29,9 +31,25 @@ EFFECT_TYPES: dict[str, str] = {
 }
 """Effect types: name -> expression template in the displacement ``{x}`` and velocity ``{v}``."""
 
+CLEARANCE = "clearance"
+"""Type of a clearance (dead-zone) spring, whose gap is a parameter (:func:`clearance_effect`)."""
+
 
 def clearance_expression(x: str, gap: float) -> str:
-    """Clearance (dead-zone) spring ``max(0, |x| - g)·sign(x)`` written in the term grammar."""
+    """Clearance (dead-zone) spring ``max(0, |x| - g)·sign(x)`` written in the term grammar.
+
+    Parameters
+    ----------
+    x : str
+        The displacement it acts on, e.g. ``"x1"`` or ``"(x1-x2)"``.
+    gap : float
+        Half-width g of the dead zone [m], written with 6 significant digits.
+
+    Returns
+    -------
+    str
+        The expression text, for :func:`bayesnsi.models.parse_expression`.
+    """
     g = f"{gap:.6g}"
     return f"(abs({x})-{g})*(sign(abs({x})-{g})+1)/2*sign({x})"
 
@@ -42,31 +60,64 @@ def _location_symbols(at: tuple[int, ...]) -> tuple[str, str]:
     return f"x{at[0]}", f"v{at[0]}"
 
 
-def clearance_effect(at, gap: float) -> tuple[str, Term]:
-    """A clearance effect ``("clearance g=<gap>", Term)`` at DOF ``k`` or across a pair ``(j, k)``.
+@dataclass(frozen=True)
+class Effect:
+    """One effect of the dictionary: a type, a location (in its term) and the type's parameters.
+
+    Attributes
+    ----------
+    base : str
+        Key of :data:`EFFECT_TYPES`, or ``"clearance"``.
+    term : Term
+        The effect's basis function with its location.
+    gap : float or None
+        Gap g [m] of a clearance (6 significant digits, as written in its term); None otherwise.
+    """
+
+    base: str
+    term: Term
+    gap: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.base != CLEARANCE and self.base not in EFFECT_TYPES:
+            raise ConfigError(f"effect type {self.base!r} unknown; choose from {list(EFFECT_TYPES) + [CLEARANCE]}")
+        if (self.base == CLEARANCE) != (self.gap is not None):
+            raise ConfigError(
+                f"a gap is given with, and only with, a clearance effect; got {self.base!r}, gap {self.gap!r}"
+            )
+
+    @property
+    def location(self) -> tuple[int, ...]:
+        """``(k,)`` or ``(j, k)``: where the effect acts."""
+        return tuple(self.term.at)
+
+    @property
+    def name(self) -> str:
+        """The type with its parameter, e.g. ``"x^3"`` or ``"clearance g=0.015"``."""
+        return f"{CLEARANCE} g={self.gap:.6g}" if self.gap is not None else self.base
+
+    def __str__(self) -> str:
+        return f"{self.name} {self.term.name}"
+
+
+def clearance_effect(at, gap: float) -> Effect:
+    """A clearance effect at DOF ``k`` or across a pair ``(j, k)``.
 
     Parameters
     ----------
     at : int or (int, int)
         Location (SPEC 1: grounded at DOF k, or an element between j and k acting on x_j - x_k).
     gap : float
-        Gap g [m] of ``max(0, |x| - g)·sign(x)`` (SPEC 7, step 2).
+        Gap g [m] of ``max(0, |x| - g)·sign(x)`` (SPEC 7, step 2), kept to 6 significant digits.
+
+    Returns
+    -------
+    Effect
     """
     at = (int(at),) if np.ndim(at) == 0 else tuple(int(a) for a in at)
     x, _ = _location_symbols(at)
-    return f"clearance g={gap:.6g}", Term(clearance_expression(x, gap), at if len(at) == 2 else at[0])
-
-
-def clearance_gap(effect_type: str) -> float | None:
-    """The gap of a ``"clearance g=..."`` effect type, None for any other type."""
-    if not effect_type.startswith("clearance g="):
-        return None
-    return float(effect_type.split("=", 1)[1])
-
-
-def effect_base_type(effect_type: str) -> str:
-    """The type without its parameter: ``"clearance g=0.01"`` -> ``"clearance"``."""
-    return "clearance" if effect_type.startswith("clearance") else effect_type
+    gap = float(f"{gap:.6g}")
+    return Effect(CLEARANCE, Term(clearance_expression(x, gap), at if len(at) == 2 else at[0]), gap)
 
 
 def effect_dictionary(
@@ -74,7 +125,7 @@ def effect_dictionary(
     types: Iterable[str] = tuple(EFFECT_TYPES),
     gaps: dict[tuple[int, ...], Sequence[float]] | None = None,
     pairs: Sequence[tuple[int, int]] | None = None,
-) -> list[tuple[str, Term]]:
+) -> list[Effect]:
     """Effects at each measured DOF and between neighbouring measured DOFs (SPEC 7).
 
     Parameters
@@ -90,9 +141,18 @@ def effect_dictionary(
 
     Returns
     -------
-    list of (effect type, Term)
-        Clearances are typed ``"clearance g=<gap>"`` (:func:`clearance_gap` reads the gap back).
+    list of Effect
+        Per location, the ``types`` in order, then its clearances.
+
+    Raises
+    ------
+    ConfigError
+        For a type that is not a key of :data:`EFFECT_TYPES`.
     """
+    types = tuple(types)
+    unknown = [name for name in types if name not in EFFECT_TYPES]
+    if unknown:
+        raise ConfigError(f"unknown effect type(s) {unknown}; choose from {list(EFFECT_TYPES)}")
     dofs = sorted(set(int(d) for d in measured_dofs))
     if pairs is None:
         pairs = [(j, j + 1) for j in dofs if j + 1 in dofs]
@@ -101,12 +161,25 @@ def effect_dictionary(
     for at in locations:
         x, v = _location_symbols(at)
         for name in types:
-            out.append((name, Term(EFFECT_TYPES[name].format(x=x, v=v), at if len(at) == 2 else at[0])))
+            out.append(Effect(name, Term(EFFECT_TYPES[name].format(x=x, v=v), at if len(at) == 2 else at[0])))
         for gap in (gaps or {}).get(at, ()):
             out.append(clearance_effect(at, float(gap)))
     return out
 
 
 def default_gaps(displacement_std: float, fractions=(0.5, 1.0, 1.5)) -> np.ndarray:
-    """A gap grid as fractions of the displacement standard deviation at a location."""
+    """A gap grid as fractions of the displacement standard deviation at a location.
+
+    Parameters
+    ----------
+    displacement_std : float
+        Standard deviation of the displacement at the location [m].
+    fractions : sequence of float
+        The gaps as fractions of ``displacement_std``.
+
+    Returns
+    -------
+    numpy.ndarray
+        The gaps [m], one per fraction.
+    """
     return np.asarray(fractions) * displacement_std

@@ -18,8 +18,8 @@ into a closure over numpy functions.
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
@@ -58,7 +58,7 @@ _HELP = (
 class _Node:
     kind: str  # "num", "x", "v", "neg", "bin", "func"
     value: float | int | str = 0
-    args: tuple["_Node", ...] = ()
+    args: tuple[_Node, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -170,7 +170,8 @@ def parse_expression(text: str) -> Expression:
         raise ExpressionError(f"empty term expression; {_HELP}")
     parser = _Parser(text)
     tree = parser.parse()
-    xs, vs = set(), set()
+    xs: set[int] = set()
+    vs: set[int] = set()
     _collect(tree, xs, vs)
     if not xs and not vs:
         raise ExpressionError(f"expression {text!r} reads no displacement or velocity; {_HELP}")
@@ -330,7 +331,8 @@ def _collect(node: _Node, xs: set, vs: set) -> None:
 
 def _sign_of_velocity(node: _Node) -> bool:
     if node.kind == "func" and node.value == "sign":
-        xs, vs = set(), set()
+        xs: set[int] = set()
+        vs: set[int] = set()
         _collect(node.args[0], xs, vs)
         if vs:
             return True
@@ -347,9 +349,9 @@ def _render(node: _Node) -> str:
     if node.kind == "func":
         return f"{node.value}({_render(node.args[0])})"
     left, right = (_render(a) for a in node.args)
-    if node.args[0].kind == "bin" and node.value in "*/**":
+    if node.args[0].kind == "bin" and str(node.value) in "*/**":
         left = f"({left})"
-    if node.args[1].kind == "bin" or (node.value in "-/" and node.args[1].kind == "neg"):
+    if node.args[1].kind == "bin" or (str(node.value) in "-/" and node.args[1].kind == "neg"):
         right = f"({right})"
     return f"{left}{node.value}{right}"
 
@@ -368,16 +370,16 @@ def _compile(node: _Node) -> Callable:
         c = float(node.value)
         return lambda x, v: c
     if kind == "x":
-        k = node.value - 1
+        k = int(node.value) - 1
         return lambda x, v: x[k]
     if kind == "v":
-        k = node.value - 1
+        k = int(node.value) - 1
         return lambda x, v: v[k]
     if kind == "neg":
         f = _compile(node.args[0])
         return lambda x, v: -f(x, v)
     if kind == "func":
-        fn, f = _FUNCTIONS[node.value], _compile(node.args[0])
+        fn, f = _FUNCTIONS[str(node.value)], _compile(node.args[0])
         return lambda x, v: fn(f(x, v))
     f, g = (_compile(a) for a in node.args)
     if node.value == "**":
@@ -386,5 +388,5 @@ def _compile(node: _Node) -> Callable:
             ip = int(p)
             return lambda x, v: np.asarray(f(x, v), dtype=float) ** ip
         return lambda x, v: np.power(np.asarray(f(x, v), dtype=float), p)
-    op = _BINARY[node.value]
+    op = _BINARY[str(node.value)]
     return lambda x, v: op(f(x, v), g(x, v))

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import functools
+import itertools
+import unicodedata
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Iterable, Sequence
 
 import numpy as np
 
@@ -12,8 +15,14 @@ from .expressions import Expression, parse_expression
 
 __all__ = ["Term", "CandidateModel", "nonlinear_force"]
 
+_HIDDEN_CATEGORIES = ("Cc", "Cf", "Cs", "Zl", "Zp")  # control, format (bidi), surrogate, line/paragraph separators
+_PROBE_SEED = 20_251_124
+_PROBE_POINTS = 48
+_COLLINEAR_RTOL = 1e-9
+
 
 def _normalise_location(at) -> tuple[int, ...]:
+    loc: tuple[int, ...]
     if isinstance(at, (int, np.integer)) and not isinstance(at, bool):
         loc = (int(at),)
     elif isinstance(at, (list, tuple)) and len(at) in (1, 2) and all(
@@ -109,11 +118,23 @@ class CandidateModel:
         object.__setattr__(self, "terms", tuple(self.terms))
         if not isinstance(self.name, str) or not self.name.strip():
             raise ConfigError("every candidate needs a non-empty name")
+        hidden = next((c for c in self.name if unicodedata.category(c) in _HIDDEN_CATEGORIES), None)
+        if hidden is not None:
+            raise ConfigError(
+                f"candidate name {self.name!r} holds the control character U+{ord(hidden):04X}; "
+                "use printable characters only"
+            )
         if not all(isinstance(t, Term) for t in self.terms):
             raise ConfigError(f"candidate {self.name!r}: terms must be Term objects")
         names = [t.name for t in self.terms]
         if len(set(names)) != len(names):
             raise ConfigError(f"candidate {self.name!r} repeats a term: {names}")
+        pair = _collinear_pair(self.terms)
+        if pair is not None:
+            raise ConfigError(
+                f"candidate {self.name!r}: terms {pair[0].name} and {pair[1].name} are the same function up to a "
+                "constant factor at the same location, so their coefficients cannot be separated; keep one of them"
+            )
         if not (np.isfinite(self.prior) and self.prior > 0):
             raise ConfigError(f"candidate {self.name!r}: prior must be a positive number, got {self.prior!r}")
         scales = tuple(self.coefficient_prior_scales) or (None,) * len(self.terms)
@@ -122,7 +143,7 @@ class CandidateModel:
         object.__setattr__(self, "coefficient_prior_scales", scales)
 
     @classmethod
-    def from_terms(cls, name: str, terms: Iterable, prior: float = 1.0) -> "CandidateModel":
+    def from_terms(cls, name: str, terms: Iterable, prior: float = 1.0) -> CandidateModel:
         """Build from ``(expr, at)`` pairs or Term objects."""
         built = tuple(t if isinstance(t, Term) else Term(*t) for t in terms)
         return cls(name=name, terms=built, prior=prior)
@@ -132,7 +153,7 @@ class CandidateModel:
         """Number of nonlinear terms q."""
         return len(self.terms)
 
-    def with_term(self, term: Term, name: str | None = None) -> "CandidateModel":
+    def with_term(self, term: Term, name: str | None = None) -> CandidateModel:
         """A new candidate with one more term (used when closing the loop)."""
         return CandidateModel(
             name=name or f"{self.name} + {term.name}",
@@ -140,6 +161,49 @@ class CandidateModel:
             prior=self.prior,
             coefficient_prior_scales=self.coefficient_prior_scales + (None,),
         )
+
+
+def _collinear_pair(terms: Sequence[Term]) -> tuple[Term, Term] | None:
+    """Two terms with proportional forces (same location up to sign, proportional basis functions).
+
+    The basis functions are compared on a fixed random probe of displacements and velocities
+    whose magnitudes span 1e-6 to 1e3 with both signs, so terms that differ only for small or
+    only for large arguments are told apart; proportional means equal zeros and a constant
+    ratio elsewhere (relative tolerance 1e-9, rounding only).
+    """
+    groups: dict[tuple[int, ...], list[Term]] = {}
+    for term in terms:
+        groups.setdefault(tuple(sorted(term.at)), []).append(term)
+    for group in groups.values():
+        for a, b in itertools.combinations(group, 2):
+            if _proportional(_probe_values(a.expr), _probe_values(b.expr)):
+                return a, b
+    return None
+
+
+@functools.lru_cache(maxsize=4096)
+def _probe_values(expr: Expression) -> np.ndarray:
+    x = {dof - 1: _probe_state(dof, 0) for dof in expr.displacement_dofs}
+    v = {dof - 1: _probe_state(dof, 1) for dof in expr.velocity_dofs}
+    values = expr.evaluate(x, v)
+    values.flags.writeable = False
+    return values
+
+
+@functools.lru_cache(maxsize=1024)
+def _probe_state(dof: int, kind: int) -> np.ndarray:
+    rng = np.random.default_rng([_PROBE_SEED, dof, kind])
+    return rng.choice([-1.0, 1.0], _PROBE_POINTS) * 10.0 ** rng.uniform(-6.0, 3.0, _PROBE_POINTS)
+
+
+def _proportional(a: np.ndarray, b: np.ndarray) -> bool:
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        return False
+    nonzero = a != 0
+    if not nonzero.any() or np.any(nonzero != (b != 0)):
+        return False
+    ratio = a[nonzero] / b[nonzero]
+    return bool(np.all(np.abs(ratio - ratio[0]) <= _COLLINEAR_RTOL * np.abs(ratio[0])))
 
 
 def nonlinear_force(terms: Sequence[Term], coefficients, x, v, n_dofs: int) -> np.ndarray:

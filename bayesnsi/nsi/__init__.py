@@ -1,6 +1,8 @@
 """Nonlinear subspace identification (SPEC sections 2-5); numpy/scipy only."""
 
-from .identify import HankelCorrelations, NSIResult, extended_input, hankel_correlations, identify, select_order, stabilization
+from .feedback import extended_input
+from .identify import hankel_correlations, identify
+from .order import select_order, stabilization
 from .physics import CoefficientEstimate, Mode, coefficient_spectrum, split_poles
 from .reconstruct import (
     AffineReconstruction,
@@ -11,8 +13,8 @@ from .reconstruct import (
     predictor_reconstruction,
     reconstruct,
 )
+from .result import HankelCorrelations, NSIResult
 from .statespace import StateSpaceModel
-from .tables import coefficients_table, modes_table
 
 __all__ = [
     "identify",
@@ -34,6 +36,4 @@ __all__ = [
     "initial_state",
     "nrmse",
     "StateSpaceModel",
-    "modes_table",
-    "coefficients_table",
 ]

@@ -13,7 +13,7 @@ measurement noise of the same sample (a term reading x13 uses the noise of outpu
 output-error least squares of :mod:`._output_error` (K = 0) leaves that process noise, filtered
 by the structure, in its residual: it correlates with the noisy regressors and biases B, hence
 λ. When the structure is soft where the term acts (the beam, SPEC 8.2: ≈1.5 N/m at DOF 13),
-this propagated noise dominates the residual (56 % of x13's rms at 1 % noise).
+this propagated noise dominates the residual.
 
 Here B, D and x₀ minimise the one-step *prediction* error of the steady-state Kalman
 predictor ``x̂_{k+1} = A x̂_k + B u_k + K (y_k - C x̂_k - D u_k)`` with A, C (and K) fixed.
@@ -31,15 +31,11 @@ with B from the previous pass (start: output error), iterated. The noisy inputs 
 corrected to second order, ``u - ½ Σ_c ∂²u/∂z_c² σ_c²`` (for x², x³ this is the Hermite
 correction x² - σ², x³ - 3σ²x).
 
-Measured (``benchmarks/beam_bias.py``; beam, 1 % noise, i = 40, n = 32, seeds 0-7): k2, k3
-errors within 0.65 % (output error: up to 5.6 %); at i = 60 (seeds 0-4) within 0.84 % (output
-error: up to 16 %). Two-DOF α (20 seeds at 10 s, 10 at 100 s): mean and sd of the error change by
-≤ 0.05 %. Negative-stiffness twin (model 2, seeds 0-2): all coefficients within 2.1 % (output
-error, seed 0: within 2.2 %). Damping is not improved: it comes from A, i.e. from the
-subspace step, whose inputs are as noisy as before. With a refined A (``identify(refine_poles=...)``)
-C must be re-fitted too: :func:`refine_prediction_error_bc` (``identify(c_method="prediction-error")``)
-alternates this B step with C by least squares on the predictor's states (beam, seeds 0-7: k2, k3
-within 0.49 % with damping within 3.6 %).
+Damping is not improved by this step: it comes from A, i.e. from the subspace step, whose
+inputs are as noisy as before. With a refined A (``NSIOptions.refine_poles``) C must be re-fitted
+too: :func:`refine_prediction_error_bc` (``NSIOptions.c_method="prediction-error"``) alternates
+this B step with C by least squares on the predictor's states. Measurements on the reference
+cases: ``docs/measurements.md``, "NSI internals".
 """
 
 from __future__ import annotations
@@ -51,118 +47,11 @@ from scipy import linalg as _linalg
 
 from ..models import Term
 from ..signals import _DIFFERENTIATORS, Signals
+from ._noise import measured_noise_std
 from ._output_error import refine_output_error
 from .statespace import StateSpaceModel
 
-__all__ = [
-    "input_noise", "kalman_gain", "measured_noise_std", "refine_prediction_error", "refine_prediction_error_bc",
-    "white_noise_std",
-]
-
-_MAX_DIFFERENCE_ORDER = 6
-
-
-def white_noise_std(signal: np.ndarray) -> np.ndarray:
-    """Std of additive white noise per channel, from high-order differences.
-
-    For white noise ``var(Δᵈ e) = C(2d, d) σ²``, while a signal well below Nyquist is
-    attenuated by ``(2 sin(πf/fs))^{2d}``. The estimate is the smallest of
-    ``var(Δᵈ y) / C(2d, d)`` over d = 2..6 (leakage of the signal only inflates it). Measured on
-    the beam (1000 Hz, modes ≤ 74 Hz, 1 % noise): within 1 % of the true noise std.
-
-    Parameters
-    ----------
-    signal : ndarray, shape (n_samples, n_channels)
-
-    Returns
-    -------
-    ndarray, shape (n_channels,)
-    """
-    y = np.asarray(signal, dtype=float)
-    best = np.full(y.shape[1], np.inf)
-    diff = y
-    for d in range(1, _MAX_DIFFERENCE_ORDER + 1):
-        diff = np.diff(diff, axis=0)
-        if d >= 2:
-            norm = float(
-                np.prod(np.arange(d + 1, 2 * d + 1)) / np.prod(np.arange(1, d + 1))
-            )  # C(2d, d)
-            best = np.minimum(best, diff.var(axis=0) / norm)
-    return np.sqrt(best)
-
-
-def measured_noise_std(signals: Signals):
-    """Noise std of the measured displacement and velocity channels (SPEC 10).
-
-    With measured velocities the two channels of a DOF must agree: ``r = v - dx/dt`` (spectral
-    derivative, exact for band-limited records) holds only the noise, whose one-sided spectral
-    density is ``(2/fs)(σ_v² + ω² σ_x²)`` for white noise. A fit of that line to the Welch
-    spectrum of ``r`` (relative least squares) gives both stds; records shorter than 256 samples,
-    or fits that fail, fall back to :func:`white_noise_std`. High-order differences alone
-    (:func:`white_noise_std`) cannot tell a velocity's noise from its broadband content: at a
-    driven DOF they overestimated it 4× (two-DOF, three-DOF) to 10× (beam DOF 15, negative-stiffness
-    twin), which made the errors-in-variables predictor's innovations anti-correlated (lag 1-10
-    autocorrelation ≈ -0.08 on the twin) and let the twin's superset model 4 win by 8 nat. The
-    consistency fit, seed 0 of each case: displacement within 2 %, velocity within 2 % (twin),
-    6-22 % (beam), 4-13 % (three-DOF); two-DOF 10 s records, seeds 0-5: 0.54-1.24.
-
-    Parameters
-    ----------
-    signals : Signals
-
-    Returns
-    -------
-    displacement_std : ndarray, shape (l,)
-    velocity_std : ndarray, shape (l,) or None
-        None when the signals carry no velocities.
-    """
-    x = np.asarray(signals.displacement, dtype=float)
-    disp = white_noise_std(x)
-    if signals.velocity is None:
-        return disp, None
-    v = np.asarray(signals.velocity, dtype=float)
-    vel = white_noise_std(v)
-    n = len(x)
-    if n < 256:
-        return disp, vel
-    from scipy import signal as _signal
-
-    omega = 2.0 * np.pi * np.fft.rfftfreq(n, 1.0 / signals.fs)
-    derivative = np.fft.irfft(1j * omega[:, None] * np.fft.rfft(x - x.mean(axis=0), axis=0), n=n, axis=0)
-    edge = n // 20  # the spectral derivative wraps around: drop the ends
-    mismatch = (v - v.mean(axis=0) - derivative)[edge : n - edge]
-    freqs, density = _signal.welch(mismatch, fs=signals.fs, nperseg=min(1024, len(mismatch) // 8), axis=0)
-    variance = density[1:-1] * signals.fs / 2.0  # per-sample variance density: σ_v² + ω² σ_x²
-    design = np.column_stack([np.ones(len(variance)), (2.0 * np.pi * freqs[1:-1]) ** 2])
-    for c in range(x.shape[1]):
-        coef = _relative_line_fit(design, variance[:, c])
-        if coef is not None and coef[1] > 0:
-            disp[c] = np.sqrt(coef[1])
-            vel[c] = np.sqrt(max(coef[0], 0.0)) or 1e-6 * v[:, c].std()
-    return disp, vel
-
-
-def _relative_line_fit(design: np.ndarray, target: np.ndarray, passes: int = 30):
-    """Coefficients minimising Σ ((design @ c - target) / fit)², or None when the fit fails.
-
-    It fails on a spectrum with (numerically) empty bins, e.g. a record interpolated onto a finer
-    grid (``identify(upsample=R)``), whose noise is band-limited to the data's Nyquist frequency.
-    """
-    with np.errstate(all="ignore"):
-        scaled = design / target[:, None]
-        if not np.all(np.isfinite(scaled)) or not np.all(target > 0):
-            return None
-        try:
-            coef = np.linalg.lstsq(scaled, np.ones(len(target)), rcond=None)[0]
-            for _ in range(passes):  # relative least squares: weights from the current fit
-                fitted = np.maximum(design @ coef, np.finfo(float).tiny)
-                lhs, rhs = design / fitted[:, None], target / fitted
-                if not (np.all(np.isfinite(lhs)) and np.all(np.isfinite(rhs))):
-                    return None
-                coef = np.linalg.lstsq(lhs, rhs, rcond=None)[0]
-        except np.linalg.LinAlgError:
-            return None
-    return coef if np.all(np.isfinite(coef)) else None
+__all__ = ["input_noise", "kalman_gain", "refine_prediction_error", "refine_prediction_error_bc"]
 
 
 def _channel_noise(signals: Signals, noise_std, velocity_method: str):
@@ -206,9 +95,7 @@ def input_noise(
         (u = -n) at each sample, and the channel's noise variance.
     bias : ndarray, shape (n_samples, q)
         ``½ Σ_c ∂²u/∂z_c² σ_c²``, the expected shift of u caused by the noise (subtract it).
-        Zero for discontinuous terms (containing sign()), where the Taylor expansion fails:
-        on the negative-stiffness twin (SPEC 8.3, seeds 0-1) the correction moved the
-        sign(v1)·g coefficient from -2 % to -17 %; without it, -1.9/-2.1 %.
+        Zero for discontinuous terms (containing sign()), where the Taylor expansion fails.
     """
     disp_std, vel_std = _channel_noise(signals, noise_std, velocity_method)
     column = {dof: c for c, dof in enumerate(signals.output_dofs)}
@@ -310,7 +197,7 @@ def refine_prediction_error(
         :func:`white_noise_std`.
     velocity_method : str
     iterations : int
-        Passes of (K from B, then B from K); 2 suffice on the beam (changes < 0.1 %).
+        Passes of (K from B, then B from K).
     output_weights : ndarray, shape (l,), optional
         As in :func:`refine_output_error` for the first (output-error) pass; the prediction-error
         passes whiten the residual with the innovation covariance.
@@ -344,10 +231,8 @@ def refine_prediction_error_bc(
     """B, C, D, x₀ with A fixed: prediction-error B alternated with C from the predicted states.
 
     When A does not come with its own C (e.g. after :func:`bayesnsi.nsi._output_error.refine_poles`
-    changed its eigenvalues), the subspace C no longer matches it: on the beam (SPEC 8.2) exact
-    poles with the subspace C and B by least squares moved k2, k3 by +3.6 % even with
-    noise-free nonlinear inputs, because the subspace model's other modes (notably its poor
-    image of the 0.509 Hz mode) compensated the errors of its poles. Here C is re-estimated
+    changed its eigenvalues), the subspace C no longer matches it: the subspace model's other
+    modes compensated the errors of its own poles, not of these. Here C is re-estimated
     for the given A: with the steady-state Kalman predictor of :func:`refine_prediction_error`,
     ``y_k = C x̂_k + D u_k + ε_k`` where the one-step prediction ``x̂_k`` uses data up to k-1
     only, so the innovation ε_k is uncorrelated with it and the row-wise least squares for C

@@ -15,6 +15,7 @@ import numpy as np
 from scipy import signal as _signal
 from scipy.linalg import blas as _blas
 
+from ._noise import white_noise_std
 from .statespace import modal_filter_step
 
 __all__ = ["refine_output_error", "refine_poles"]
@@ -210,8 +211,7 @@ def refine_poles(
     """Refine the poles of A in a band by output error on band-passed data (SPEC 3 and 10).
 
     The subspace estimate of A is consistent but not efficient: with output noise its damping
-    ratios scatter by several percent even when the inputs are exact (beam, SPEC 8.2: up to
-    -16 % at 10.1 Hz with noise-free extended inputs and 1 % output noise). This step minimises
+    ratios scatter by several percent even when the inputs are exact. This step minimises
     the output error of a pole-residue model
 
         y_o(k) = Σ_p Re[ Σ_c ρ_{o,c,p} F_{c,p}(k) + γ_{o,p} λ_p^k ],   F_{c,p} = u_c / (z - λ_p)
@@ -221,9 +221,9 @@ def refine_poles(
     Pereyra 2003, Kaufman's Jacobian). All products come from one Gram matrix of the basis
     signals per iteration (memory independent of N). Inputs and outputs are band-passed by the
     same zero-phase Butterworth filter first (an LTI prefilter keeps y = G u): the fit then
-    weighs the band, and leaves out the low-frequency part of the residual, which on the beam
-    is dominated by the measurement noise of x13 propagated through the nonlinear inputs
-    (errors in variables, SPEC 10: it is 600 × the output noise over the whole band).
+    weighs the band, and leaves out the low-frequency part of the residual, which can be
+    dominated by the measurement noise propagated through the nonlinear inputs (errors in
+    variables, :mod:`._eiv`).
     Channels are weighted by ``1/noise_std²`` (maximum likelihood for white output noise).
 
     Parameters
@@ -241,7 +241,7 @@ def refine_poles(
         kept (they stay in the model of the band-passed data).
     noise_std : ndarray, shape (l,), optional
         Output-noise std per channel (weights); default
-        :func:`bayesnsi.nsi._eiv.white_noise_std` of ``y``.
+        :func:`bayesnsi.nsi._noise.white_noise_std` of ``y``.
     iterations : int
         Largest number of Gauss-Newton iterations (stops when the poles move < 1e-7 relative).
     prefilter_order : int
@@ -258,12 +258,10 @@ def refine_poles(
         model of the band-passed data: ``eigenvalue_index`` (indices into ``eig(A)`` of one of
         each conjugate pair and of the real eigenvalues), ``eigenvalues`` (refined, same order),
         ``refined_mask``, ``residues`` (complex, (modes, l, m + 1): ρ for each input, then γ of
-        the free response, in output units). The subspace C kept with the refined poles biased
-        k2, k3 on the beam by +1.3..+3.7 %; ``identify(c_method="prediction-error")`` re-fits C
-        (taking mode shapes from these residues instead did not help: +1.7..+4.1 % on seed 0).
+        the free response, in output units). The subspace C does not match the refined poles;
+        ``NSIOptions(c_method="prediction-error")`` re-fits C (measurements in
+        ``docs/measurements.md``).
     """
-    from ._eiv import white_noise_std
-
     u = np.asarray(u, dtype=float)
     y = np.asarray(y, dtype=float)
     lo, hi = (float(b) for b in band_hz)

@@ -10,7 +10,14 @@ from ..exceptions import NotIdentifiableError
 from ..models import Term
 from .statespace import modal_parameters_from_poles
 
-__all__ = ["identification_routes", "Mode", "CoefficientEstimate", "coefficient_spectrum", "split_poles", "default_band"]
+__all__ = [
+    "identification_routes",
+    "Mode",
+    "CoefficientEstimate",
+    "coefficient_spectrum",
+    "split_poles",
+    "default_band",
+]
 
 
 @dataclass(frozen=True)
@@ -62,6 +69,15 @@ def split_poles(poles: np.ndarray, dt: float | None = None, min_imag_ratio: floa
     poles of negative real discrete eigenvalues (``Im s = π/dt`` when ``dt`` is given: they sit
     at the Nyquist frequency and are artefacts of sampling) and ζ ≤ 0 or ζ ≥ 1.
 
+    Parameters
+    ----------
+    poles : ndarray of complex
+        Continuous-time poles [rad/s].
+    dt : float, optional
+        Sampling interval [s] of the discrete model the poles come from.
+    min_imag_ratio : float
+        Poles with ``|Im s| <= min_imag_ratio·|s|`` count as real.
+
     Returns
     -------
     modes : list of Mode
@@ -87,7 +103,24 @@ def default_band(modes, fs: float) -> tuple[float, float]:
     """Averaging band holding the identified modes, ends excluded (SPEC 4 and 10).
 
     ``[0.5 f_min, 1.1 f_max]``, clipped to ``(0, 0.45 fs)``: past the last mode λ(ω) is
-    dominated by noise (SPEC 10 measured α +30 ± 160 % on two-DOF with 1-20 Hz).
+    dominated by noise.
+
+    Parameters
+    ----------
+    modes : sequence of Mode
+        The identified physical modes.
+    fs : float
+        Sampling frequency [Hz].
+
+    Returns
+    -------
+    (float, float)
+        Band [Hz].
+
+    Raises
+    ------
+    NotIdentifiableError
+        When there is no mode.
     """
     if not modes:
         raise NotIdentifiableError(
@@ -137,7 +170,9 @@ def coefficient_spectrum(extended_frf, input_dofs, output_dofs, terms) -> np.nda
             den = np.zeros(extended_frf.shape[0])
             for p in shared:
                 lhs = column[:, output_dofs.index(p)]
-                h_kp = sum(s * extended_frf[:, output_dofs.index(d), input_dofs.index(p)] for s, d in zip(signs, term.at))
+                h_kp = sum(
+                    s * extended_frf[:, output_dofs.index(d), input_dofs.index(p)] for s, d in zip(signs, term.at)
+                )
                 num += np.conj(h_kp) * lhs
                 den += np.abs(h_kp) ** 2
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -147,6 +182,18 @@ def coefficient_spectrum(extended_frf, input_dofs, output_dofs, terms) -> np.nda
 
 def identification_routes(terms, input_dofs, output_dofs) -> list[str]:
     """How each coefficient is separated from the extended FRF: "direct" or "reciprocity".
+
+    Parameters
+    ----------
+    terms : sequence of Term
+        The candidate's nonlinear terms.
+    input_dofs, output_dofs : sequence of int
+        DOFs of the measured forces and responses.
+
+    Returns
+    -------
+    list of str
+        One route per term.
 
     Raises
     ------

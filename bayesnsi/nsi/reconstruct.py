@@ -25,7 +25,14 @@ __all__ = [
 
 
 def nrmse(measured: np.ndarray, predicted: np.ndarray):
-    """NRMSE per channel ``rms(y - ŷ)/rms(y)`` and overall (RMS over channels), SPEC 5.
+    """NRMSE per channel ``rms(y - ŷ)/rms(y)`` and overall (RMS over channels), spec section 5.
+
+    Parameters
+    ----------
+    measured : ndarray, shape (n_samples, l)
+        Measured response.
+    predicted : ndarray, shape (n_samples, l)
+        Model response.
 
     Returns
     -------
@@ -88,6 +95,11 @@ def initial_state(model: StateSpaceModel, inputs: np.ndarray, outputs: np.ndarra
     outputs : ndarray, shape (N, l)
     forced : ndarray, shape (N, l), optional
         The zero-initial-state response to ``inputs`` when already computed.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        The initial state ``x₀``.
     """
     if forced is None:
         forced = model.simulate(inputs)
@@ -123,6 +135,11 @@ def reconstruct(result, signals: Signals, closed_loop: bool = False, n_init: int
     n_init : int, optional
         Samples used to estimate the initial state (default: all for open loop, 50 for closed
         loop, as in the Silverbox benchmark rules).
+
+    Returns
+    -------
+    Reconstruction
+        Measured and predicted responses, initial state and NRMSE.
 
     Raises
     ------
@@ -220,12 +237,34 @@ class AffineReconstruction:
         return self.measured - self.baseline
 
     def predict(self, coefficients) -> np.ndarray:
-        """``ŷ(λ)``, shape (n_samples, l)."""
+        """Predicted response ``ŷ(λ) = baseline + signatures @ λ``.
+
+        Parameters
+        ----------
+        coefficients : array_like, shape (q,)
+            λ.
+
+        Returns
+        -------
+        ndarray, shape (n_samples, l)
+        """
         return self.baseline + self.signatures @ np.asarray(coefficients, dtype=float)
 
 
 def affine_reconstruction(result, signals: Signals) -> AffineReconstruction:
     """Affine decomposition of the open-loop reconstruction of ``result`` on ``signals``.
+
+    Parameters
+    ----------
+    result : NSIResult
+        The identified candidate.
+    signals : Signals
+        Data to reconstruct (at the data's own rate).
+
+    Returns
+    -------
+    AffineReconstruction
+        ``ŷ(λ) = baseline + Σ_i λ_i signatures[..., i]``, exact for the identified model.
 
     Raises
     ------
@@ -254,7 +293,11 @@ def affine_reconstruction(result, signals: Signals) -> AffineReconstruction:
     baseline = (forced_by_force + free)[::factor]
     signatures = np.ascontiguousarray(each[::factor, :, m:])
     return AffineReconstruction(
-        measured=y, baseline=baseline, signatures=signatures, estimate=estimate, names=tuple(t.name for t in result.terms)
+        measured=y,
+        baseline=baseline,
+        signatures=signatures,
+        estimate=estimate,
+        names=tuple(t.name for t in result.terms),
     )
 
 
@@ -273,11 +316,9 @@ def predictor_reconstruction(result, signals: Signals, noise_std=None) -> Affine
     process noise of this candidate's own terms. An open-loop residual counts the input noise
     that the resonances amplify as misfit, which a spurious extra term can absorb (SPEC 10:
     the negative-stiffness superset); the innovations do not. The gain needs the noise level of
-    every channel a term reads (:func:`bayesnsi.nsi._eiv.measured_noise_std`): with the velocity
-    noise overestimated 10× (high-order differences at a driven DOF) the innovations were
-    anti-correlated and the twin's superset beat the true model by 8-10 nat; with the
-    consistency estimate the innovations are white and the true model wins by 4-12.6 nat
-    (Laplace, AR(1), seeds 0-4).
+    every channel a term reads (:func:`bayesnsi.nsi._noise.measured_noise_std`); an overestimated
+    velocity noise makes the innovations anti-correlated (measurements in
+    ``docs/measurements.md``).
 
     For a result identified on an upsampled grid (``upsample = R``) the predictor runs at the
     data's samples on the lifted model ``(A^R, Σ_j A^{R-1-j} B)``: the inputs between two samples
@@ -290,7 +331,7 @@ def predictor_reconstruction(result, signals: Signals, noise_std=None) -> Affine
         The data the result was identified from (at the data's own rate).
     noise_std : array_like, shape (l,), optional
         Measurement-noise std of each displacement channel; default
-        :func:`bayesnsi.nsi._eiv.measured_noise_std`.
+        :func:`bayesnsi.nsi._noise.measured_noise_std`.
 
     Returns
     -------
@@ -307,7 +348,8 @@ def predictor_reconstruction(result, signals: Signals, noise_std=None) -> Affine
     from scipy import linalg as _linalg
 
     from ..exceptions import NotIdentifiableError
-    from ._eiv import input_noise, kalman_gain, measured_noise_std
+    from ._eiv import input_noise, kalman_gain
+    from ._noise import measured_noise_std
 
     model = result.model
     m = len(result.input_dofs)
@@ -357,5 +399,9 @@ def predictor_reconstruction(result, signals: Signals, noise_std=None) -> Affine
     x0 = initial_state(predictor, np.zeros((n_samples, A.shape[0])), y - fitted)
     baseline = baseline + predictor.simulate(np.zeros((n_samples, A.shape[0])), x0)
     return AffineReconstruction(
-        measured=y, baseline=baseline, signatures=signatures, estimate=estimate, names=tuple(t.name for t in result.terms)
+        measured=y,
+        baseline=baseline,
+        signatures=signatures,
+        estimate=estimate,
+        names=tuple(t.name for t in result.terms),
     )

@@ -4,8 +4,7 @@
 Frequency responses and simulations use the eigendecomposition ``A = V Λ V⁻¹``: the FRF costs
 O(n) per frequency and a simulation is one compiled recursive filter (``scipy.signal.lfilter``) per
 mode: a real second-order recursion for each complex-conjugate pair (:func:`modal_filter`), so long
-records are cheap. Measured on the beam (n = 32, 1e5 samples): the affine reconstruction of a
-three-term candidate fell from 1.5 s (complex first-order recursions per eigenvalue) to 0.23 s.
+records are cheap (timings in ``docs/measurements.md``).
 """
 
 from __future__ import annotations
@@ -89,6 +88,16 @@ def modal_parameters_from_poles(poles_continuous: np.ndarray):
     """Natural frequency [Hz] and damping ratio of continuous-time poles (SPEC section 4).
 
     ``s = -ζω_n ± jω_n√(1-ζ²)``: ``f_n = |s|/2π``, ``ζ = -Re(s)/|s|``.
+
+    Parameters
+    ----------
+    poles_continuous : array_like of complex
+        Poles s [rad/s].
+
+    Returns
+    -------
+    frequency_hz, damping_ratio : ndarray
+        Same shape as the poles.
     """
     s = np.asarray(poles_continuous, dtype=complex)
     mag = np.abs(s)
@@ -167,7 +176,13 @@ class StateSpaceModel:
         return np.einsum("on,fn,ni->foi", cm, resolvent, bm) + self.D[None]
 
     def continuous_state_matrix(self) -> np.ndarray:
-        """``A_c = logm(A)/dt`` via the eigendecomposition (real part; SPEC Eq. 18 inverted)."""
+        """Continuous-time state matrix ``A_c = logm(A)/dt`` (spec Eq. 18 inverted).
+
+        Returns
+        -------
+        ndarray, shape (n, n)
+            Real part of the eigendecomposition-based logarithm.
+        """
         lam, vec, vinv = self._modal()
         ac = (vec * (np.log(lam.astype(complex)) / self.dt)) @ vinv
         return ac.real
@@ -253,7 +268,19 @@ class StateSpaceModel:
         return y
 
     def initial_response(self, x0, n_samples: int) -> np.ndarray:
-        """Free response ``C A^k x₀`` for k = 0..n_samples-1, shape (n_samples, n_outputs)."""
+        """Free response ``C A^k x₀`` for k = 0..n_samples-1.
+
+        Parameters
+        ----------
+        x0 : array_like, shape (n,)
+            Initial state.
+        n_samples : int
+            Length of the response.
+
+        Returns
+        -------
+        ndarray, shape (n_samples, n_outputs)
+        """
         lam, vec, vinv, weight = self._modal_half()
         impulse = np.zeros(n_samples)
         impulse[0] = 1.0
@@ -266,9 +293,16 @@ class StateSpaceModel:
         return (states @ (self.C @ vec * weight).T).real
 
     def free_response(self, n_samples: int) -> np.ndarray:
-        """Matrix mapping an initial state to the free response, shape (n_samples·l, n).
+        """Matrix mapping an initial state to the free response (row block k is ``C A^k``).
 
-        Row block k is ``C A^k``.
+        Parameters
+        ----------
+        n_samples : int
+            Length of the response.
+
+        Returns
+        -------
+        ndarray, shape (n_samples·l, n)
         """
         lam, vec, vinv = self._modal()
         powers = np.exp(np.arange(n_samples)[:, None] * np.log(lam.astype(complex))[None, :])
@@ -276,7 +310,19 @@ class StateSpaceModel:
         return out.reshape(n_samples * self.C.shape[0], self.order)
 
     def state_trajectory(self, inputs, x0=None) -> np.ndarray:
-        """State sequence x_k, shape (n_samples, n), from zero or a given initial state."""
+        """State sequence x_k driven by ``inputs`` from zero or a given initial state.
+
+        Parameters
+        ----------
+        inputs : array_like, shape (n_samples, m)
+            Input sequence.
+        x0 : array_like, shape (n,), optional
+            Initial state (default zero).
+
+        Returns
+        -------
+        ndarray, shape (n_samples, n)
+        """
         u = np.asarray(inputs, dtype=float)
         lam, vec, vinv = self._modal()
         drive = u @ (vinv @ self.B).T

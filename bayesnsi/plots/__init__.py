@@ -1,7 +1,13 @@
 """Figures (matplotlib only). Functions return Figures; they never save or show."""
 
 from .nsi import plot_coefficient_spectrum, plot_frf, plot_singular_values, plot_stabilization
-from .selection import plot_effect_force, plot_model_probabilities, plot_posterior_pairs, plot_reconstruction_errors, plot_traces
+from .selection import (
+    plot_effect_force,
+    plot_model_probabilities,
+    plot_posterior_pairs,
+    plot_reconstruction_errors,
+    plot_traces,
+)
 
 __all__ = [
     "plot_singular_values",

@@ -21,7 +21,21 @@ def _axes(ax, figsize=(6.0, 4.0)):
 
 
 def plot_singular_values(result, ax=None, max_shown: int = 60):
-    """Singular values of the weighted oblique projection with the chosen order (paper Fig. 3)."""
+    """Singular values of the weighted oblique projection with the chosen order (paper Fig. 3).
+
+    Parameters
+    ----------
+    result : NSIResult
+        An identification (:func:`bayesnsi.nsi.identify`).
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw on; a new figure when None.
+    max_shown : int
+        Number of singular values shown.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     fig, ax = _axes(ax)
     s = result.singular_values[:max_shown]
     ax.semilogy(np.arange(1, len(s) + 1), s, "o-", ms=3)
@@ -41,6 +55,14 @@ def plot_stabilization(singular_values, diagram, ax=None, fmax_hz: float | None 
     singular_values : ndarray
     diagram : list of (order, ndarray (k, 2) of (frequency_hz, damping_ratio), spurious)
         As returned by :func:`bayesnsi.nsi.stabilization`.
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw on; a new figure when None.
+    fmax_hz : float, optional
+        Upper frequency limit [Hz].
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     fig, ax = _axes(ax, (7.0, 4.5))
     previous = np.empty((0, 2))
@@ -79,7 +101,15 @@ def plot_frf(results, freqs_hz, output_index: int = 0, input_index: int = 0, exa
     output_index, input_index : int
         Which output channel and which force column.
     exact : ndarray of complex, shape (n_freq,), optional
-        Reference FRF on ``freqs_hz``.
+        Reference FRF on ``freqs_hz`` (e.g. :func:`bayesnsi.simulate.underlying_frf`).
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw on; a new figure when None.
+    labels : sequence of str, optional
+        Legend label of each result.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     results = results if isinstance(results, (list, tuple)) else [results]
     fig, ax = _axes(ax)
@@ -99,7 +129,26 @@ def plot_frf(results, freqs_hz, output_index: int = 0, input_index: int = 0, exa
 
 
 def plot_coefficient_spectrum(result, freqs_hz=None, axes=None):
-    """Real and imaginary parts of λ_i(ω) with the averaging band (paper Fig. 5)."""
+    """Real and imaginary parts of λ_i(ω) with the averaging band (paper Fig. 5).
+
+    Parameters
+    ----------
+    result : NSIResult
+        An identification with at least one nonlinear term.
+    freqs_hz : ndarray, optional
+        Frequencies [Hz]; by default around the averaging band.
+    axes : sequence of matplotlib.axes.Axes, optional
+        One per term; a new figure when None.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Raises
+    ------
+    ValueError
+        For a linear candidate.
+    """
     q = len(result.terms)
     if q == 0:
         raise ValueError("a linear candidate has no nonlinear coefficients to plot")

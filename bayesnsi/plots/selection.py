@@ -5,6 +5,9 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import numpy as np
 
+from ..curves import effect_curve
+from ..exceptions import InputDataError
+
 __all__ = [
     "plot_model_probabilities",
     "plot_reconstruction_errors",
@@ -22,6 +25,12 @@ def plot_model_probabilities(table, ax=None):
     table : pandas.DataFrame
         From :func:`bayesnsi.evidence.ranking_table` (columns ``p_plain``, ``p_<likelihood>``
         and ``p_<likelihood>_sd``).
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw on; a new figure when None.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     if ax is None:
         fig, ax = plt.subplots(figsize=(6.5, 3.8), layout="constrained")
@@ -54,9 +63,15 @@ def plot_reconstruction_errors(reconstructions, fs: float, channel: int = 0, max
         Output channel shown.
     max_seconds : float, optional
         Show only the first seconds.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     n = len(reconstructions)
-    fig, axes = plt.subplots(n, 1, figsize=(7.0, 1.8 * n + 0.6), sharex=True, sharey=True, squeeze=False, layout="constrained")
+    fig, axes = plt.subplots(
+        n, 1, figsize=(7.0, 1.8 * n + 0.6), sharex=True, sharey=True, squeeze=False, layout="constrained"
+    )
     for ax, (name, rec) in zip(axes[:, 0], reconstructions.items()):
         err = rec.residual[:, channel]
         t = np.arange(len(err)) / fs
@@ -71,39 +86,82 @@ def plot_reconstruction_errors(reconstructions, fs: float, channel: int = 0, max
 
 
 def plot_posterior_pairs(posterior, max_params: int = 4):
-    """Corner plot of the coefficient posterior (emcee draws, all walkers pooled)."""
-    draws = posterior.coefficients.reshape(-1, posterior.coefficients.shape[-1])[:, :max_params]
-    names = list(posterior.coefficient_names)[:max_params]
-    q = draws.shape[1]
-    fig, axes = plt.subplots(q, q, figsize=(2.4 * q + 0.6, 2.4 * q + 0.4), squeeze=False, layout="constrained")
-    for i in range(q):
-        for j in range(q):
-            ax = axes[i, j]
-            if j > i:
-                ax.set_visible(False)
-            elif i == j:
-                ax.hist(draws[:, i], bins=40, color="C0", alpha=0.8)
-            else:
-                ax.plot(draws[::5, j], draws[::5, i], ",", alpha=0.3)
-            if i == q - 1:
-                ax.set_xlabel(names[j], fontsize=8)
-            if j == 0 and i > 0:
-                ax.set_ylabel(names[i], fontsize=8)
-            ax.tick_params(labelsize=7)
-    return fig
+    """Pair plot of the coefficient posterior (arviz-plots ``plot_pair``; all walkers pooled).
+
+    Parameters
+    ----------
+    posterior : PosteriorSamples
+        Draws of :func:`bayesnsi.evidence.candidate_evidence` (``EvidenceResult.posterior``).
+    max_params : int
+        Show the first ``max_params`` coefficients.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Marginal densities on the diagonal and pairwise scatter below it; with one coefficient,
+        its marginal density alone.
+
+    Raises
+    ------
+    InputDataError
+        If the candidate has no coefficient.
+    """
+    import arviz_plots
+
+    terms = _coefficient_terms(posterior, max_params)
+    size = 2.4 * len(terms) + 0.6
+    common = dict(var_names=["coefficient"], coords={"term": terms}, backend="matplotlib")
+    if len(terms) == 1:  # a pair plot needs two variables
+        plot = arviz_plots.plot_dist(posterior.to_datatree(), figure_kwargs=_figure_kwargs(5.0, 3.4), **common)
+    else:
+        plot = arviz_plots.plot_pair(posterior.to_datatree(), figure_kwargs=_figure_kwargs(size, size), **common)
+    return plot.viz["figure"].item()
 
 
-def plot_traces(posterior, max_params: int = 4):
-    """Trace of each coefficient for a few walkers (chains)."""
-    coefs = posterior.coefficients[..., :max_params]
-    names = list(posterior.coefficient_names)[:max_params]
-    fig, axes = plt.subplots(len(names), 1, figsize=(7.0, 1.6 * len(names) + 0.5), squeeze=False, layout="constrained")
-    for k, ax in enumerate(axes[:, 0]):
-        for chain in range(min(6, coefs.shape[0])):
-            ax.plot(coefs[chain, :, k], lw=0.5)
-        ax.set_ylabel(names[k], fontsize=8)
-    axes[-1, 0].set_xlabel("draw (after burn-in)")
-    return fig
+def plot_traces(posterior, max_params: int = 4, max_chains: int = 6):
+    """Trace and per-walker density of each coefficient (arviz-plots ``plot_trace_dist``).
+
+    Parameters
+    ----------
+    posterior : PosteriorSamples
+        Draws of :func:`bayesnsi.evidence.candidate_evidence` (one chain per emcee walker).
+    max_params : int
+        Show the first ``max_params`` coefficients, one row each.
+    max_chains : int
+        Show the first ``max_chains`` walkers.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Raises
+    ------
+    InputDataError
+        If the candidate has no coefficient.
+    """
+    import arviz_plots
+
+    terms = _coefficient_terms(posterior, max_params)
+    chains = list(range(min(int(max_chains), posterior.coefficients.shape[0])))
+    plot = arviz_plots.plot_trace_dist(
+        posterior.to_datatree(),
+        var_names=["coefficient"],
+        coords={"term": terms, "chain": chains},
+        compact=False,
+        backend="matplotlib",
+        figure_kwargs=_figure_kwargs(8.0, 1.9 * len(terms) + 0.6),
+    )
+    return plot.viz["figure"].item()
+
+
+def _coefficient_terms(posterior, max_params: int) -> list:
+    if not posterior.coefficient_names:
+        raise InputDataError("the candidate has no nonlinear coefficient to plot")
+    return list(posterior.coefficient_names)[: max(1, int(max_params))]
+
+
+def _figure_kwargs(width: float, height: float) -> dict:
+    return {"figsize": (width, height), "layout": "constrained"}
 
 
 def plot_effect_force(step, signals, max_points: int = 4000):
@@ -113,7 +171,21 @@ def plot_effect_force(step, signals, max_points: int = 4000):
     :func:`bayesnsi.diagnose.close_the_loop`): top row, the residual of the model without the
     effect as a force at the location; bottom row, the residual after (blue), the effect's force
     λ·n through the same filter (black) and their sum, the component-plus-residual (red),
-    against the displacement and the velocity at the location. Without it, λ·n(x, v) alone.
+    against the displacement and the velocity at the location. Without it, λ·n(x, v) alone
+    (:func:`bayesnsi.curves.effect_curve`).
+
+    Parameters
+    ----------
+    step : loop step
+        Has ``term``, ``coefficient`` and optionally ``residual_force``.
+    signals : Signals
+        The measured signals.
+    max_points : int
+        At most this many points per scatter.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     rf = getattr(step, "residual_force", None)
     if rf is None:
@@ -138,24 +210,14 @@ def plot_effect_force(step, signals, max_points: int = 4000):
 
 
 def _plot_effect_curve(step, signals, max_points):
-    """λ·n(x, v) of an effect against x and v at its location."""
-    x, v = signals.state_rows(step.term.expr.displacement_dofs, step.term.expr.velocity_dofs)
-    force = step.coefficient * step.term.evaluate(x, v)
-    j = step.term.at[0]
-    column = list(signals.output_dofs).index(j)
-    xs = signals.displacement[:, column]
-    vs = signals.velocities()[:, column]
-    if len(step.term.at) == 2:
-        k = list(signals.output_dofs).index(step.term.at[1])
-        xs = xs - signals.displacement[:, k]
-        vs = vs - signals.velocities()[:, k]
-    pick = np.linspace(0, len(force) - 1, min(max_points, len(force))).astype(int)
+    """λ·n(x, v) of an effect against x and v at its location (:func:`bayesnsi.curves.effect_curve`)."""
+    curve = effect_curve(step, signals, max_points)
     fig, axes = plt.subplots(1, 2, figsize=(8.0, 3.4), layout="constrained")
-    axes[0].plot(xs[pick], force[pick], ".", ms=2)
-    axes[0].set_xlabel("relative displacement" if len(step.term.at) == 2 else f"x{j}")
-    axes[1].plot(vs[pick], force[pick], ".", ms=2, color="C1")
-    axes[1].set_xlabel("relative velocity" if len(step.term.at) == 2 else f"v{j}")
+    axes[0].plot(curve.displacement, curve.force, ".", ms=2)
+    axes[0].set_xlabel(curve.displacement_label)
+    axes[1].plot(curve.velocity, curve.force, ".", ms=2, color="C1")
+    axes[1].set_xlabel(curve.velocity_label)
     for ax in axes:
         ax.set_ylabel("effect force")
-    fig.suptitle(f"{step.term.name}: λ = {step.coefficient:.4g}", fontsize=10)
+    fig.suptitle(curve.title, fontsize=10)
     return fig

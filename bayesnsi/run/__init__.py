@@ -8,7 +8,7 @@
   every subset of a dictionary of terms.
 """
 
-from .backends import backend_name, connect, dispatch
+from .._dispatch import backend_name, connect, dispatch
 from .batch import CandidateOutcome, candidate_task, run_candidates, run_datasets
 from .sweep import (
     MAX_CANDIDATES,

@@ -2,18 +2,19 @@
 
 :func:`run_candidates` (one dataset) and :func:`run_datasets` (many) identify every candidate
 by NSI (and, when asked, compute its evidence), dispatching the (dataset, candidate) pairs with
-:func:`bayesnsi.run.dispatch`. Each candidate gets its own seed sequence, spawned from ``seed``
-in candidate order (``SeedSequence(seed).spawn(n_candidates)[k]``, the same for every dataset),
-so the numbers are identical whatever the backend, the number of workers and the order in
-which the tasks finish - and a dataset gives the same numbers alone or in a batch.
+:func:`bayesnsi._dispatch.dispatch`. Each candidate gets its own seed sequence, spawned from the
+evidence seed in candidate order (``SeedSequence(seed).spawn(n_candidates)[k]``, the same for
+every dataset), so the numbers are identical whatever the backend, the number of workers and
+the order in which the tasks finish - and a dataset gives the same numbers alone or in a batch.
 
-With a :class:`~bayesnsi.io.cache.ResultCache`, a finished candidate is stored as soon as it
-arrives, and candidates already stored are loaded instead of recomputed.
+With a cache (``ExecutionOptions.cache``, e.g. :class:`bayesnsi.io.cache.ResultCache`), a
+finished candidate is stored as soon as it arrives, and candidates already stored are loaded
+instead of recomputed.
 
-Failures never stop the batch: a :class:`~bayesnsi.exceptions.BayesNSIError` (or a singular
-matrix) is the candidate's result (``status = "failed"`` with the reason; cached like any
-result), and any other exception - a bug - is recorded the same way with ``internal_error``
-and its traceback, and not cached, so that a rerun tries again.
+Failures never stop the batch. A :class:`~bayesnsi.exceptions.BayesNSIError` (or a singular
+matrix) becomes the candidate's outcome with the stage that failed: ``identification`` (no
+model) or ``evidence`` (the identified model is kept). Any other exception - a bug - is recorded
+as stage ``internal`` with its traceback, and not cached, so that a rerun tries again.
 """
 
 from __future__ import annotations
@@ -21,51 +22,93 @@ from __future__ import annotations
 import time
 import traceback
 import warnings
-from collections.abc import Callable, Sequence
-from pathlib import Path
-from typing import Any, NamedTuple
+from collections import Counter
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
+from .._dispatch import dispatch
 from ..exceptions import BayesNSIError, ConfigError
-from ..io.cache import ResultCache, candidate_key, signals_fingerprint
-from ..io.schema import candidate_record, failed_candidate_record
+from ..models import CandidateModel
 from ..nsi import identify
-from ..options import EvidenceOptions, NSIOptions
-from .backends import dispatch
+from ..options import EvidenceOptions, ExecutionOptions, NSIOptions
 
-__all__ = ["CandidateOutcome", "candidate_task", "run_candidates", "run_datasets"]
+__all__ = ["CandidateOutcome", "candidate_seeds", "candidate_task", "run_candidates", "run_datasets"]
+
+FAILED_STAGES = ("identification", "evidence", "internal")
+"""Stages a candidate can fail at (:attr:`CandidateOutcome.failed_stage`)."""
 
 
-class CandidateOutcome(NamedTuple):
-    """What one candidate gave: its results.json record, NSI result and evidences.
+@dataclass(frozen=True)
+class CandidateOutcome:
+    """What one candidate gave: its NSI result, evidences, errors and cost.
 
     Attributes
     ----------
-    record : dict
-        results.json candidate record (SPEC 9), with ``status``, ``warnings``, ``seconds``
-        and ``cached``.
+    candidate : CandidateModel
     result : NSIResult or None
-        None when the candidate failed.
-    evidences : dict likelihood -> EvidenceResult, or None
-        None without evidence settings or when the candidate failed.
+        None when the identification failed.
+    evidences : mapping of str to EvidenceResult, or None
+        Per likelihood (``EvidenceOptions.likelihood`` and ``compare``); None without evidence
+        options or when the evidence failed.
+    nrmse : float or None
+        NRMSE of the open-loop reconstruction of the estimation data (SPEC eq. 5.1).
+    nrmse_per_channel : tuple of float
+    error : str or None
+        ``"<ExceptionType>: <message>"`` of the failure, None when everything succeeded.
+    failed_stage : str or None
+        ``"identification"``, ``"evidence"`` or ``"internal"`` (a bug), None when it succeeded.
+    traceback : str or None
+        Traceback of an internal error.
+    warnings : tuple of str
+        Messages of the warnings raised while the candidate ran.
+    seconds : float
+        Wall time of the computation (of the original run for a cached outcome).
+    cached : bool
+        True when the outcome was loaded from the cache.
     """
 
-    record: dict
-    result: Any
-    evidences: dict | None
+    candidate: CandidateModel
+    result: Any = None
+    evidences: Mapping[str, Any] | None = None
+    nrmse: float | None = None
+    nrmse_per_channel: tuple[float, ...] = ()
+    error: str | None = None
+    failed_stage: str | None = None
+    traceback: str | None = None
+    warnings: tuple[str, ...] = ()
+    seconds: float = 0.0
+    cached: bool = False
+
+    @property
+    def status(self) -> str:
+        """``"ok"``, ``"failed"`` (no model) or ``"evidence_failed"`` (a model, no evidence)."""
+        if self.error is None:
+            return "ok"
+        return "evidence_failed" if self.result is not None else "failed"
+
+    @property
+    def name(self) -> str:
+        """Name of the candidate."""
+        return self.candidate.name
 
 
-def candidate_task(signals, candidate, options, evidence_options, seed_sequence) -> CandidateOutcome:
+def candidate_task(
+    signals, candidate, nsi: NSIOptions, evidence: EvidenceOptions | None, seed_sequence
+) -> CandidateOutcome:
     """Identify one candidate (and compute its evidence); never raises for a failed candidate.
 
     Parameters
     ----------
     signals : Signals
+        Estimation data.
     candidate : CandidateModel
-    options : NSIOptions
+        The candidate to identify.
+    nsi : NSIOptions
         Settings of :func:`bayesnsi.nsi.identify`.
-    evidence_options : EvidenceOptions or None
+    evidence : EvidenceOptions or None
         Settings of :func:`bayesnsi.evidence.candidate_evidence`; None: NSI only.
     seed_sequence : numpy.random.SeedSequence
         This candidate's seed sequence.
@@ -73,44 +116,79 @@ def candidate_task(signals, candidate, options, evidence_options, seed_sequence)
     Returns
     -------
     CandidateOutcome
+        With ``cached = False``.
     """
     start = time.perf_counter()
-    result = evidences = None
+    found: dict[str, Any] = {"candidate": candidate}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
+        stage = "identification"
         try:
-            result = identify(signals, candidate, options)
-            record = candidate_record(result, result.reconstruct(signals))
-            if evidence_options is not None:
+            found["result"] = result = identify(signals, candidate, nsi)
+            reconstruction = result.reconstruct(signals)
+            found["nrmse"] = float(reconstruction.nrmse)
+            found["nrmse_per_channel"] = tuple(float(v) for v in reconstruction.nrmse_per_channel)
+            if evidence is not None:
+                stage = "evidence"
                 from ..evidence import candidate_evidence
 
-                evidences = candidate_evidence(result, signals, evidence_options, seed_sequence, candidate)
+                found["evidences"] = candidate_evidence(result, signals, evidence, seed_sequence, candidate)
         except (BayesNSIError, np.linalg.LinAlgError) as err:
-            record = _failed(candidate, err, "evidence: " if result is not None else "")
-            result = evidences = None
+            found.update(error=f"{type(err).__name__}: {err}", failed_stage=stage)
         except Exception as err:  # noqa: BLE001 - a bug in one candidate must not lose the others
-            record = _failed(candidate, err, "internal error: ")
-            record["internal_error"] = True
-            record["traceback"] = traceback.format_exc()
-            result = evidences = None
-    record["warnings"] = [str(w.message) for w in caught]
-    record["seconds"] = time.perf_counter() - start
-    return CandidateOutcome(record, result, evidences)
+            found.update(
+                error=f"{type(err).__name__}: {err}", failed_stage="internal", traceback=traceback.format_exc()
+            )
+            found.pop("evidences", None)
+    return CandidateOutcome(
+        **found,
+        warnings=tuple(str(w.message) for w in caught),
+        seconds=time.perf_counter() - start,
+    )
+
+
+def candidate_seeds(seed: int, n_candidates: int) -> list[np.random.SeedSequence]:
+    """Seed sequences of the candidates: ``SeedSequence(seed).spawn(n_candidates)``.
+
+    Parameters
+    ----------
+    seed : int
+        Root seed (``EvidenceOptions.seed``).
+    n_candidates : int
+        Number of candidates.
+
+    Returns
+    -------
+    list of numpy.random.SeedSequence
+        One per candidate, in candidate order.
+    """
+    return np.random.SeedSequence(seed).spawn(n_candidates)
 
 
 def run_candidates(
     signals,
     candidates: Sequence,
-    nsi_options: NSIOptions | None = None,
-    evidence_options: EvidenceOptions | None = None,
-    seed: int = 0,
+    nsi: NSIOptions | None = None,
+    evidence: EvidenceOptions | None = None,
     *,
-    jobs: int = 1,
-    scheduler=None,
-    cache: ResultCache | str | Path | None = None,
-    on_result: Callable | None = None,
+    execution: ExecutionOptions | None = None,
 ) -> list[CandidateOutcome]:
     """Identify every candidate on one dataset (see :func:`run_datasets`).
+
+    Parameters
+    ----------
+    signals : Signals
+        Estimation data.
+    candidates : sequence of CandidateModel
+        The candidates, e.g. a config's.
+    nsi : NSIOptions, optional
+        Settings of :func:`bayesnsi.nsi.identify` (default ``NSIOptions()``).
+    evidence : EvidenceOptions, optional
+        Evidence settings (its ``seed`` is the root of the candidates' seeds); None computes no
+        evidence.
+    execution : ExecutionOptions, optional
+        Backend (``jobs``, ``scheduler``), ``cache`` and ``progress`` callback, called as
+        ``progress(candidate_index, outcome)``.
 
     Returns
     -------
@@ -122,27 +200,23 @@ def run_candidates(
     >>> from bayesnsi import simulate_case
     >>> case = simulate_case("two-dof", seed=0, duration=10.0)
     >>> out = run_candidates(case.signals, case.candidates, NSIOptions(block_rows=40, order=4))
-    >>> [o.record["status"] for o in out]
+    >>> [o.status for o in out]
     ['ok', 'ok', 'ok']
     """
-    callback = None if on_result is None else (lambda d, k, outcome, cached: on_result(k, outcome, cached))
-    return run_datasets(
-        [signals], candidates, nsi_options, evidence_options, seed,
-        jobs=jobs, scheduler=scheduler, cache=cache, on_result=callback,
-    )[0]
+    execution = _typed(execution, ExecutionOptions, "execution") or ExecutionOptions()
+    if execution.progress is not None:
+        callback = execution.progress
+        execution = execution.replace(progress=lambda d, k, outcome: callback(k, outcome))
+    return run_datasets([signals], candidates, nsi, evidence, execution=execution)[0]
 
 
 def run_datasets(
     datasets: Sequence,
     candidates: Sequence,
-    nsi_options: NSIOptions | None = None,
-    evidence_options: EvidenceOptions | None = None,
-    seed: int = 0,
+    nsi: NSIOptions | None = None,
+    evidence: EvidenceOptions | None = None,
     *,
-    jobs: int = 1,
-    scheduler=None,
-    cache: ResultCache | str | Path | None = None,
-    on_result: Callable | None = None,
+    execution: ExecutionOptions | None = None,
 ) -> list[list[CandidateOutcome]]:
     """Identify every candidate on every dataset, in parallel, resumably.
 
@@ -152,22 +226,17 @@ def run_datasets(
         Estimation data; every candidate is identified on each.
     candidates : sequence of CandidateModel
         E.g. a config's candidates, or :func:`bayesnsi.run.dictionary_candidates`.
-    nsi_options : NSIOptions, optional
+    nsi : NSIOptions, optional
         Settings of :func:`bayesnsi.nsi.identify` (default ``NSIOptions()``).
-    evidence_options : EvidenceOptions, optional
-        Evidence settings; None
-        computes no evidence.
-    seed : int
-        Root of the candidates' seed sequences.
-    jobs : int
-        Local worker processes (joblib loky); 1 runs here.
-    scheduler : str or dask.distributed.Client, optional
-        Dask scheduler address or Client; overrides ``jobs``.
-    cache : ResultCache or path, optional
-        Load finished candidates from it and store new ones as they arrive.
-    on_result : callable, optional
-        Called as ``on_result(dataset_index, candidate_index, outcome, cached)`` when each
-        candidate is available (cached ones first), e.g. for progress.
+    evidence : EvidenceOptions, optional
+        Evidence settings; None computes no evidence. Its ``seed`` roots the candidates' seed
+        sequences (:func:`candidate_seeds`; seed 0 without evidence).
+    execution : ExecutionOptions, optional
+        ``jobs`` local worker processes or a Dask ``scheduler``; a ``cache`` (any object with
+        ``key(signals, candidate, nsi, evidence, seed_sequence)``, ``load(key)`` and
+        ``store(key, outcome)``, e.g. :class:`bayesnsi.io.cache.ResultCache`); a ``progress``
+        callable, called as ``progress(dataset_index, candidate_index, outcome)`` when each
+        candidate is available (cached ones first).
 
     Returns
     -------
@@ -177,54 +246,48 @@ def run_datasets(
     Raises
     ------
     ConfigError
-        For an empty candidate list or dataset list, or candidate names used twice.
+        For an empty candidate list or dataset list, candidate names used twice, or options of
+        the wrong type.
     SchedulerError
         If the Dask scheduler cannot be used.
     """
     datasets, candidates = list(datasets), list(candidates)
     _check_inputs(datasets, candidates)
-    options = _typed(nsi_options, NSIOptions, "nsi_options") or NSIOptions()
-    evidence = _typed(evidence_options, EvidenceOptions, "evidence_options")
-    if isinstance(cache, (str, Path)):
-        cache = ResultCache(cache)
-    seeds = np.random.SeedSequence(seed).spawn(len(candidates))
-    keys = _keys(datasets, candidates, options, evidence, seeds) if cache is not None else None
+    nsi = _typed(nsi, NSIOptions, "nsi") or NSIOptions()
+    evidence = _typed(evidence, EvidenceOptions, "evidence")
+    execution = _typed(execution, ExecutionOptions, "execution") or ExecutionOptions()
+    cache, progress = execution.cache, execution.progress
+    seeds = candidate_seeds(0 if evidence is None else evidence.seed, len(candidates))
     outcomes: list[list[CandidateOutcome | None]] = [[None] * len(candidates) for _ in datasets]
+    keys: dict[tuple[int, int], str] = {}
     pending = []
-    for d in range(len(datasets)):
+    for d, signals in enumerate(datasets):
         for k, candidate in enumerate(candidates):
-            stored = cache.load(keys[d][k]) if cache is not None else None
+            stored = None
+            if cache is not None:
+                keys[d, k] = cache.key(signals, candidate, nsi, evidence, seeds[k])
+                stored = cache.load(keys[d, k])
             if stored is None:
                 pending.append((d, k))
                 continue
-            outcome = CandidateOutcome(*stored)
-            outcome.record["cached"] = True
-            outcomes[d][k] = outcome
-            if on_result is not None:
-                on_result(d, k, outcome, True)
-    tasks = [(d, candidates[k], options, evidence, seeds[k]) for d, k in pending]
-    for index, outcome in dispatch(_dataset_task, tasks, context=tuple(datasets), jobs=jobs, scheduler=scheduler):
+            outcomes[d][k] = stored = replace(stored, cached=True)
+            if progress is not None:
+                progress(d, k, stored)
+    tasks = [(d, candidates[k], nsi, evidence, seeds[k]) for d, k in pending]
+    for index, outcome in dispatch(
+        _dataset_task, tasks, context=tuple(datasets), jobs=execution.jobs, scheduler=execution.scheduler
+    ):
         d, k = pending[index]
-        if cache is not None and not outcome.record.get("internal_error"):
-            cache.store(keys[d][k], tuple(outcome))
-        outcome.record["cached"] = False
+        if cache is not None and outcome.failed_stage != "internal":
+            cache.store(keys[d, k], outcome)
         outcomes[d][k] = outcome
-        if on_result is not None:
-            on_result(d, k, outcome, False)
-    return outcomes
+        if progress is not None:
+            progress(d, k, outcome)
+    return outcomes  # type: ignore[return-value]
 
 
-def _dataset_task(datasets, d, candidate, options, evidence_options, seed_sequence) -> CandidateOutcome:
-    return candidate_task(datasets[d], candidate, options, evidence_options, seed_sequence)
-
-
-def _keys(datasets, candidates, options, evidence, seeds) -> list[list[str]]:
-    out = []
-    for signals in datasets:
-        data = signals_fingerprint(signals)
-        evidence_dict = None if evidence is None else evidence.to_dict()
-        out.append([candidate_key(data, c, options.to_dict(), evidence_dict, s) for c, s in zip(candidates, seeds)])
-    return out
+def _dataset_task(datasets, d, candidate, nsi, evidence, seed_sequence) -> CandidateOutcome:
+    return candidate_task(datasets[d], candidate, nsi, evidence, seed_sequence)
 
 
 def _typed(options, kind: type, name: str):
@@ -240,13 +303,7 @@ def _check_inputs(datasets, candidates) -> None:
         raise ConfigError(
             "the candidate list is empty; give at least one candidate (a linear model is CandidateModel('linear', ()))"
         )
-    names = [c.name for c in candidates]
-    repeated = sorted({n for n in names if names.count(n) > 1})
+    counts = Counter(c.name for c in candidates)
+    repeated = sorted(name for name, count in counts.items() if count > 1)
     if repeated:
         raise ConfigError(f"candidate name(s) {repeated} are used more than once; give each candidate its own name")
-
-
-def _failed(candidate, err: BaseException, stage: str) -> dict:
-    record = failed_candidate_record(candidate, err)
-    record["error"] = stage + record["error"]
-    return record

@@ -23,7 +23,21 @@ MAX_CANDIDATES = 100_000
 
 
 def count_subsets(n_terms: int, max_terms: int, min_terms: int = 0) -> int:
-    """Number of subsets of ``n_terms`` terms with ``min_terms`` to ``max_terms`` elements."""
+    """Number of subsets of ``n_terms`` terms with ``min_terms`` to ``max_terms`` elements.
+
+    Parameters
+    ----------
+    n_terms : int
+        Size of the dictionary.
+    max_terms, min_terms : int
+        Largest and smallest subset size; sizes above ``n_terms`` are not counted.
+
+    Returns
+    -------
+    int
+        ``sum(comb(n_terms, k) for k in min_terms..min(max_terms, n_terms))``: the number of
+        candidates :func:`subset_candidates` builds for these arguments.
+    """
     return sum(math.comb(n_terms, size) for size in range(min_terms, min(max_terms, n_terms) + 1))
 
 
@@ -101,7 +115,7 @@ def dictionary_candidates(
         raise ConfigError(f"unknown effect type(s) {unknown}; choose from {list(EFFECT_TYPES)}")
     if not list(dofs):
         raise ConfigError("no DOFs given for the effect dictionary; pass the measured DOFs, e.g. [1, 2]")
-    terms = [term for _, term in effect_dictionary(dofs, types, pairs=pairs)]
+    terms = [effect.term for effect in effect_dictionary(dofs, types, pairs=pairs)]
     return subset_candidates(terms, max_terms=max_terms, min_terms=min_terms)
 
 

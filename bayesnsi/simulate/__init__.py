@@ -17,7 +17,9 @@ from .cases import (
 )
 from .excitation import Excitation, band_limited_gaussian, fft_interpolate, from_samples
 from .integrate import Response, add_output_noise, rk4_modal_error, simulate_response
-from .structures import cantilever_beam, chain_system, modal_damping, modal_parameters, state_matrix
+from .records import CaseSetup
+from .reference import MAX_SIMULATION_BYTES, case_setup, simulation_bytes
+from .structures import cantilever_beam, chain_system, modal_damping, modal_parameters, state_matrix, underlying_frf
 from .undeclared import UNDECLARED_CASES, MissingEffect, UndeclaredCase, effect_sizes, undeclared_case, undeclared_cases
 
 __all__ = [
@@ -27,6 +29,7 @@ __all__ = [
     "modal_damping",
     "modal_parameters",
     "state_matrix",
+    "underlying_frf",
     # excitation
     "Excitation",
     "band_limited_gaussian",
@@ -47,6 +50,10 @@ __all__ = [
     "CASES",
     "simulate_case",
     "simulate_cases",
+    "CaseSetup",
+    "case_setup",
+    "simulation_bytes",
+    "MAX_SIMULATION_BYTES",
     # undeclared-effect cases for closing the loop (SPEC 7)
     "UndeclaredCase",
     "MissingEffect",

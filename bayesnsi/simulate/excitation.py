@@ -59,7 +59,7 @@ class Excitation:
         """Root mean square of each channel of the coarse samples, shape (n_channels,)."""
         return np.sqrt(np.mean(self.samples**2, axis=0))
 
-    def scaled(self, factor: float) -> "Excitation":
+    def scaled(self, factor: float) -> Excitation:
         """The same excitation multiplied by ``factor`` (e.g. ``-m`` for an inertial force)."""
         return Excitation(
             samples=_readonly(self.samples * factor),

@@ -10,8 +10,8 @@ samples. Many independent realisations (a leading batch dimension) advance in on
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
@@ -408,8 +408,9 @@ def _rk4_maps(A: np.ndarray, h: float):
 def _evaluator(term: Term):
     """Fast scalar-free evaluator of a term's basis function on DOF-major (x, v) views.
 
-    Uses :attr:`Expression.function`, the compiled closure (``Term.evaluate`` adds an ``errstate`` context and a copy per call, which would dominate
-    the RK4 loop); the loop sets ``errstate`` once.
+    Uses :attr:`Expression.function`, the compiled closure (``Term.evaluate`` adds an
+    ``errstate`` context and a copy per call, which would dominate the RK4 loop); the loop sets
+    ``errstate`` once.
     """
     return term.expr.function
 

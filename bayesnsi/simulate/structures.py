@@ -12,7 +12,7 @@ import scipy.linalg
 
 from ..exceptions import InputDataError, ShapeError, UnstableModelError
 
-__all__ = ["chain_system", "cantilever_beam", "modal_damping", "modal_parameters", "state_matrix"]
+__all__ = ["chain_system", "cantilever_beam", "modal_damping", "modal_parameters", "state_matrix", "underlying_frf"]
 
 
 def chain_system(masses, stiffnesses, dampings):
@@ -221,11 +221,66 @@ def modal_parameters(M, C, K):
 
 
 def state_matrix(M, C, K) -> np.ndarray:
-    """First-order state matrix ``[[0, I], [-M⁻¹K, -M⁻¹C]]`` for the state ``[w; ẇ]``."""
+    """First-order state matrix ``[[0, I], [-M⁻¹K, -M⁻¹C]]`` for the state ``[w; ẇ]``.
+
+    Parameters
+    ----------
+    M, C, K : ndarray, shape (N, N)
+        Mass (invertible), damping and stiffness matrices.
+
+    Returns
+    -------
+    ndarray, shape (2N, 2N)
+    """
     n = M.shape[0]
     minv_k = np.linalg.solve(M, K)
     minv_c = np.linalg.solve(M, C)
     return np.block([[np.zeros((n, n)), np.eye(n)], [-minv_k, -minv_c]])
+
+
+def underlying_frf(M, C, K, freqs_hz, output_dofs, input_dofs) -> np.ndarray:
+    """Exact receptance of the underlying linear structure, ``H(ω) = [K - ω²M + jωC]⁻¹``.
+
+    Parameters
+    ----------
+    M, C, K : array_like, shape (N, N)
+        Mass, damping and stiffness matrices (e.g. ``ReferenceCase.M``).
+    freqs_hz : array_like, shape (n_freqs,)
+        Frequencies [Hz].
+    output_dofs, input_dofs : sequence of int
+        DOFs (1-based) of the rows (displacements) and columns (forces) returned.
+
+    Returns
+    -------
+    ndarray, complex, shape (n_freqs, len(output_dofs), len(input_dofs))
+        Displacement per unit force [m/N].
+
+    Raises
+    ------
+    InputDataError
+        If a DOF lies outside 1..N or a frequency is not finite.
+    ShapeError
+        If the matrices are not square and of one size.
+
+    Examples
+    --------
+    >>> M, C, K = chain_system([1.0], [100.0], [0.0])
+    >>> complex(underlying_frf(M, C, K, [0.0], [1], [1])[0, 0, 0])
+    (0.01+0j)
+    """
+    M, C, K = _square("M", M), _square("C", C), _square("K", K)
+    if not (M.shape == C.shape == K.shape):
+        raise ShapeError(f"M, C, K must have the same shape, got {M.shape}, {C.shape}, {K.shape}")
+    n = M.shape[0]
+    outs, ins = (np.atleast_1d(np.asarray(d, dtype=int)) for d in (output_dofs, input_dofs))
+    if outs.size == 0 or ins.size == 0 or min(outs.min(), ins.min()) < 1 or max(outs.max(), ins.max()) > n:
+        raise InputDataError(f"output and input DOFs must lie in 1..{n}, got {outs.tolist()} and {ins.tolist()}")
+    omega = 2.0 * np.pi * np.atleast_1d(np.asarray(freqs_hz, dtype=float))
+    if not np.all(np.isfinite(omega)):
+        raise InputDataError("freqs_hz holds NaN or Inf values")
+    forcing = np.eye(n)[:, ins - 1]
+    dynamic = K[None] - omega[:, None, None] ** 2 * M[None] + 1j * omega[:, None, None] * C[None]
+    return np.linalg.solve(dynamic, np.broadcast_to(forcing, (len(omega), n, len(ins))))[:, outs - 1, :]
 
 
 def _chain_matrix(values: np.ndarray) -> np.ndarray:

@@ -36,7 +36,7 @@ refine it (SPEC 7: "a clearance on a grid of g").
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -44,9 +44,9 @@ from ..exceptions import InputDataError
 from ..models.dictionary import clearance_expression
 from ..models.terms import CandidateModel, Term
 from ..options import NSIOptions
-from .cases import ReferenceCase, _n_samples, _run, _Setup
-from .excitation import band_limited_gaussian
-from .structures import chain_system
+from . import cases as _cases  # noqa: F401  (registers the two- and three-DOF chains)
+from .records import ReferenceCase
+from .reference import case_setup, run_setup
 
 __all__ = [
     "UNDECLARED_CASES",
@@ -162,17 +162,10 @@ class UndeclaredCase:
 
     def describe(self) -> str:
         """Readable summary: the simulation, what is declared and what is missing."""
-        lines = [self.reference.describe(), f"  declared: {', '.join(t.name for t in self.declared.terms) or 'nothing'}"]
+        declared = ", ".join(t.name for t in self.declared.terms) or "nothing"
+        lines = [self.reference.describe(), f"  declared: {declared}"]
         lines.append("  missing: " + ("; ".join(e.describe() for e in self.missing) or "nothing (negative control)"))
         return "\n".join(lines)
-
-
-def _two_dof_chain():
-    return chain_system([1.0, 1.5], [800.0, 1000.0], [1.0, 1.0])
-
-
-def _three_dof_chain():
-    return chain_system([1.0, 1.5, 1.2], [800.0, 1000.0, 900.0], [1.0, 1.0, 1.0])
 
 
 _QUAD = ("v|v|", Term("v1*abs(v1)", 1), 20.0)
@@ -181,42 +174,38 @@ _CUBIC12_3DOF = ("x^3", Term("(x1-x2)**3", [1, 2]), 2.0e5)
 _CUBIC1_2DOF = ("x^3", Term("x1**3", 1), 5.0e5)
 _CLEARANCE2 = ("clearance", Term(clearance_expression("x2", _CLEARANCE_GAP), 2), _CLEARANCE_STIFFNESS)
 
-# name -> (title, chain, declared [(type, term, coef)], missing [(type, term, coef)])
+# name -> (title, chain, declared [(type, term, coef)], missing [(type, term, coef)]); the chain is
+# the reference case of that name (structure, force and output DOFs, recommended NSI settings)
 _DEFINITIONS: dict[str, tuple] = {
     "coulomb-dof2": (
         "Two-DOF chain, declared quadratic damping at DOF 1, undeclared Coulomb friction at DOF 2",
-        "two", [_QUAD], [_COULOMB2],
+        "two-dof", [_QUAD], [_COULOMB2],
     ),
     "cubic-pair": (
         "Three-DOF chain, declared linear, undeclared cubic spring between DOFs 1 and 2",
-        "three", [], [_CUBIC12_3DOF],
+        "three-dof", [], [_CUBIC12_3DOF],
     ),
     "quadratic-damping": (
         "Two-DOF chain, declared linear, undeclared quadratic damping at DOF 1",
-        "two", [], [_QUAD],
+        "two-dof", [], [_QUAD],
     ),
     "clearance": (
         "Two-DOF chain, declared quadratic damping at DOF 1, undeclared clearance spring at DOF 2",
-        "two", [_QUAD], [_CLEARANCE2],
+        "two-dof", [_QUAD], [_CLEARANCE2],
     ),
     "two-missing": (
         "Two-DOF chain, declared quadratic damping at DOF 1, undeclared Coulomb friction at DOF 2 "
         "and cubic spring at DOF 1",
-        "two", [_QUAD], [_COULOMB2, _CUBIC1_2DOF],
+        "two-dof", [_QUAD], [_COULOMB2, _CUBIC1_2DOF],
     ),
     "control-two-dof": (
         "Negative control: two-DOF chain, declared = truth (quadratic damping at DOF 1)",
-        "two", [_QUAD], [],
+        "two-dof", [_QUAD], [],
     ),
     "control-three-dof": (
         "Negative control: three-DOF chain, declared = truth (cubic spring between DOFs 1 and 2)",
-        "three", [_CUBIC12_3DOF], [],
+        "three-dof", [_CUBIC12_3DOF], [],
     ),
-}
-
-_CHAINS = {
-    "two": (_two_dof_chain, (2,), (1, 2), NSIOptions(block_rows=60, order=4)),
-    "three": (_three_dof_chain, (3,), (1, 2, 3), NSIOptions(block_rows=40, order=6)),
 }
 
 UNDECLARED_CASES: dict[str, str] = {name: spec[0] for name, spec in _DEFINITIONS.items()}
@@ -273,27 +262,16 @@ def undeclared_cases(
     if name not in _DEFINITIONS:
         raise InputDataError(f"unknown undeclared-effect case {name!r}; choose one of {sorted(_DEFINITIONS)}")
     title, chain, declared, missing = _DEFINITIONS[name]
-    build, force_dofs, output_dofs, nsi = _CHAINS[chain]
-    M, C, K = build()
     everything = list(declared) + list(missing)
-    n_samples = _n_samples(duration, fs)
-    setup = _Setup(
+    base = case_setup(chain, duration=duration, fs=fs, oversample=oversample, force_rms=force_rms)
+    setup = replace(
+        base,
         name=name,
         title=title,
-        M=M,
-        C=C,
-        K=K,
         terms=tuple(t for _, t, _ in everything),
         coefficients=np.array([c for _, _, c in everything], dtype=float),
         true_model="truth",
-        force_dofs=force_dofs,
-        output_dofs=output_dofs,
         candidates=(CandidateModel(name="declared", terms=tuple(t for _, t, _ in declared)),),
-        recommended=nsi,
-        make_excitation=lambda rng: band_limited_gaussian(n_samples, fs, force_rms, rng, oversample=oversample),
-        force_factor=1.0,
-        fs=fs,
-        oversample=oversample,
         settings={"force_rms_N": force_rms, "duration_s": duration},
     )
     effects = tuple(
@@ -307,9 +285,9 @@ def undeclared_cases(
             declared=setup.candidates[0],
             missing=effects,
             declared_coefficients=np.array([c for _, _, c in declared], dtype=float),
-            nsi=nsi,
+            nsi=setup.recommended,
         )
-        for ref in _run(setup, list(seeds), float(noise_percent))
+        for ref in run_setup(setup, list(seeds), float(noise_percent))
     )
 
 
@@ -319,6 +297,11 @@ def effect_sizes(case: UndeclaredCase) -> dict[str, float]:
     The reference is, on the noise-free response, the whole linear restoring force ``(K w)_k`` at
     DOF k for a grounded effect, and the force ``k_jk (w_j - w_k)`` of the linear spring joining
     j and k for an effect between them.
+
+    Parameters
+    ----------
+    case : UndeclaredCase
+        A realisation (its noise-free response is used).
 
     Returns
     -------

@@ -24,9 +24,11 @@ import contextlib
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
-from ..exceptions import ConfigError, SchedulerError
+from ._fingerprint import code_fingerprint
+from .exceptions import ConfigError, SchedulerError
+from .options import MAX_JOBS
 
-__all__ = ["backend_name", "chunks", "connect", "dispatch"]
+__all__ = ["backend_name", "chunks", "connect", "dispatch", "shutdown_workers"]
 
 CONNECT_TIMEOUT_S = 10.0
 """Seconds to wait for a Dask scheduler before giving up."""
@@ -36,7 +38,25 @@ MAX_CHUNK = 16
 
 
 def backend_name(jobs: int = 1, scheduler=None) -> str:
-    """Name of the backend :func:`dispatch` uses for these settings: serial, loky or dask."""
+    """Name of the backend :func:`dispatch` uses for these settings.
+
+    Parameters
+    ----------
+    jobs : int
+        Local worker processes, 1 to :data:`bayesnsi.options.MAX_JOBS`.
+    scheduler : str or dask.distributed.Client, optional
+        Address of a Dask scheduler or a connected Client; overrides ``jobs``.
+
+    Returns
+    -------
+    str
+        ``"dask"`` with a scheduler, else ``"loky"`` for ``jobs > 1``, else ``"serial"``.
+
+    Raises
+    ------
+    ConfigError
+        If ``jobs`` is not an integer in ``[1, MAX_JOBS]``.
+    """
     _check_jobs(jobs)
     if scheduler is not None:
         return "dask"
@@ -91,33 +111,106 @@ def dispatch(
 def connect(scheduler):
     """A :class:`dask.distributed.Client` for an address (or the Client itself), checked.
 
+    An address is first checked for its form (``tcp://HOST:PORT``) and probed with one Dask
+    ``identity`` request under a hard deadline of :data:`CONNECT_TIMEOUT_S`, so a dead port, a
+    socket that accepts and never answers, or a server speaking another protocol fails fast
+    with one line instead of hanging inside dask.
+
+    Parameters
+    ----------
+    scheduler : str or dask.distributed.Client
+        ``tcp://HOST:PORT`` (``HOST:PORT`` means tcp) or a connected Client (used as is).
+
+    Returns
+    -------
+    client : dask.distributed.Client
+    owned : bool
+        True when the Client was created here (the caller closes it).
+
     Raises
     ------
     SchedulerError
-        If dask.distributed is missing, the scheduler does not answer within
-        :data:`CONNECT_TIMEOUT_S`, it has no workers, or its workers run other bayesnsi code.
+        If dask.distributed is missing, the address is malformed or uses TLS, the scheduler
+        does not answer as a Dask scheduler within :data:`CONNECT_TIMEOUT_S`, it has no
+        workers, or its workers run other bayesnsi code.
     """
     try:
         from dask.distributed import Client
     except ImportError as exc:  # pragma: no cover - a dependency
-        raise SchedulerError("--scheduler needs dask.distributed; install it with pip install 'dask[distributed]'") from exc
+        raise SchedulerError(
+            "--scheduler needs dask.distributed; install it with pip install 'dask[distributed]'"
+        ) from exc
     if isinstance(scheduler, Client):
         client, owned = scheduler, False
     else:
+        address = _probe(_check_address(scheduler))
         try:
-            client, owned = Client(str(scheduler), timeout=CONNECT_TIMEOUT_S, set_as_default=False), True
-        except (OSError, TimeoutError, ValueError) as exc:
-            raise SchedulerError(
-                f"cannot reach the Dask scheduler at {scheduler!r} ({type(exc).__name__}: {exc}); start one with "
-                "`dask scheduler` and `dask worker ADDRESS`, check the address, or drop --scheduler to run locally"
-            ) from exc
+            client, owned = Client(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False), True
+        except Exception as exc:  # anything dask raises on connection becomes one line
+            raise _unreachable(scheduler, exc) from exc
     try:
         _check_workers(client, scheduler)
     except BaseException:
         if owned:
-            client.close()
+            client.close(timeout=CONNECT_TIMEOUT_S)
         raise
     return client, owned
+
+
+def _check_address(scheduler) -> str:
+    """``tcp://HOST:PORT`` from a scheduler address, or a one-line SchedulerError."""
+    text = str(scheduler).strip()
+    scheme, sep, location = text.partition("://")
+    if not sep:
+        scheme, location = "tcp", text
+    scheme = scheme.lower()
+    if scheme == "tls":
+        raise SchedulerError(
+            f"--scheduler {text!r}: TLS schedulers need certificates, which the command line does not take; "
+            "connect a dask.distributed Client with its Security settings from Python, or use a tcp:// address"
+        )
+    host, colon, port = location.rpartition(":")
+    host = host.strip("[]")
+    if scheme != "tcp" or not colon or not host or not port.isdigit() or not 0 < int(port) < 65536 or len(text) > 300:
+        raise SchedulerError(
+            f"--scheduler {text[:80]!r} is not a Dask scheduler address; expected tcp://HOST:PORT "
+            "(e.g. tcp://10.0.0.5:8786)"
+        )
+    return f"tcp://{location}"
+
+
+def _probe(address: str) -> str:
+    """Ask ``address`` for its identity within :data:`CONNECT_TIMEOUT_S`; return it if a scheduler."""
+    import asyncio
+
+    from distributed.comm import connect as comm_connect
+
+    async def ask():
+        comm = await comm_connect(address, timeout=CONNECT_TIMEOUT_S)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    try:
+        reply = asyncio.run(asyncio.wait_for(ask(), CONNECT_TIMEOUT_S))
+    except TimeoutError as exc:
+        raise _unreachable(address, TimeoutError(f"no answer within {CONNECT_TIMEOUT_S:g} s")) from exc
+    except Exception as exc:  # junk on the wire can raise anything (MemoryError too)
+        raise _unreachable(address, exc) from exc
+    found = reply.get("type") if isinstance(reply, dict) else type(reply).__name__
+    if found != "Scheduler":
+        raise _unreachable(address, ValueError(f"it answered as {found!r}, not as a Dask scheduler"))
+    return address
+
+
+def _unreachable(scheduler, exc: BaseException) -> SchedulerError:
+    detail = " ".join(f"{type(exc).__name__}: {exc}".split())[:200]
+    return SchedulerError(
+        f"cannot reach the Dask scheduler at {str(scheduler)!r} ({detail}); start one with "
+        "`dask scheduler` and `dask worker ADDRESS`, check the address, or drop --scheduler to run locally"
+    )
 
 
 def _serial(function, tasks, context):
@@ -170,7 +263,6 @@ def _dask(function, tasks, context, scheduler):
 
 
 def _check_workers(client, scheduler) -> None:
-    from ..io.cache import code_fingerprint
 
     try:
         found = client.run(code_fingerprint)
@@ -190,6 +282,30 @@ def _check_workers(client, scheduler) -> None:
         )
 
 
+def shutdown_workers() -> None:
+    """Kill the local worker processes of the loky backend, if any (after SIGINT or SIGTERM).
+
+    The workers are reused between calls and outlive an interrupted :func:`dispatch`; this
+    stops them (and anything they started) at once, so nothing keeps computing after the
+    command has exited. Does nothing when no worker was started.
+    """
+    from joblib.externals.loky import reusable_executor
+
+    executor = getattr(reusable_executor, "_executor", None)
+    if executor is None:
+        return
+    for process in list(getattr(executor, "_processes", {}).values()):
+        with contextlib.suppress(Exception):
+            process.kill()
+    with contextlib.suppress(Exception):
+        executor.shutdown(wait=True, kill_workers=True)
+
+
 def _check_jobs(jobs) -> None:
     if not isinstance(jobs, int) or isinstance(jobs, bool) or jobs < 1:
         raise ConfigError(f"jobs must be a positive integer, got {jobs!r}; use --jobs 1 to run serially")
+    if jobs > MAX_JOBS:
+        raise ConfigError(
+            f"jobs must be at most {MAX_JOBS} local worker processes, got {jobs}; use a Dask cluster "
+            "(--scheduler) for more"
+        )

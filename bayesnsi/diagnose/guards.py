@@ -1,0 +1,200 @@
+"""The guards an effect must pass to be added (SPEC section 7, step 4).
+
+An effect proposed against the current model is kept only if
+
+* its log Bayes factor (Laplace) against the current model exceeds ``LoopOptions.threshold``;
+  the full evidence (emcee + bridge sampling) then gives its credible interval,
+* its coefficient is physically sound: quality index |Im λ|/|Re λ| below ``max_imag_ratio``,
+* its coefficient is stable: identified on each half of the record it keeps its sign and stays
+  within a factor ``stability_factor`` (SPEC 7: "the stability of the coefficient across data
+  segments" guards against terms that only absorb model-form error). When the halves are too
+  short to be identified (too few samples for the block rows), the effect is rejected with the
+  reason "record too short for the halves".
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..evidence import candidate_evidence
+from ..exceptions import BayesNSIError, BayesNSIWarning, BlockRowsError
+from ..models import CandidateModel, Term
+from ..nsi import identify
+from .forces import residual_force
+from .results import EffectScore, LoopStep
+from .scoring import shared_correlations
+from .state import Baseline, LoopContext
+
+__all__ = ["TOO_SHORT", "Verdict", "check_effect", "documented", "half_coefficients", "without"]
+
+TOO_SHORT = "record too short for the halves"
+"""Start of the reason of an effect rejected because the record halves cannot be identified."""
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The outcome of :func:`check_effect`.
+
+    Attributes
+    ----------
+    step : LoopStep
+    log_evidence : float
+        Laplace log-evidence of the enlarged model.
+    ci95 : ndarray or None
+        Credible intervals of all its coefficients when it was sampled (accepted effects).
+    quality_only : bool
+        True when the effect passed every guard but the quality index |Im|/|Re|.
+    """
+
+    step: LoopStep
+    log_evidence: float
+    ci95: np.ndarray | None
+    quality_only: bool
+
+
+def without(candidate: CandidateModel, term: Term) -> CandidateModel:
+    """``candidate`` without ``term`` (and its prior scale)."""
+    keep = [k for k, t in enumerate(candidate.terms) if t != term]
+    return CandidateModel(
+        name=f"{candidate.name} - {term.name}",
+        terms=tuple(candidate.terms[k] for k in keep),
+        prior=candidate.prior,
+        coefficient_prior_scales=tuple(candidate.coefficient_prior_scales[k] for k in keep),
+    )
+
+
+def half_coefficients(signals, candidate, nsi, cache=None) -> tuple[tuple[float, float], bool]:
+    """The last coefficient of ``candidate`` identified on each half of the record.
+
+    Parameters
+    ----------
+    signals : Signals
+    candidate : CandidateModel
+    nsi : NSIOptions
+    cache : dict, optional
+        Kept across calls; the Hankel products of each half for the candidate without its last
+        term are stored in it, so that the effects checked against one model share them.
+
+    Returns
+    -------
+    ((float, float), bool)
+        The two estimates (NaN where the identification failed) and whether a half was too
+        short for the block rows.
+    """
+    n = signals.n_samples // 2
+    parts = (signals.segment(0, n), signals.segment(n, signals.n_samples))
+    shared = (None, None)
+    if cache is not None and candidate.terms:
+        base = without(candidate, candidate.terms[-1])
+        key = tuple(t.name for t in base.terms)
+        if key not in cache:
+            cache[key] = tuple(shared_correlations(part, base, nsi) for part in parts)
+        shared = cache[key]
+    values, too_short = [], False
+    for part, correlations in zip(parts, shared):
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", BayesNSIWarning)
+                values.append(identify(part, candidate, nsi, correlations=correlations).coefficient_values[-1])
+        except BlockRowsError:
+            values.append(np.nan)
+            too_short = True
+        except (BayesNSIError, np.linalg.LinAlgError):
+            values.append(np.nan)
+    return (float(values[0]), float(values[1])), too_short
+
+
+def _stable(halves, value: float, factor: float) -> bool:
+    """Both halves finite, of the sign of ``value``, within ``factor`` of each other."""
+    if not all(np.isfinite(halves)) or not np.sign(halves[0]) == np.sign(halves[1]) == np.sign(value):
+        return False
+    return max(abs(h) for h in halves) < factor * min(abs(h) for h in halves)
+
+
+def check_effect(context: LoopContext, entry: EffectScore, baseline: Baseline, seed, half_cache=None) -> Verdict:
+    """Log Bayes factor (Laplace) and the guards of one proposed effect (module notes).
+
+    The decision uses the Laplace log-evidence ``entry`` was ranked by; the full emcee evidence
+    runs only for an effect that passes, to give its credible interval (one kept only with a second
+    effect, ``lookahead``, gets its interval from the pair's evidence). The record-half estimates
+    (two identifications) are computed only for an effect whose Bayes factor clears the threshold.
+
+    Parameters
+    ----------
+    context : LoopContext
+    entry : EffectScore
+        The effect with its enlarged model (``entry.result``) and its Laplace log-evidence.
+    baseline : Baseline
+        The model it is checked against.
+    seed : SeedSequence
+        Seed of the full evidence (sampled only when the effect passes).
+    half_cache : dict, optional
+        As ``cache`` of :func:`half_coefficients`.
+
+    Returns
+    -------
+    Verdict
+    """
+    options, signals, trial = context.options, context.signals, entry.result
+    threshold, max_imag_ratio = options.threshold, options.max_imag_ratio
+    log_bf = entry.log_evidence - baseline.log_evidence
+    coef = trial.coefficients[-1]
+    halves: tuple[float, float] = (math.nan, math.nan)
+    too_short = False
+    if log_bf > threshold:  # the halves cost two identifications
+        halves, too_short = half_coefficients(signals, trial.candidate, context.nsi, half_cache)
+    stable = _stable(halves, coef.value, options.stability_factor)
+    if log_bf <= threshold:
+        reason = f"log Bayes factor {log_bf:.2f} <= threshold {threshold:.2f}"
+    elif coef.imag_ratio >= max_imag_ratio:
+        reason = f"quality index |Im|/|Re| = {coef.imag_ratio:.2f} >= {max_imag_ratio}"
+    elif too_short:
+        reason = f"{TOO_SHORT} ({signals.n_samples // 2} samples each for {context.nsi.block_rows} block rows)"
+    elif not stable:
+        reason = f"coefficient unstable across record halves: {halves[0]:.4g} vs {halves[1]:.4g}"
+    else:
+        reason = "accepted"
+    quality_only = log_bf > threshold and stable and coef.imag_ratio >= max_imag_ratio
+    ci95, intervals = (math.nan, math.nan), None
+    if reason == "accepted":  # emcee only for what is kept: its credible intervals
+        full = candidate_evidence(trial, signals, context.evidence, seed, warn=False)[context.evidence.likelihood]
+        intervals = full.ci95
+        ci95 = tuple(float(c) for c in full.ci95[-1])
+    step = LoopStep(
+        effect=entry.effect,
+        accepted=reason == "accepted",
+        reason=reason,
+        coefficient=coef.value,
+        ci95=ci95,
+        imag_ratio=coef.imag_ratio,
+        half_coefficients=halves,
+        log_bayes_factor=float(log_bf),
+        nrmse_before=baseline.nrmse,
+        nrmse_after=float(entry.nrmse) if np.isfinite(entry.nrmse) else trial.reconstruct(signals).nrmse,
+        candidate=trial.candidate,
+    )
+    return Verdict(step, float(entry.log_evidence), intervals, quality_only)
+
+
+def _closed_loop_nrmse(result, signals) -> float:
+    """Closed-loop NRMSE on the estimation data, NaN when the simulation diverges."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", BayesNSIWarning)
+            return float(result.reconstruct(signals, closed_loop=True).nrmse)
+    except (BayesNSIError, np.linalg.LinAlgError, FloatingPointError):
+        return float("nan")
+
+
+def documented(step: LoopStep, before, after, signals) -> LoopStep:
+    """``step`` with its closed-loop errors and residual-force view (accepted steps, SPEC 7.5)."""
+    return replace(
+        step,
+        closed_loop_nrmse_before=_closed_loop_nrmse(before, signals),
+        closed_loop_nrmse_after=_closed_loop_nrmse(after, signals),
+        residual_force=residual_force(before, after, signals, step.term),
+    )

@@ -1,0 +1,135 @@
+"""What the loop returns: a scored effect, a checked step, the loop's outcome (SPEC section 7)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..models import CandidateModel, Effect, Term
+from .forces import ResidualForce
+
+__all__ = ["EffectScore", "LoopResult", "LoopStep"]
+
+
+@dataclass(frozen=True)
+class EffectScore:
+    """One effect of the dictionary scored against a model.
+
+    Attributes
+    ----------
+    effect : Effect
+    log_evidence : float
+        Laplace log-evidence of the model enlarged by the effect: −inf when its identification
+        failed, NaN when the frequency-domain screen left it out (not re-identified).
+    nrmse : float
+        Open-loop NRMSE of the enlarged model, NaN when not computed.
+    result : NSIResult or None
+        The enlarged model (None in :attr:`LoopResult.scores`, which keep the scores only).
+    """
+
+    effect: Effect
+    log_evidence: float
+    nrmse: float = math.nan
+    result: Any = field(default=None, repr=False, compare=False)
+
+    @property
+    def term(self) -> Term:
+        """The effect's term."""
+        return self.effect.term
+
+    @property
+    def screened_out(self) -> bool:
+        """True when the screen left the effect out (it was not re-identified)."""
+        return math.isnan(self.log_evidence)
+
+
+@dataclass(frozen=True)
+class LoopStep:
+    """One accepted (or the best rejected) effect.
+
+    Attributes
+    ----------
+    effect : Effect
+        Type, location (its term) and parameters (a clearance's gap).
+    accepted : bool
+    reason : str
+        Why it was accepted or rejected.
+    coefficient : float
+        NSI estimate of its coefficient.
+    ci95 : (float, float)
+        95 % highest-density interval of the coefficient (posterior); NaN when not sampled.
+    imag_ratio : float
+        Quality index |Im λ|/|Re λ|.
+    half_coefficients : (float, float)
+        Estimates on the first and the second half of the record (NaN when the effect failed
+        the Bayes-factor threshold: they are then not computed).
+    log_bayes_factor : float
+        ``log Z(with effect) - log Z(without)``, both by the Laplace approximation.
+    nrmse_before, nrmse_after : float
+        Open-loop NRMSE of the current and the enlarged model.
+    candidate : CandidateModel
+        The enlarged candidate.
+    closed_loop_nrmse_before, closed_loop_nrmse_after : float
+        NRMSE of the closed-loop simulation (SPEC 5) on the estimation data of the model without
+        and with the effect (for an effect accepted in exchange, "without" is the model holding
+        the effect it replaced, as for ``nrmse_before`` and ``log_bayes_factor``); NaN when that
+        simulation diverges (chaotic or unstable in feedback, SPEC 10) and for rejected effects
+        (not computed).
+    residual_force : ResidualForce or None
+        The residual of the models without and with the effect as a force at its location
+        (:func:`bayesnsi.diagnose.forces.residual_force`); accepted steps only.
+    """
+
+    effect: Effect
+    accepted: bool
+    reason: str
+    coefficient: float
+    ci95: tuple[float, float]
+    imag_ratio: float
+    half_coefficients: tuple[float, float]
+    log_bayes_factor: float
+    nrmse_before: float
+    nrmse_after: float
+    candidate: CandidateModel
+    closed_loop_nrmse_before: float = math.nan
+    closed_loop_nrmse_after: float = math.nan
+    residual_force: ResidualForce | None = None
+
+    @property
+    def term(self) -> Term:
+        """The effect's term (with its location)."""
+        return self.effect.term
+
+
+@dataclass(frozen=True)
+class LoopResult:
+    """Outcome of :func:`bayesnsi.diagnose.close_the_loop`.
+
+    Attributes
+    ----------
+    start, final : NSIResult
+        Identified starting and final models. The final model is re-identified on an upsampled
+        grid when it holds a term that switches with velocity (``LoopOptions.refine_final``);
+        ``settings["final_nsi"]`` holds the settings it was identified with.
+    steps : tuple of LoopStep
+        Accepted steps in the order they were added, then every rejected (or later removed)
+        effect that was checked, in the order checked.
+    scores : tuple of tuple of EffectScore
+        Per search (one per step, and one per look-ahead), every effect with its Laplace
+        log-evidence, best first: −inf when identification failed, NaN (after the scored ones, in
+        screen order) when the screen left it out.
+    settings : dict
+        The loop, NSI and evidence settings, the seed, the dictionary size and ``final_nsi``.
+    """
+
+    start: Any
+    final: Any
+    steps: tuple[LoopStep, ...]
+    scores: tuple[tuple[EffectScore, ...], ...]
+    settings: dict = field(default_factory=dict)
+
+    @property
+    def added(self) -> tuple[LoopStep, ...]:
+        """The accepted steps."""
+        return tuple(s for s in self.steps if s.accepted)

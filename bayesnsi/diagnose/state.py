@@ -1,0 +1,112 @@
+"""The loop's fixed context (data, dictionary, settings) and its state (model, steps, scores)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions
+from .results import EffectScore, LoopStep
+
+__all__ = ["Baseline", "LoopContext", "LoopState"]
+
+
+@dataclass(frozen=True)
+class LoopContext:
+    """What stays fixed during one loop.
+
+    Attributes
+    ----------
+    signals : Signals
+        Estimation data.
+    effects : tuple of Effect
+        The dictionary.
+    nsi : NSIOptions
+    evidence : EvidenceOptions
+        Scores the loop's residual (``LoopOptions.residual``) with the primary likelihood only.
+    options : LoopOptions
+    execution : ExecutionOptions
+        ``jobs`` local worker processes or a Dask ``scheduler`` that score the effects of a search.
+    screen_hz : float or None
+        Highest frequency of the frequency-domain screen; None when the screen is off.
+    """
+
+    signals: Any
+    effects: tuple
+    nsi: NSIOptions
+    evidence: EvidenceOptions
+    options: LoopOptions
+    execution: ExecutionOptions = field(default_factory=ExecutionOptions)
+    screen_hz: float | None = None
+
+
+@dataclass(frozen=True)
+class Baseline:
+    """The model an effect is checked against: its Laplace log-evidence and open-loop NRMSE."""
+
+    log_evidence: float
+    nrmse: float
+
+
+def _seed_stream(seed: int) -> Iterator[np.random.SeedSequence]:
+    """Children of ``SeedSequence(seed)``, one at a time, as many as needed."""
+    sequence = np.random.SeedSequence(seed)
+    while True:
+        yield sequence.spawn(1)[0]
+
+
+@dataclass
+class LoopState:
+    """What the search changes: the current model, the checked steps, the scores, the seeds.
+
+    Attributes
+    ----------
+    current : NSIResult
+        The current model.
+    log_z : float
+        Its Laplace log-evidence.
+    steps : list of LoopStep
+        Every checked effect, in the order checked (accepted ones are replaced in place when
+        they are documented, removed or exchanged).
+    scores : list of tuple of EffectScore
+        The scores of each search.
+    added : list of (str, tuple of int)
+        ``(base type, location)`` of each effect added: not proposed again.
+    half_cache : dict
+        Hankel products of the record halves per base model (stability guard).
+    """
+
+    current: Any
+    log_z: float
+    seed: int
+    steps: list[LoopStep] = field(default_factory=list)
+    scores: list[tuple[EffectScore, ...]] = field(default_factory=list)
+    added: list[tuple[str, tuple[int, ...]]] = field(default_factory=list)
+    half_cache: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self._seeds = _seed_stream(self.seed)
+
+    def next_seed(self) -> np.random.SeedSequence:
+        """The seed of the next effect checked (one per check, in order)."""
+        return next(self._seeds)
+
+    def record_scores(self, scored) -> None:
+        """Keep a search's scores (without the identified models)."""
+        self.scores.append(tuple(EffectScore(s.effect, s.log_evidence, s.nrmse) for s in scored))
+
+    def replace_step(self, old: LoopStep, new: LoopStep) -> LoopStep:
+        """Put ``new`` in the place of ``old`` (same object) in :attr:`steps`; returns ``new``."""
+        self.steps[next(i for i, s in enumerate(self.steps) if s is old)] = new
+        return new
+
+    def mark_added(self, step: LoopStep) -> None:
+        """Exclude the type and location of ``step``'s effect from later searches."""
+        self.added.append((step.effect.base, step.effect.location))
+
+    def baseline(self, signals) -> Baseline:
+        """The current model, on ``signals``, as the baseline of the next check."""
+        return Baseline(self.log_z, self.current.reconstruct(signals).nrmse)

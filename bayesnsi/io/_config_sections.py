@@ -1,0 +1,351 @@
+"""The sections of an experiment configuration: ``[data]``, ``[nsi]``, ``[[candidates]]``,
+``[[validation]]`` and ``[evidence]``, each checked and turned into its typed object."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, cast
+
+from ..exceptions import ConfigError, ExpressionError
+from ..models import CandidateModel, Term
+from ..options import EvidenceOptions, NSIOptions
+from ..preprocess import INTEGRATION_METHODS
+from ..signals import MAX_FS, MIN_FS
+from ._config_fields import (
+    MISSING,
+    Where,
+    build_options,
+    check_keys,
+    check_name,
+    get_bool,
+    get_choice,
+    get_int,
+    get_number,
+    get_text,
+    get_window,
+)
+from ._specs import DataSpec, IntegrationSpec, ValidationSegment
+
+__all__ = [
+    "MAX_CONFIG_CANDIDATES", "TOO_MANY", "parse_candidates", "parse_data", "parse_evidence", "parse_nsi",
+    "parse_validation",
+]
+
+MAX_CONFIG_CANDIDATES = 10_000
+"""Most ``[[candidates]]`` tables accepted in one configuration file (larger databases are built
+in code, e.g. with :func:`bayesnsi.run.dictionary_candidates`)."""
+
+TOO_MANY = "build large candidate databases in code (bayesnsi.run.dictionary_candidates)"
+_DATA_KEYS = tuple(f.name for f in dataclasses.fields(DataSpec))
+_INTEGRATE_KEYS = tuple(f.name for f in dataclasses.fields(IntegrationSpec))
+_VALIDATION_KEYS = tuple(f.name for f in dataclasses.fields(ValidationSegment))
+_CANDIDATE_KEYS = ("name", "prior", "terms")
+_TERM_KEYS = ("expr", "at", "prior_scale")
+_BAND_KEYS = tuple(f.name for f in dataclasses.fields(NSIOptions) if f.metadata.get("kind") == "band")
+
+
+def parse_data(table: Any, where: Where, check_files: bool) -> DataSpec:
+    """The ``[data]`` table as a :class:`DataSpec` (files resolved against the config's folder)."""
+    if table is MISSING:
+        raise where.problem(None, 'the [data] section is missing; add [data] with file = "...", fs, inputs and outputs')
+    if not isinstance(table, dict):
+        raise where.error(None, "a table [data]", table)
+    check_keys(table, _DATA_KEYS, where)
+    file = _resolve_file(get_text(table, "file", where), where, "file", check_files)
+    fs = get_number(table, "fs", where, None, positive=True)
+    if fs is not None and not MIN_FS <= fs <= MAX_FS:
+        raise where.error("fs", f"a sampling frequency in [{MIN_FS:g}, {MAX_FS:g}] Hz", fs)
+    time_column = check_name(get_text(table, "time_column", where, "t"), where, "time_column")
+    inputs = cast(dict[str, int], _dof_map(table, "inputs", where, required=True))
+    accelerations = _dof_map(table, "accelerations", where, required=False) or {}
+    integrate = _parse_integrate(table, where, fs, accelerations)
+    if integrate is not None:
+        for key in ("outputs", "velocities"):
+            if key in table:
+                raise where.problem(
+                    key, "with integrate, displacements and velocities are derived from accelerations; remove "
+                    f"{key} (or remove integrate to use measured displacements)"
+                )
+        outputs: dict[str, int] = {}
+        velocities = None
+    else:
+        if "outputs" not in table and accelerations:
+            raise where.error(
+                "outputs", "a table mapping displacement columns to DOFs",
+                fix="add outputs = { column_name = 1 }, or derive displacements from the accelerations with "
+                "integrate = { band_hz = [f_lo, f_hi] }",
+            )
+        outputs = cast(dict[str, int], _dof_map(table, "outputs", where, required=True))
+        velocities = _dof_map(table, "velocities", where, required=False)
+    if velocities is not None and sorted(velocities.values()) != sorted(outputs.values()):
+        raise where.error(
+            "velocities", f"the same DOFs as outputs {sorted(outputs.values())}", velocities,
+            "give one velocity column per displacement column, or drop velocities to derive them",
+        )
+    _check_columns_unique(where, time_column if fs is None else None, inputs, outputs, velocities, accelerations)
+    if integrate is not None:
+        outputs = {f"x{dof}": dof for dof in accelerations.values()}
+    estimation = table.get("estimation")
+    if estimation is not None:
+        estimation = get_window(estimation, where, "estimation")
+    decimate = get_int(table, "decimate", where, 1, minimum=1)
+    return DataSpec(
+        file=file, fs=fs, inputs=inputs, outputs=outputs, velocities=velocities,
+        accelerations=accelerations, estimation=estimation,
+        remove_mean=get_bool(table, "remove_mean", where, False), time_column=time_column,
+        integrate=integrate, decimate=decimate,
+    )
+
+
+def _parse_integrate(table: Mapping, where: Where, fs: float | None, accelerations) -> IntegrationSpec | None:
+    value = table.get("integrate")
+    if value is None:
+        return None
+    key = "integrate"
+    example = "integrate = { band_hz = [f_lo, f_hi] }"
+    if not isinstance(value, dict):
+        raise where.error(key, "an inline table", value, f"write {example}")
+    if not accelerations:
+        raise where.problem(
+            key, "integrate derives displacements from accelerations, but no accelerations are given; add "
+            "accelerations = { column_name = 1 }"
+        )
+    here = Where(where.path, f"{where.section} integrate")
+    check_keys(value, _INTEGRATE_KEYS, here)
+    band = value.get("band_hz", MISSING)
+    ok = (isinstance(band, list) and len(band) == 2
+          and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in band))
+    if not ok or not 0 < band[0] < band[1]:
+        raise here.error(
+            "band_hz", "[f_lo, f_hi] in Hz with 0 < f_lo < f_hi (content below f_lo is removed; f_hi >= fs/2: "
+            "no low-pass)", band,
+        )
+    if fs is not None and band[0] >= fs / 2:
+        raise here.error("band_hz", f"f_lo below the Nyquist frequency {fs / 2:g} Hz", band)
+    defaults = IntegrationSpec(band_hz=(1.0, 2.0))
+    taper = get_number(value, "taper", here, defaults.taper)
+    if not 0 <= taper < 1:
+        raise here.error("taper", "a number in [0, 1)", taper)
+    return IntegrationSpec(
+        band_hz=(float(band[0]), float(band[1])),
+        method=get_choice(value, "method", here, INTEGRATION_METHODS, defaults.method),
+        taper=taper,
+        filter_inputs=get_bool(value, "filter_inputs", here, defaults.filter_inputs),
+        filter_order=get_int(value, "filter_order", here, defaults.filter_order, minimum=1),
+        detrend_order=get_int(value, "detrend_order", here, defaults.detrend_order, minimum=0),
+    )
+
+
+def _resolve_file(name: str, where: Where, key: str, check_files: bool) -> Path:
+    if not name.strip() or "\x00" in name:
+        raise where.error(key, "a file name (relative to the config file's folder)", name)
+    file = _expand_home(Path(name), where, key)
+    if not file.is_absolute():
+        file = where.path.parent / file
+    try:
+        file = file.resolve()
+    except (OSError, RuntimeError, ValueError) as exc:  # e.g. a symlink loop
+        raise where.problem(key, f"cannot resolve the path {name!r} ({exc}); fix the file name") from exc
+    if check_files and not file.is_file():
+        raise where.problem(
+            key, f"data file {name!r} not found (looked for {file}); paths are relative to the "
+            "config file's folder - fix the name or move the file there"
+        )
+    return file
+
+
+def _expand_home(path: Path, where: Where, key: str) -> Path:
+    """``~`` and ``~user`` expanded; a user that does not exist is a ConfigError (not RuntimeError)."""
+    try:
+        return path.expanduser()
+    except RuntimeError as exc:
+        raise where.problem(key, f"cannot expand {str(path)!r} ({exc}); write the path without '~'") from exc
+
+
+def _dof_map(table: Mapping, key: str, where: Where, required: bool) -> dict[str, int] | None:
+    value = table.get(key, MISSING)
+    example = f"{key} = {{ column_name = 1 }}"
+    if value is MISSING:
+        if required:
+            raise where.error(key, "a table mapping column names to DOFs", fix=f"add {example}")
+        return None
+    if not isinstance(value, dict) or (required and not value):
+        raise where.error(key, "a non-empty table mapping column names to DOFs", value, f"write {example}")
+    seen: dict[int, str] = {}
+    for column, dof in value.items():
+        check_name(column, where, f"{key} column {column!r}")
+        if not isinstance(dof, int) or isinstance(dof, bool) or dof < 1:
+            raise where.error(f"{key}.{column}", "a DOF number >= 1 (DOFs are numbered from 1)", dof)
+        if dof in seen:
+            raise where.problem(
+                key, f"DOF {dof} is mapped twice (columns {seen[dof]!r} and {column!r}); map each DOF to one column"
+            )
+        seen[dof] = column
+    return dict(value)
+
+
+def _check_columns_unique(where: Where, time_column: str | None, *maps) -> None:
+    names = ("inputs", "outputs", "velocities", "accelerations")
+    used: dict[str, str] = {time_column: "time_column"} if time_column else {}
+    for role, mapping in zip(names, maps):
+        for column in mapping or {}:
+            if column in used:
+                raise where.problem(
+                    role, f"column {column!r} is already used as {used[column]}; each column has one role"
+                )
+            used[column] = role
+
+
+def parse_nsi(table: Any, where: Where, data: DataSpec) -> NSIOptions:
+    """``[nsi]`` as :class:`NSIOptions`, checked against the outputs and the Nyquist frequency of ``data``."""
+    if isinstance(table, dict) and "band" in table:
+        if "band_hz" in table:
+            raise where.problem("band", "band and band_hz are the same setting; keep only band_hz")
+        table = {("band_hz" if k == "band" else k): v for k, v in table.items()}
+    options = build_options(NSIOptions, table, where)
+    if options.order != "auto" and options.order > options.block_rows * len(data.outputs):
+        limit = options.block_rows * len(data.outputs)
+        raise where.error(
+            "order", f"at most block_rows x outputs = {options.block_rows} x {len(data.outputs)} = {limit}",
+            options.order, "raise block_rows or lower order",
+        )
+    fs = data.signal_fs
+    for key in _BAND_KEYS:
+        band = getattr(options, key)
+        if band is not None and fs is not None and band[1] > fs / 2:
+            raise where.error(key, f"a band below the Nyquist frequency {fs / 2:g} Hz", list(band))
+    return options
+
+
+def parse_candidates(items: Any, path: Path, data: DataSpec) -> tuple[CandidateModel, ...]:
+    """``[[candidates]]`` as CandidateModel objects: unique names, terms on measured DOFs, at most
+    :data:`MAX_CONFIG_CANDIDATES`."""
+    top = Where(path, "[[candidates]]")
+    how = 'add at least one [[candidates]] table with name = "..." and terms = [{ expr = "...", at = 1 }]'
+    if items is MISSING or items == []:
+        raise top.problem(None, f"no candidate models are given; {how}")
+    if not isinstance(items, list) or not all(isinstance(item, dict) for item in items):
+        raise top.error(None, "an array of tables written [[candidates]] (double brackets)", items, how)
+    if len(items) > MAX_CONFIG_CANDIDATES:
+        raise top.problem(None, f"{len(items)} candidates, more than the {MAX_CONFIG_CANDIDATES} accepted; {TOO_MANY}")
+    models, names = [], set()
+    for index, item in enumerate(items, start=1):
+        where = Where(path, f"[[candidates]] #{index}")
+        check_keys(item, _CANDIDATE_KEYS, where)
+        name = check_name(get_text(item, "name", where), where, "name")
+        where = Where(path, f"[[candidates]] #{index} ({name!r})")
+        if name in names:
+            raise where.problem("name", f"candidate name {name!r} is used twice; give each candidate its own name")
+        names.add(name)
+        prior = get_number(item, "prior", where, 1.0, positive=True)
+        terms, scales = _parse_terms(item, where, data)
+        try:
+            models.append(CandidateModel(name=name, terms=terms, prior=prior, coefficient_prior_scales=scales))
+        except (ConfigError, ExpressionError) as exc:
+            raise where.problem(None, f"{exc}; fix the terms of this candidate") from exc
+    return tuple(models)
+
+
+def _parse_terms(item: Mapping, where: Where, data: DataSpec) -> tuple[tuple[Term, ...], tuple]:
+    value = item.get("terms", MISSING)
+    if value is MISSING or not isinstance(value, list) or not all(isinstance(t, dict) for t in value):
+        raise where.error(
+            "terms", 'an array of tables like [{ expr = "v1*abs(v1)", at = 1 }]', value,
+            "write terms = [] for a linear model",
+        )
+    measured = set(data.outputs.values())
+    located = set(data.dofs)
+    terms, scales = [], []
+    for index, entry in enumerate(value, start=1):
+        key = f"terms[{index}]"
+        here = Where(where.path, f"{where.section} {key}")
+        check_keys(entry, _TERM_KEYS, here)
+        if "expr" not in entry:
+            raise here.error("expr", 'an expression string such as "v1*abs(v1)"', fix='add expr = "..."')
+        expr = get_text(entry, "expr", here)
+        if "at" not in entry:
+            raise here.error("at", "a DOF (at = 1) or a pair of DOFs (at = [1, 2])", fix="add at = <DOF>")
+        try:
+            term = Term(expr, entry["at"])
+        except ExpressionError as exc:
+            raise where.problem(f"{key}.expr", f"{exc}") from exc
+        unmeasured = sorted(set(term.expr.dofs) - measured)
+        if unmeasured:
+            raise where.problem(
+                f"{key}.expr", f"{expr!r} reads DOF(s) {unmeasured}, but outputs measure only DOFs "
+                f"{sorted(measured)}; use measured DOFs or add the missing displacement columns to [data] outputs"
+            )
+        outside = sorted(set(term.at) - located)
+        if outside:
+            raise where.problem(
+                f"{key}.at", f"the term acts at DOF(s) {outside}, which are neither forced nor measured "
+                f"(known DOFs: {sorted(located)}), so its coefficient cannot be identified (SPEC section 4); "
+                "place it at a measured DOF"
+            )
+        terms.append(term)
+        scales.append(get_number(entry, "prior_scale", here, None, positive=True))
+    return tuple(terms), tuple(scales)
+
+
+def parse_validation(items: Any, path: Path, data: DataSpec, check_files: bool) -> tuple[ValidationSegment, ...]:
+    """``[[validation]]`` segments, none overlapping the estimation window of the data file."""
+    top = Where(path, "[[validation]]")
+    if not isinstance(items, list) or not all(isinstance(item, dict) for item in items):
+        raise top.error(None, "an array of tables written [[validation]] (double brackets)", items)
+    segments, names = [], set()
+    for index, item in enumerate(items, start=1):
+        where = Where(path, f"[[validation]] #{index}")
+        check_keys(item, _VALIDATION_KEYS, where)
+        name = check_name(get_text(item, "name", where), where, "name")
+        if name in names:
+            raise where.problem("name", f"validation name {name!r} is used twice; give each segment its own name")
+        names.add(name)
+        file = _resolve_file(get_text(item, "file", where), where, "file", check_files) if "file" in item else None
+        start = get_int(item, "start", where, None if file else MISSING, minimum=0)
+        stop = get_int(item, "stop", where, None if file else MISSING, minimum=1)
+        if start is not None and stop is not None and start >= stop:
+            raise where.error("stop", f"an index greater than start = {start}", stop)
+        if file is None or file == data.file:
+            _check_no_overlap(where, name, start, stop, data.estimation)
+        segments.append(ValidationSegment(name=name, start=start, stop=stop, file=file))
+    return tuple(segments)
+
+
+def _check_no_overlap(where, name, start, stop, estimation) -> None:
+    if estimation is None:
+        raise where.problem(
+            None, f"segment {name!r} [{start}, {stop}) is in the data file, but the estimation window is the "
+            "whole record by default; set [data] estimation = [start, stop] to a window that excludes it"
+        )
+    lo = 0 if start is None else start
+    hi = math.inf if stop is None else stop
+    if lo < estimation[1] and estimation[0] < hi:
+        raise where.problem(
+            None, f"segment {name!r} [{start}, {stop}) overlaps the estimation window "
+            f"[{estimation[0]}, {estimation[1]}); validation data must never be used for estimation - "
+            "move the segment or shrink [data] estimation"
+        )
+
+
+def parse_evidence(raw: Mapping, path: Path) -> tuple[EvidenceOptions, int]:
+    """``[evidence]`` as :class:`EvidenceOptions` and the run's seed (top-level or ``[evidence] seed``)."""
+    where = Where(path, "[evidence]")
+    table = raw.get("evidence", {})
+    if not isinstance(table, dict):
+        raise where.error(None, "a table [evidence]", table)
+    top = Where(path, "top level")
+    seeds = {}
+    if "seed" in raw:
+        seeds["top"] = get_int(raw, "seed", top, minimum=0)
+    if "seed" in table:
+        seeds["evidence"] = get_int(table, "seed", where, minimum=0)
+    if len(set(seeds.values())) > 1:
+        raise top.problem(
+            "seed", f"seed = {seeds['top']} disagrees with [evidence] seed = {seeds['evidence']}; keep one"
+        )
+    settings = {k: v for k, v in table.items() if k != "seed"}
+    seed = next(iter(seeds.values()), 0)
+    return build_options(EvidenceOptions, settings, where, seed=seed), seed

@@ -1,0 +1,360 @@
+"""Explicit conversions of a candidate's outcome to plain data and back (the cache's schema).
+
+Each result class is described field by field (:class:`_Struct`): every field has a kind that
+encodes it with :func:`~bayesnsi.io._store.encode_value` and checks what is read back (type,
+array dtype and number of dimensions, allowed values). Terms are stored as their expression text
+and location and rebuilt through the expression parser (:class:`~bayesnsi.models.Term`), never
+evaluated. A class that gains a field the schema does not list is refused when stored, so a
+result is never cached incompletely.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from ..evidence import BridgeEstimate, ConvergenceReport, EvidenceResult, PosteriorSamples
+from ..exceptions import BayesNSIError
+from ..models import CandidateModel, Term
+from ..nsi import CoefficientEstimate, Mode, NSIResult, StateSpaceModel
+from ..run.batch import FAILED_STAGES, CandidateOutcome
+from ._store import EntryError, decode_value, encode_value
+
+__all__ = ["outcome_from_plain", "outcome_to_plain", "schema_fields"]
+
+_MAX_EXPRESSION = 2000  # characters of a stored term expression
+
+
+class _Typed:
+    """A value of the given Python types (generic encoding, type checked when read)."""
+
+    def __init__(self, *types: type, none: bool = False):
+        self.types, self.none = types, none
+
+    def encode(self, value: Any, arrays: dict) -> Any:
+        return encode_value(value, arrays)
+
+    def decode(self, plain: Any, arrays: Mapping, where: str) -> Any:
+        value = decode_value(plain, arrays, where)
+        if value is None and self.none:
+            return value
+        if isinstance(value, bool) and bool not in self.types or not isinstance(value, self.types):
+            expected = "/".join(t.__name__ for t in self.types)
+            raise EntryError(f"{where}: expected {expected}, got {type(value).__name__}")
+        return value
+
+
+class _Array(_Typed):
+    """An ndarray of one dtype and number of dimensions."""
+
+    def __init__(self, dtype: str, ndim: int):
+        super().__init__(np.ndarray)
+        self.dtype, self.ndim = dtype, ndim
+
+    def decode(self, plain: Any, arrays: Mapping, where: str) -> Any:
+        value = super().decode(plain, arrays, where)
+        if value.dtype.name != self.dtype or value.ndim != self.ndim:
+            raise EntryError(f"{where}: expected a {self.ndim}-D {self.dtype} array, got {value.ndim}-D {value.dtype}")
+        return value
+
+
+class _Choice(_Typed):
+    """One of a few strings (or None)."""
+
+    def __init__(self, choices: tuple[str, ...]):
+        super().__init__(str, none=True)
+        self.choices = choices
+
+    def decode(self, plain: Any, arrays: Mapping, where: str) -> Any:
+        value = super().decode(plain, arrays, where)
+        if value is not None and value not in self.choices:
+            raise EntryError(f"{where}: {value[:40]!r} is not one of {self.choices}")
+        return value
+
+
+class _Sequence:
+    """A tuple whose items are all of one kind (stored as a JSON list)."""
+
+    def __init__(self, item):
+        self.item = item
+
+    def encode(self, value: Any, arrays: dict) -> Any:
+        return [self.item.encode(v, arrays) for v in value]
+
+    def decode(self, plain: Any, arrays: Mapping, where: str) -> Any:
+        if not isinstance(plain, list):
+            raise EntryError(f"{where}: expected a list, got {type(plain).__name__}")
+        return tuple(self.item.decode(v, arrays, f"{where}[{k}]") for k, v in enumerate(plain))
+
+
+class _Named:
+    """A mapping of str to one kind, or None (stored as a list of [name, value] pairs)."""
+
+    def __init__(self, item):
+        self.item = item
+
+    def encode(self, value: Any, arrays: dict) -> Any:
+        return None if value is None else [[str(k), self.item.encode(v, arrays)] for k, v in value.items()]
+
+    def decode(self, plain: Any, arrays: Mapping, where: str) -> Any:
+        if plain is None:
+            return None
+        pairs = isinstance(plain, list) and all(isinstance(p, list) and len(p) == 2 for p in plain)
+        if not pairs or not all(isinstance(p[0], str) for p in plain):
+            raise EntryError(f"{where}: expected a list of [name, value] pairs")
+        return {k: self.item.decode(v, arrays, f"{where}[{k[:30]!r}]") for k, v in plain}
+
+
+class _Term:
+    """A :class:`Term`: expression text and location, parsed again when read."""
+
+    def encode(self, value: Term, arrays: dict) -> Any:
+        return {"expr": value.expr.text, "at": list(value.at)}
+
+    def decode(self, plain: Any, arrays: Mapping, where: str) -> Term:
+        if not (isinstance(plain, dict) and set(plain) == {"expr", "at"} and isinstance(plain["expr"], str)
+                and isinstance(plain["at"], list) and all(type(a) is int for a in plain["at"])):
+            raise EntryError(f"{where}: a term needs an expression text and a list of DOFs")
+        if len(plain["expr"]) > _MAX_EXPRESSION:
+            raise EntryError(f"{where}: expression text longer than {_MAX_EXPRESSION} characters")
+        try:
+            return Term(plain["expr"], tuple(plain["at"]))
+        except (BayesNSIError, RecursionError) as err:
+            raise EntryError(f"{where}: invalid term ({err})") from None
+
+
+class _Struct:
+    """A frozen dataclass, field by field; ``fixed`` fields are not stored but set when read.
+
+    ``check(value)`` returns what is inconsistent in a decoded value (e.g. shapes that do not
+    agree), or None.
+    """
+
+    def __init__(self, cls: type, fields: dict, none: bool = False, fixed: Mapping | None = None, check=None):
+        self.cls, self.fields, self.none, self.fixed, self.check = cls, fields, none, dict(fixed or {}), check
+
+    def encode(self, value: Any, arrays: dict) -> Any:
+        if value is None and self.none:
+            return None
+        if not isinstance(value, self.cls):
+            raise TypeError(f"expected {self.cls.__name__}, got {type(value).__name__}")
+        missing = {f.name for f in dataclasses.fields(self.cls)} - set(self.fields) - set(self.fixed)
+        if missing:
+            raise TypeError(f"{self.cls.__name__} has fields the cache does not store: {sorted(missing)}")
+        return {name: kind.encode(getattr(value, name), arrays) for name, kind in self.fields.items()}
+
+    def decode(self, plain: Any, arrays: Mapping, where: str) -> Any:
+        if plain is None and self.none:
+            return None
+        if not isinstance(plain, dict) or set(plain) != set(self.fields):
+            found = sorted(plain)[:8] if isinstance(plain, dict) else type(plain).__name__
+            raise EntryError(f"{where}: expected a {self.cls.__name__} with fields {sorted(self.fields)}, got {found}")
+        values = {name: kind.decode(plain[name], arrays, f"{where}.{name}") for name, kind in self.fields.items()}
+        try:
+            value = self.cls(**values, **self.fixed)
+        except (BayesNSIError, TypeError, ValueError, ArithmeticError) as err:
+            raise EntryError(f"{where}: invalid {self.cls.__name__} ({err})") from None
+        problem = self.check(value) if self.check is not None else None
+        if problem:
+            raise EntryError(f"{where}: inconsistent {self.cls.__name__}: {problem}")
+        return value
+
+
+def _check_nsi(result: NSIResult) -> str | None:
+    A, B, C, D = (result.model.A, result.model.B, result.model.C, result.model.D)
+    n, m, n_out = A.shape[0], B.shape[1], C.shape[0]
+    if A.shape != (n, n) or B.shape[0] != n or C.shape[1] != n or D.shape != (n_out, m):
+        return f"state-space shapes A {A.shape}, B {B.shape}, C {C.shape}, D {D.shape}"
+    if len(result.coefficients) != result.candidate.n_terms or m != len(result.input_dofs) + result.candidate.n_terms:
+        return f"{len(result.coefficients)} coefficients and {m} inputs for {result.candidate.n_terms} terms"
+    if n_out != len(result.output_dofs) or len(result.band_hz) != 2:
+        return f"{n_out} outputs for output DOFs {result.output_dofs}, band {result.band_hz}"
+    return None
+
+
+def _check_posterior(posterior: PosteriorSamples) -> str | None:
+    shape = posterior.samples.shape
+    n_params = len(posterior.param_names)
+    if (shape[2] != n_params or posterior.log_posterior.shape != shape[:2]
+            or posterior.acceptance_fraction.shape != shape[:1] or posterior.autocorr_time.shape != (n_params,)
+            or posterior.mode.shape != (n_params,) or posterior.mode_covariance.shape != (n_params, n_params)
+            or len(posterior.coefficient_names) > n_params):
+        return f"samples {shape} for {n_params} parameters"
+    return None
+
+
+def _check_evidence(evidence: EvidenceResult) -> str | None:
+    q = len(evidence.coefficient_names)
+    if evidence.ci95.shape != (q, 2) or evidence.posterior.coefficient_names != evidence.coefficient_names:
+        return f"ci95 {evidence.ci95.shape} for {q} coefficients"
+    return None
+
+
+def _check_outcome(outcome: CandidateOutcome) -> str | None:
+    if outcome.result is not None and outcome.result.candidate != outcome.candidate:
+        return "the NSI result is for another candidate"
+    if outcome.evidences is not None and (outcome.result is None or not outcome.evidences):
+        return "evidences without an NSI result"
+    if (outcome.error is None) != (outcome.failed_stage is None):
+        return "an error without a failed stage, or the reverse"
+    if outcome.result is None and outcome.error is None:
+        return "neither a result nor an error"
+    return None
+
+
+FLOAT = _Typed(float, int, np.floating, np.integer)
+OPTIONAL_FLOAT = _Typed(float, int, np.floating, np.integer, none=True)
+INT = _Typed(int, np.integer)
+BOOL = _Typed(bool, np.bool_)
+STR = _Typed(str)
+OPTIONAL_STR = _Typed(str, none=True)
+COMPLEX = _Typed(complex, np.complexfloating)
+FLOATS, INTS, STRS = _Sequence(FLOAT), _Sequence(INT), _Sequence(STR)
+TERM = _Term()
+
+CANDIDATE = _Struct(CandidateModel, {
+    "name": STR, "terms": _Sequence(TERM), "prior": FLOAT, "coefficient_prior_scales": _Sequence(OPTIONAL_FLOAT),
+})
+
+NSI_RESULT = _Struct(NSIResult, {
+    "candidate": CANDIDATE,
+    "model": _Struct(StateSpaceModel, {
+        "A": _Array("float64", 2), "B": _Array("float64", 2), "C": _Array("float64", 2), "D": _Array("float64", 2),
+        "dt": FLOAT,
+    }),
+    "singular_values": _Array("float64", 1),
+    "order": INT,
+    "block_rows": INT,
+    "input_dofs": INTS,
+    "output_dofs": INTS,
+    "band_hz": FLOATS,
+    "modes": _Sequence(_Struct(Mode, {"frequency_hz": FLOAT, "damping_ratio": FLOAT, "pole": COMPLEX})),
+    "spurious_poles": _Array("complex128", 1),
+    "coefficients": _Sequence(_Struct(CoefficientEstimate, {
+        "term": TERM, "value": FLOAT, "imag_ratio": FLOAT, "band_hz": FLOATS, "spread": FLOAT,
+    })),
+    "settings": _Typed(dict),
+}, none=True, check=_check_nsi)
+
+EVIDENCE_RESULT = _Struct(EvidenceResult, {
+    "log_evidence": FLOAT,
+    "log_evidence_se": FLOAT,
+    "laplace_log_evidence": FLOAT,
+    "closed_form_log_evidence": OPTIONAL_FLOAT,
+    "plain_log_likelihood": FLOAT,
+    "likelihood": STR,
+    "coefficient_names": STRS,
+    "posterior": _Struct(PosteriorSamples, {
+        "samples": _Array("float64", 3),
+        "log_posterior": _Array("float64", 2),
+        "param_names": STRS,
+        "coefficient_names": STRS,
+        "channel_names": STRS,
+        "likelihood": STR,
+        "ar_order": INT,
+        "acceptance_fraction": _Array("float64", 1),
+        "autocorr_time": _Array("float64", 1),
+        "autocorr_reliable": BOOL,
+        "mode": _Array("float64", 1),
+        "mode_covariance": _Array("float64", 2),
+        "settings": _Typed(dict),
+    }, check=_check_posterior),
+    "summary": _Typed(pd.DataFrame),
+    "convergence": _Struct(ConvergenceReport, {
+        "rhat_max": FLOAT, "ess_bulk_min": FLOAT, "ess_tail_min": FLOAT, "worst_rhat": STR, "worst_ess": STR,
+        "rhat_threshold": FLOAT, "ess_threshold": FLOAT, "n_chains": INT, "n_draws": INT,
+    }),
+    "rhat_max": FLOAT,
+    "ess_min": FLOAT,
+    "ci95": _Array("float64", 2),
+    "bridge": _Struct(BridgeEstimate, {
+        "log_evidence": FLOAT, "se": FLOAT, "n_posterior": INT, "n_proposal": INT, "n_posterior_eff": FLOAT,
+        "n_iterations": INT, "converged": BOOL, "proposal": STR,
+    }),
+    "settings": _Typed(dict),
+    "priors_text": STR,
+    "warnings": STRS,
+}, check=_check_evidence)
+
+OUTCOME = _Struct(CandidateOutcome, {
+    "candidate": CANDIDATE,
+    "result": NSI_RESULT,
+    "evidences": _Named(EVIDENCE_RESULT),
+    "nrmse": OPTIONAL_FLOAT,
+    "nrmse_per_channel": FLOATS,
+    "error": OPTIONAL_STR,
+    "failed_stage": _Choice(FAILED_STAGES),
+    "traceback": OPTIONAL_STR,
+    "warnings": STRS,
+    "seconds": FLOAT,
+}, fixed={"cached": True}, check=_check_outcome)
+
+
+def outcome_to_plain(outcome: CandidateOutcome) -> tuple[dict, dict[str, np.ndarray]]:
+    """Plain data of a candidate's outcome: JSON values and the arrays they name.
+
+    Parameters
+    ----------
+    outcome : CandidateOutcome
+
+    Returns
+    -------
+    document : dict
+        JSON values (NaN and ±Infinity included as such).
+    arrays : dict of str to ndarray
+        Arrays named by ``document`` (dtypes float64, complex128, int64).
+
+    Raises
+    ------
+    TypeError
+        If the outcome holds a value the schema does not describe (e.g. a new field).
+    """
+    arrays: dict[str, np.ndarray] = {}
+    return OUTCOME.encode(outcome, arrays), arrays
+
+
+def outcome_from_plain(document: Any, arrays: Mapping[str, np.ndarray]) -> CandidateOutcome:
+    """Rebuild a :class:`CandidateOutcome` (with ``cached = True``) from :func:`outcome_to_plain`.
+
+    Parameters
+    ----------
+    document : object
+        JSON values as read.
+    arrays : mapping of str to ndarray
+        The arrays of the entry.
+
+    Returns
+    -------
+    CandidateOutcome
+
+    Raises
+    ------
+    EntryError
+        If anything does not match the schema (a missing or extra field, a wrong type, dtype or
+        number of dimensions, an invalid term or candidate).
+    """
+    return OUTCOME.decode(document, arrays, "outcome")
+
+
+def schema_fields() -> dict[str, set[str]]:
+    """Field names the schema stores (or sets) per result class, for checks against the classes.
+
+    Returns
+    -------
+    dict of str to set of str
+        Class name -> field names.
+    """
+    found: dict[str, set[str]] = {}
+    pending = [OUTCOME]
+    while pending:
+        kind = pending.pop()
+        if isinstance(kind, (_Sequence, _Named)):
+            pending.append(kind.item)
+        elif isinstance(kind, _Struct):
+            found[kind.cls.__name__] = set(kind.fields) | set(kind.fixed)
+            pending.extend(kind.fields.values())
+    return found

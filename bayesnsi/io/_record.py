@@ -1,0 +1,193 @@
+"""One measurement file mapped by ``[data]``, and the processing of a window of it into
+:class:`~bayesnsi.signals.Signals`: cut -> integrate -> decimate -> remove means."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from .. import preprocess
+from ..exceptions import ConfigError, InputDataError
+from ..signals import Signals
+from ._columns import MeasurementColumns, file_format
+from ._csv import read_csv_any
+from ._formats import read_matlike
+from ._specs import DataSpec
+from ._uff import read_uff
+
+__all__ = ["Record", "read_any"]
+
+_Window = tuple[np.ndarray, np.ndarray, "np.ndarray | None"]  # force, displacement, velocity
+
+
+class Record:
+    """The mapped channels of one file (raw, may hold NaN until a window is checked).
+
+    Parameters
+    ----------
+    path : Path
+        The measurement file (any supported format).
+    data : DataSpec
+        Column -> DOF maps, sampling and processing (``[data]``).
+
+    Raises
+    ------
+    InputDataError
+        As :func:`bayesnsi.io.read_signals`.
+    """
+
+    def __init__(self, path: Path, data: DataSpec):
+        self.path = Path(path)
+        self.data = data
+        self.integrate = data.integrate
+        if self.integrate is not None:
+            responses = {c: "acceleration" for c in data.accelerations}
+        else:
+            responses = {c: "displacement" for c in data.outputs}
+            responses.update({c: "velocity" for c in data.velocities or {}})
+        roles = {c: "input" for c in data.inputs} | responses
+        present = {} if self.integrate is not None else {c: "acceleration" for c in data.accelerations}
+        table = read_any(self.path, list(roles), roles, data.time_column, present)
+        self.table = table
+        self.fs = _resolve_fs(table, data)
+        _check_units(table, roles)
+        self.force = _stack(table, data.inputs)
+        # accelerations with integrate, else displacements (and measured velocities, in output order)
+        self.velocity_columns: list[str] = []
+        if self.integrate is not None:
+            self.response_columns = list(data.accelerations)
+        else:
+            self.response_columns = list(data.outputs)
+            by_dof = {dof: column for column, dof in (data.velocities or {}).items()}
+            self.velocity_columns = [by_dof[dof] for dof in data.outputs.values()] if by_dof else []
+        self.response = _stack(table, self.response_columns)
+        self.velocity = _stack(table, self.velocity_columns) if self.velocity_columns else None
+        self._cache: dict[tuple[int, int], _Window] = {}
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples in the file."""
+        return self.force.shape[0]
+
+    def window(self, bounds, key: str, config_path: Path) -> tuple[int, int]:
+        """``[start, stop)`` of ``bounds`` (None: the whole record), checked against the record."""
+        start, stop = bounds if bounds is not None else (None, None)
+        start = 0 if start is None else start
+        stop = self.n_samples if stop is None else stop
+        if stop > self.n_samples or start >= stop:
+            raise ConfigError(
+                f"{config_path}: {key}: expected a window inside the record of {self.n_samples} samples "
+                f"in {self.path.name}, found [{start}, {stop}); shrink the window"
+            )
+        return start, stop
+
+    def means(self, start: int, stop: int) -> _Window:
+        """Mean of each processed channel group over the window."""
+        force, displacement, velocity = self._processed(start, stop)
+        return force.mean(axis=0), displacement.mean(axis=0), None if velocity is None else velocity.mean(axis=0)
+
+    def signals(self, start: int, stop: int, means: _Window | None) -> Signals:
+        """The processed window as Signals, with ``means`` (if given) subtracted."""
+        force, displacement, velocity = self._processed(start, stop)
+        if means is not None:
+            force, displacement = force - means[0], displacement - means[1]
+            velocity = None if velocity is None or means[2] is None else velocity - means[2]
+        return Signals(
+            force=force, displacement=displacement, velocity=velocity,
+            fs=self.fs / self.data.decimate,
+            input_dofs=tuple(self.data.inputs.values()), output_dofs=tuple(self.data.outputs.values()),
+            input_names=tuple(self.data.inputs), output_names=tuple(self.data.outputs),
+        )
+
+    def _processed(self, start: int, stop: int) -> _Window:
+        """Window [start, stop) of the file, integrated and decimated as [data] asks (cached)."""
+        key = (start, stop)
+        if key in self._cache:
+            return self._cache[key]
+        self._check_finite(start, stop)
+        force = self.force[start:stop]
+        velocity: np.ndarray | None
+        spec = self.integrate
+        try:
+            if spec is not None:
+                velocity, displacement = preprocess.integrate_acceleration(
+                    self.response[start:stop], self.fs, spec.band_hz, spec.method,
+                    detrend_order=spec.detrend_order, taper=spec.taper, filter_order=spec.filter_order,
+                )
+                if spec.filter_inputs:
+                    force = preprocess.band_filter(
+                        force, self.fs, spec.band_hz, spec.method, taper=spec.taper, filter_order=spec.filter_order
+                    )
+            else:
+                displacement = self.response[start:stop]
+                velocity = None if self.velocity is None else self.velocity[start:stop]
+            q = self.data.decimate
+            if q > 1:
+                force, displacement = preprocess.decimate(force, q), preprocess.decimate(displacement, q)
+                velocity = None if velocity is None else preprocess.decimate(velocity, q)
+        except InputDataError as exc:
+            raise InputDataError(f"{self.path}: samples [{start}, {stop}): {exc}") from exc
+        self._cache[key] = (force, displacement, velocity)
+        return self._cache[key]
+
+    def _check_finite(self, start: int, stop: int) -> None:
+        groups = [(list(self.data.inputs), self.force), (self.response_columns, self.response)]
+        if self.velocity is not None:
+            groups.append((self.velocity_columns, self.velocity))
+        for names, values in groups:
+            bad = ~np.isfinite(values[start:stop])
+            if bad.any():
+                row, col = np.argwhere(bad)[0]
+                raise InputDataError(
+                    f"{self.path}: column {list(names)[col]!r} has {int(bad.sum())} missing or non-finite value(s) "
+                    f"in samples [{start}, {stop}), the first at sample {start + row}"
+                    f"{self.table.locate(start + row)}; fill or remove them, or choose a window that excludes them"
+                )
+
+
+def read_any(path: Path, columns: list[str], roles: Mapping[str, str], time_column: str,
+             present: Mapping[str, str]) -> MeasurementColumns:
+    """Read ``columns`` of any supported file; check that the ``present`` ones exist."""
+    kind = file_format(path)
+    if not path.is_file():
+        raise InputDataError(f"data file {path} not found; check the name and folder")
+    if kind == "csv":
+        return read_csv_any(path, columns, time_column, present)
+    if kind == "uff":
+        return read_uff(path, columns, roles, present)
+    return read_matlike(path, columns, time_column, present)
+
+
+def _resolve_fs(table: MeasurementColumns, data: DataSpec) -> float:
+    if table.fs is None:
+        if data.fs is None:
+            raise InputDataError(f"{table.path}: no sampling frequency - [data] fs is not set and {table.hint}")
+        return data.fs
+    if data.fs is not None and abs(table.fs - data.fs) > table.fs_tolerance * data.fs:
+        fix = "correct fs, or drop it to use the " + ("time column" if table.format == "csv" else table.fs_source)
+        raise InputDataError(
+            f"{table.path}: {table.fs_source} gives fs = {table.fs:.9g} Hz but [data] fs = {data.fs:g} Hz; {fix}"
+        )
+    return data.fs if data.fs is not None else table.fs
+
+
+def _check_units(table: MeasurementColumns, roles: Mapping[str, str]) -> None:
+    """Channels of one response kind must share a unit where the file states units."""
+    by_role: dict[str, dict[str, str]] = {}
+    for name, role in roles.items():
+        unit = table.units.get(name, "").strip()
+        if unit and role != "input":
+            by_role.setdefault(role, {})[name] = unit
+    for role, units in by_role.items():
+        if len(set(units.values())) > 1:
+            raise InputDataError(
+                f"{table.path}: the {role} channels are in different units "
+                f"({', '.join(f'{name!r}: {unit[:20]!r}' for name, unit in units.items())}); one model needs one unit "
+                "per quantity - convert them to a common unit before loading"
+            )
+
+
+def _stack(table, columns) -> np.ndarray:
+    return np.column_stack([table.values[c] for c in columns])

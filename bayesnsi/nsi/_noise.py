@@ -1,0 +1,113 @@
+"""Measurement-noise level of the recorded channels, estimated from the data (spec section 10).
+
+Used by the output-error pole refinement (:mod:`._output_error`) and by the errors-in-variables
+predictor (:mod:`._eiv`), which both weigh or model the noise of each output channel.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..signals import Signals
+
+__all__ = ["measured_noise_std", "white_noise_std"]
+
+_MAX_DIFFERENCE_ORDER = 6
+
+
+def white_noise_std(signal: np.ndarray) -> np.ndarray:
+    """Std of additive white noise per channel, from high-order differences.
+
+    For white noise ``var(Δᵈ e) = C(2d, d) σ²``, while a signal well below Nyquist is
+    attenuated by ``(2 sin(πf/fs))^{2d}``. The estimate is the smallest of
+    ``var(Δᵈ y) / C(2d, d)`` over d = 2..6 (leakage of the signal only inflates it).
+
+    Parameters
+    ----------
+    signal : ndarray, shape (n_samples, n_channels)
+
+    Returns
+    -------
+    ndarray, shape (n_channels,)
+    """
+    y = np.asarray(signal, dtype=float)
+    best = np.full(y.shape[1], np.inf)
+    diff = y
+    for d in range(1, _MAX_DIFFERENCE_ORDER + 1):
+        diff = np.diff(diff, axis=0)
+        if d >= 2:
+            norm = float(
+                np.prod(np.arange(d + 1, 2 * d + 1)) / np.prod(np.arange(1, d + 1))
+            )  # C(2d, d)
+            best = np.minimum(best, diff.var(axis=0) / norm)
+    return np.sqrt(best)
+
+
+def measured_noise_std(signals: Signals):
+    """Noise std of the measured displacement and velocity channels (SPEC 10).
+
+    With measured velocities the two channels of a DOF must agree: ``r = v - dx/dt`` (spectral
+    derivative, exact for band-limited records) holds only the noise, whose one-sided spectral
+    density is ``(2/fs)(σ_v² + ω² σ_x²)`` for white noise. A fit of that line to the Welch
+    spectrum of ``r`` (relative least squares) gives both stds; records shorter than 256 samples,
+    or fits that fail, fall back to :func:`white_noise_std`. High-order differences alone
+    (:func:`white_noise_std`) cannot tell a velocity's noise from its broadband content, and
+    overestimate it at a driven DOF.
+
+    Parameters
+    ----------
+    signals : Signals
+
+    Returns
+    -------
+    displacement_std : ndarray, shape (l,)
+    velocity_std : ndarray, shape (l,) or None
+        None when the signals carry no velocities.
+    """
+    x = np.asarray(signals.displacement, dtype=float)
+    disp = white_noise_std(x)
+    if signals.velocity is None:
+        return disp, None
+    v = np.asarray(signals.velocity, dtype=float)
+    vel = white_noise_std(v)
+    n = len(x)
+    if n < 256:
+        return disp, vel
+    from scipy import signal as _signal
+
+    omega = 2.0 * np.pi * np.fft.rfftfreq(n, 1.0 / signals.fs)
+    derivative = np.fft.irfft(1j * omega[:, None] * np.fft.rfft(x - x.mean(axis=0), axis=0), n=n, axis=0)
+    edge = n // 20  # the spectral derivative wraps around: drop the ends
+    mismatch = (v - v.mean(axis=0) - derivative)[edge : n - edge]
+    freqs, density = _signal.welch(mismatch, fs=signals.fs, nperseg=min(1024, len(mismatch) // 8), axis=0)
+    variance = density[1:-1] * signals.fs / 2.0  # per-sample variance density: σ_v² + ω² σ_x²
+    design = np.column_stack([np.ones(len(variance)), (2.0 * np.pi * freqs[1:-1]) ** 2])
+    for c in range(x.shape[1]):
+        coef = _relative_line_fit(design, variance[:, c])
+        if coef is not None and coef[1] > 0:
+            disp[c] = np.sqrt(coef[1])
+            vel[c] = np.sqrt(max(coef[0], 0.0)) or 1e-6 * v[:, c].std()
+    return disp, vel
+
+
+def _relative_line_fit(design: np.ndarray, target: np.ndarray, passes: int = 30):
+    """Coefficients minimising Σ ((design @ c - target) / fit)², or None when the fit fails.
+
+    It fails on a spectrum with (numerically) empty bins, e.g. a record interpolated onto a finer
+    grid (``identify(upsample=R)``), whose noise is band-limited to the data's Nyquist frequency.
+    """
+    with np.errstate(all="ignore"):
+        scaled = design / target[:, None]
+        if not np.all(np.isfinite(scaled)) or not np.all(target > 0):
+            return None
+        try:
+            coef = np.linalg.lstsq(scaled, np.ones(len(target)), rcond=None)[0]
+            for _ in range(passes):  # relative least squares: weights from the current fit
+                fitted = np.maximum(design @ coef, np.finfo(float).tiny)
+                lhs, rhs = design / fitted[:, None], target / fitted
+                if not (np.all(np.isfinite(lhs)) and np.all(np.isfinite(rhs))):
+                    return None
+                coef = np.linalg.lstsq(lhs, rhs, rcond=None)[0]
+        except np.linalg.LinAlgError:
+            return None
+    return coef if np.all(np.isfinite(coef)) else None

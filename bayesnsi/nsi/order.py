@@ -1,0 +1,171 @@
+"""Model order and block rows of the subspace step: order choice and stabilisation diagrams (spec section 3)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..exceptions import BlockRowsError, OrderError
+from ..signals import Signals
+from . import _hankel, _subspace
+from .feedback import as_candidate, extended_input
+from .physics import split_poles
+
+__all__ = ["check_block_rows", "oblique_decomposition", "scaled_stack", "select_order", "stabilization"]
+
+
+def select_order(singular_values: np.ndarray, max_order: int, even: bool = True) -> int:
+    """Model order at the largest gap of log σ (spec section 3).
+
+    Parameters
+    ----------
+    singular_values : ndarray, shape (k,)
+        Singular values of the weighted oblique projection, in decreasing order.
+    max_order : int
+        Largest order considered.
+    even : bool
+        Consider only even orders (structural modes come in complex-conjugate pairs).
+
+    Returns
+    -------
+    int
+        The order ``n`` after which ``log σ_n - log σ_{n+1}`` is largest.
+
+    Raises
+    ------
+    OrderError
+        When no order up to ``max_order`` is admissible.
+
+    Examples
+    --------
+    >>> select_order(np.array([10.0, 9.0, 8.0, 7.0, 1e-3, 1e-4]), max_order=4)
+    4
+    """
+    s = np.asarray(singular_values, dtype=float)
+    s = np.maximum(s, s[0] * 1e-300)
+    gaps = np.log(s[:-1]) - np.log(s[1:])  # gaps[n-1] = gap after order n
+    orders = np.arange(1, len(s))
+    keep = orders <= max_order
+    if even:
+        keep &= orders % 2 == 0
+    if not keep.any():
+        raise OrderError(f"no admissible order up to {max_order} for {len(s)} singular values")
+    return int(orders[keep][np.argmax(gaps[keep])])
+
+
+def check_block_rows(n_samples: int, block_rows: int, n_channels: int) -> None:
+    """Check that the Hankel matrices are wide enough for ``block_rows`` (j ≥ 2·i·k).
+
+    Parameters
+    ----------
+    n_samples : int
+        Record length.
+    block_rows : int
+        i, the number of block rows.
+    n_channels : int
+        k, inputs plus outputs of the extended-input system.
+
+    Raises
+    ------
+    BlockRowsError
+        When ``block_rows`` is not an integer ≥ 2 or the record is too short for it.
+    """
+    if not isinstance(block_rows, (int, np.integer)) or block_rows < 2:
+        raise BlockRowsError(f"block_rows must be an integer ≥ 2, got {block_rows!r}")
+    needed = 2 * block_rows * (n_channels + 1) - 1
+    if n_samples < needed:
+        raise BlockRowsError(
+            f"{n_samples} samples are too few for {block_rows} block rows with {n_channels} channels "
+            f"(need at least {needed}); use fewer block rows (at most "
+            f"{max(2, (n_samples + 1) // (2 * (n_channels + 1)))}) or a longer record"
+        )
+
+
+def scaled_stack(u: np.ndarray, y: np.ndarray, block_rows: int) -> _hankel.ScaledStack:
+    """``[u, y]`` with each channel scaled to unit standard deviation, after checking ``block_rows``.
+
+    Parameters
+    ----------
+    u : ndarray, shape (N, m + q)
+        Extended input.
+    y : ndarray, shape (N, l)
+        Outputs.
+    block_rows : int
+        i (checked by :func:`check_block_rows`).
+
+    Returns
+    -------
+    _hankel.ScaledStack
+        Holds the scales (``u_scale``, ``y_scale``), computed once here.
+    """
+    check_block_rows(len(u), block_rows, u.shape[1] + y.shape[1])
+    return _hankel.ScaledStack(u, y, u.std(axis=0), y.std(axis=0))
+
+
+def oblique_decomposition(stack: _hankel.ScaledStack, block_rows: int, route: str = "correlation", lagged=None):
+    """Subspace data and SVD of the weighted oblique projection of a scaled ``[u, y]``.
+
+    Parameters
+    ----------
+    stack : _hankel.ScaledStack
+        Inputs and outputs with their channel scales.
+    block_rows : int
+        i.
+    route : {"correlation", "lq"}
+        Factor from the lagged products (Gram) or by an LQ decomposition of the data.
+    lagged : ndarray, optional
+        Precomputed lagged products for the correlation route.
+
+    Returns
+    -------
+    data : _subspace.SubspaceData
+    left : ndarray
+        Left singular vectors.
+    singular_values : ndarray, shape (i·l,)
+    """
+    n_in, n_out = stack.u.shape[1], stack.y.shape[1]
+    if route == "correlation":
+        factor = _hankel.gram_factor(stack, block_rows, n_in, lagged)
+    else:
+        factor = _hankel.lq_factor(stack, block_rows, n_in)
+    data = _subspace.SubspaceData(factor, block_rows, n_in, n_out)
+    left, singular_values = _subspace.oblique_svd(data)
+    return data, left, singular_values
+
+
+def stabilization(signals: Signals, candidate=None, *, block_rows: int = 40, orders=None, velocity_method="fourth"):
+    """Poles against model order for a stabilisation diagram (spec section 3, paper Figs. 3, 7, 11).
+
+    Parameters
+    ----------
+    signals : Signals
+        Measured forces and responses.
+    candidate : CandidateModel, sequence of Term or (expr, at) pairs, or None
+        As in :func:`bayesnsi.nsi.identify`.
+    block_rows : int
+        i, the number of block rows.
+    orders : sequence of int, optional
+        Default 2, 4, ..., min(i·l - 1, 40).
+    velocity_method : str
+        Differentiator for velocities the signals do not carry.
+
+    Returns
+    -------
+    singular_values : ndarray
+        Of the weighted oblique projection.
+    diagram : list of (order, ndarray (k, 2) of (frequency_hz, damping_ratio), ndarray of spurious poles)
+        One entry per order.
+    """
+    cand = as_candidate(candidate)
+    u = extended_input(signals, cand.terms, velocity_method)
+    y = np.asarray(signals.displacement)
+    stack = scaled_stack(u, y, block_rows)
+    _, left, singular_values = oblique_decomposition(stack, block_rows)
+    limit = block_rows * y.shape[1] - 1
+    orders = orders or range(2, min(limit, 40) + 1, 2)
+    out = []
+    for n in orders:
+        A, _ = _subspace.system_matrices_ac(left, singular_values, n, y.shape[1])
+        poles = np.log(np.linalg.eigvals(A).astype(complex)) / signals.dt
+        modes, spurious = split_poles(poles, signals.dt)
+        out.append((n, np.array([(m.frequency_hz, m.damping_ratio) for m in modes]).reshape(-1, 2), spurious))
+    return singular_values, out

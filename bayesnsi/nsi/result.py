@@ -1,0 +1,251 @@
+"""The result of nonlinear subspace identification and its reusable Hankel products (spec sections 3-4)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..models import CandidateModel, Term
+from ..signals import Signals
+from . import _hankel
+from .feedback import extended_input, working_signals
+from .physics import CoefficientEstimate, Mode, coefficient_spectrum
+from .statespace import StateSpaceModel
+
+__all__ = ["HankelCorrelations", "NSIResult", "correlation_key"]
+
+
+@dataclass(frozen=True)
+class NSIResult:
+    """Result of :func:`identify` for one candidate model.
+
+    Attributes
+    ----------
+    candidate : CandidateModel
+    model : StateSpaceModel
+        Discrete-time extended-input model in physical units (inputs [N] and term values,
+        outputs [m]).
+    singular_values : ndarray, shape (i·l,)
+        Of the weighted oblique projection (paper Fig. 3).
+    order : int
+    block_rows : int
+    input_dofs, output_dofs : tuple of int
+    band_hz : (float, float)
+        Band over which λ_i(ω) is averaged.
+    modes : tuple of Mode
+        Physical modes, by frequency.
+    spurious_poles : ndarray of complex
+        Continuous-time poles discarded as non-physical.
+    coefficients : tuple of CoefficientEstimate
+    settings : dict
+        Everything needed to reproduce the identification.
+
+    See Also
+    --------
+    bayesnsi.tables.modes_frame, bayesnsi.tables.coefficients_frame :
+        ``modes`` and ``coefficients`` as pandas DataFrames.
+    """
+
+    candidate: CandidateModel
+    model: StateSpaceModel
+    singular_values: np.ndarray
+    order: int
+    block_rows: int
+    input_dofs: tuple[int, ...]
+    output_dofs: tuple[int, ...]
+    band_hz: tuple[float, float]
+    modes: tuple[Mode, ...]
+    spurious_poles: np.ndarray
+    coefficients: tuple[CoefficientEstimate, ...]
+    settings: dict = field(default_factory=dict)
+
+    @property
+    def terms(self) -> tuple[Term, ...]:
+        """The candidate's nonlinear terms."""
+        return self.candidate.terms
+
+    @property
+    def coefficient_values(self) -> np.ndarray:
+        """Estimated λ_i (mean Re λ_i(ω) over the band), shape (q,)."""
+        return np.array([c.value for c in self.coefficients])
+
+    def frf(self, freqs_hz) -> np.ndarray:
+        """Extended FRF H_E(ω) of the identified model (spec section 4).
+
+        Parameters
+        ----------
+        freqs_hz : array_like, shape (n_freq,)
+            Frequencies [Hz].
+
+        Returns
+        -------
+        ndarray of complex, shape (n_freq, l, m + q)
+        """
+        return self.model.frf(freqs_hz)
+
+    def underlying_frf(self, freqs_hz) -> np.ndarray:
+        """Underlying linear FRF H(ω)[O, P]: the force columns of the extended FRF.
+
+        Parameters
+        ----------
+        freqs_hz : array_like, shape (n_freq,)
+            Frequencies [Hz].
+
+        Returns
+        -------
+        ndarray of complex, shape (n_freq, l, m)
+        """
+        return self.frf(freqs_hz)[:, :, : len(self.input_dofs)]
+
+    def coefficient_spectrum(self, freqs_hz) -> np.ndarray:
+        """Frequency-dependent coefficients λ_i(ω) from the extended FRF (paper Eqs. 24-32).
+
+        Parameters
+        ----------
+        freqs_hz : array_like, shape (n_freq,)
+            Frequencies [Hz].
+
+        Returns
+        -------
+        ndarray of complex, shape (n_freq, q)
+        """
+        return coefficient_spectrum(self.frf(freqs_hz), self.input_dofs, self.output_dofs, self.terms)
+
+    @property
+    def upsample(self) -> int:
+        """Factor between the identification grid and the data's sampling (1: the same)."""
+        return int(self.settings.get("upsample", 1))
+
+    def working_signals(self, signals: Signals) -> Signals:
+        """The signals on the identification grid (band-limited interpolation when upsampled).
+
+        Parameters
+        ----------
+        signals : Signals
+            At the data's rate.
+
+        Returns
+        -------
+        Signals
+        """
+        return working_signals(signals, self.upsample)
+
+    def extended_input(self, signals: Signals, on_grid: bool = False) -> np.ndarray:
+        """Extended input of this candidate on the model's grid.
+
+        Parameters
+        ----------
+        signals : Signals
+            At the data's rate, or already on the model's grid (``on_grid=True``, e.g. from
+            :meth:`working_signals`, which saves interpolating them again).
+        on_grid : bool
+            Whether ``signals`` are already on the model's grid.
+
+        Returns
+        -------
+        ndarray, shape (n_samples, m + q)
+            See :func:`bayesnsi.nsi.extended_input`.
+        """
+        return extended_input(
+            signals if on_grid else self.working_signals(signals),
+            self.terms,
+            self.settings.get("velocity_method", "fourth"),
+            self.settings.get("input_hold", "auto"),
+        )
+
+    def reconstruct(self, signals: Signals, closed_loop: bool = False, n_init: int | None = None):
+        """Open- or closed-loop reconstruction of ``signals`` by this model.
+
+        Parameters
+        ----------
+        signals : Signals
+            Data to reconstruct.
+        closed_loop : bool
+            Nonlinear inputs from the model's own response instead of the measured one.
+        n_init : int, optional
+            Samples used for the initial state.
+
+        Returns
+        -------
+        Reconstruction
+            See :func:`bayesnsi.nsi.reconstruct`.
+        """
+        from .reconstruct import reconstruct
+
+        return reconstruct(self, signals, closed_loop=closed_loop, n_init=n_init)
+
+
+@dataclass(frozen=True)
+class HankelCorrelations:
+    """Lagged products of one candidate's scaled ``[u, y]``, reusable by candidates that add terms.
+
+    Made by :func:`hankel_correlations`; passed to :func:`identify` (``correlations=``) for a
+    candidate whose terms start with these, it saves the products among the shared channels:
+    only those of the added terms' inputs are computed (:func:`_hankel.extend_lagged_products`).
+    The closing-the-loop search identifies one fixed model plus each effect in turn, so most of
+    the products are shared (time saved: ``docs/measurements.md``).
+
+    Attributes
+    ----------
+    term_names : tuple of str
+    key : tuple
+        ``(n_samples, block_rows, input_hold, velocity_method, upsample)`` they were built with.
+    scales : ndarray, shape (k,)
+        Channel scales of ``[u, y]``.
+    lagged : ndarray, shape (2i, k, k)
+    """
+
+    term_names: tuple[str, ...]
+    key: tuple
+    scales: np.ndarray
+    lagged: np.ndarray
+
+    def extended(self, terms, key, stack) -> np.ndarray | None:
+        """Lagged products of ``stack`` (the channels of ``terms``) or None when these do not apply.
+
+        They apply when ``terms`` start with this candidate's terms, the settings ``key`` are
+        the same and the shared channels have the same scales.
+
+        Parameters
+        ----------
+        terms : sequence of Term
+            The new candidate's terms.
+        key : tuple
+            Its settings (:func:`correlation_key`).
+        stack : _hankel.ScaledStack
+            Its scaled ``[u, y]``.
+
+        Returns
+        -------
+        ndarray, shape (2i, k, k), or None
+        """
+        n_old_terms = len(self.term_names)
+        if key != self.key or tuple(t.name for t in terms[:n_old_terms]) != self.term_names:
+            return None
+        n_outputs = stack.y.shape[1]
+        scales = np.concatenate([stack.u_scale, stack.y_scale])
+        n_shared_inputs = len(self.scales) - n_outputs
+        old = np.concatenate([np.arange(n_shared_inputs), len(scales) - n_outputs + np.arange(n_outputs)])
+        if not np.array_equal(scales[old], self.scales):
+            return None
+        return _hankel.extend_lagged_products(self.lagged, stack, old)
+
+
+def correlation_key(n_samples, block_rows, input_hold, velocity_method, upsample) -> tuple:
+    """Settings that must agree for :class:`HankelCorrelations` to be reused.
+
+    Parameters
+    ----------
+    n_samples, block_rows : int
+        Record length on the identification grid and i.
+    input_hold, velocity_method : str
+        Resolved input hold and differentiator.
+    upsample : int
+        Identification-grid factor.
+
+    Returns
+    -------
+    tuple
+    """
+    return (int(n_samples), int(block_rows), input_hold, velocity_method, int(upsample))

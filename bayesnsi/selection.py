@@ -1,0 +1,179 @@
+"""Model selection as one library call: identify every candidate, rank them, validate (SPEC 6).
+
+:func:`select` runs every candidate through NSI and the evidence (:func:`bayesnsi.run.run_candidates`),
+ranks them by the plain Gaussian likelihood of the source paper and by the marginal evidence
+side by side (:func:`bayesnsi.evidence.compare_evidence`), picks the most probable model and
+simulates every identified model on held-out segments. The command line, the workflows and the
+results.json record (:func:`bayesnsi.io.selection_payload`) are built from the
+:class:`Selection` it returns.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .exceptions import BayesNSIError
+from .options import EvidenceOptions, ExecutionOptions, NSIOptions
+from .run.batch import CandidateOutcome, run_candidates
+from .validation import SegmentError, Whiteness, residual_whiteness, validate
+
+__all__ = ["Selection", "select"]
+
+
+@dataclass(frozen=True)
+class Selection:
+    """Outcome of :func:`select`.
+
+    Attributes
+    ----------
+    outcomes : tuple of CandidateOutcome
+        One per candidate, in the order given.
+    table : pandas.DataFrame or None
+        Ranking table of :func:`bayesnsi.evidence.ranking_table` indexed by candidate name: the
+        plain Gaussian log-likelihood and its posterior probability (``p_plain``), and per
+        likelihood the log evidence and posterior probability ``p_<likelihood>`` with its
+        standard deviation ``p_<likelihood>_sd``. None when no evidence was computed.
+    nsi : NSIOptions
+        Identification settings used.
+    evidence : EvidenceOptions or None
+        Evidence settings used (None: identification only).
+    validation : mapping of str to tuple of SegmentError
+        Closed-loop errors of each identified candidate on each held-out segment.
+    adequacy : mapping of str to Whiteness
+        Whiteness test of each identified candidate's residual (the evidence's residual) on the
+        estimation data (:func:`bayesnsi.validation.residual_whiteness`): the probabilities
+        rank the candidates against each other, this says whether the best one explains the data.
+    """
+
+    outcomes: tuple[CandidateOutcome, ...]
+    table: Any
+    nsi: NSIOptions
+    evidence: EvidenceOptions | None
+    validation: Mapping[str, tuple[SegmentError, ...]] = field(default_factory=dict)
+    adequacy: Mapping[str, Whiteness] = field(default_factory=dict)
+
+    @property
+    def likelihood(self) -> str | None:
+        """Likelihood whose evidence selects the model (``EvidenceOptions.likelihood``)."""
+        return None if self.evidence is None else self.evidence.likelihood
+
+    @property
+    def selected(self) -> str | None:
+        """Name of the candidate of highest posterior probability under the marginal evidence.
+
+        None without evidence or when no candidate has an evidence.
+        """
+        return self._best(f"p_{self.likelihood}")
+
+    @property
+    def selected_gaussian(self) -> str | None:
+        """Name of the candidate of highest posterior probability under the plain Gaussian likelihood."""
+        return self._best("p_plain")
+
+    @property
+    def results(self) -> dict:
+        """Identified models by candidate name (failed identifications left out)."""
+        return {o.name: o.result for o in self.outcomes if o.result is not None}
+
+    @property
+    def evidences(self) -> dict:
+        """Evidence results by candidate name, then by likelihood (candidates without one left out)."""
+        return {o.name: dict(o.evidences) for o in self.outcomes if o.evidences is not None}
+
+    def outcome(self, name: str) -> CandidateOutcome:
+        """The outcome of candidate ``name``.
+
+        Parameters
+        ----------
+        name : str
+            Candidate name.
+
+        Returns
+        -------
+        CandidateOutcome
+
+        Raises
+        ------
+        KeyError
+            When no candidate has that name.
+        """
+        for outcome in self.outcomes:
+            if outcome.name == name:
+                return outcome
+        raise KeyError(f"no candidate named {name!r}; candidates: {[o.name for o in self.outcomes]}")
+
+    def _best(self, column: str) -> str | None:
+        if self.table is None or column not in self.table:
+            return None
+        ranked = [o.name for o in self.outcomes if o.status == "ok" and o.evidences is not None]
+        if not ranked:
+            return None
+        return max(ranked, key=lambda name: float(self.table.loc[name, column]))
+
+
+def select(
+    signals,
+    candidates: Sequence,
+    nsi: NSIOptions | None = None,
+    evidence: EvidenceOptions | None = None,
+    *,
+    execution: ExecutionOptions | None = None,
+    validation: Sequence = (),
+) -> Selection:
+    """Identify every candidate, rank them by Bayesian evidence and check them (SPEC 6).
+
+    Parameters
+    ----------
+    signals : Signals
+        Estimation data.
+    candidates : sequence of CandidateModel
+        The database of candidate models (names unique); their ``prior`` gives the prior model
+        probabilities.
+    nsi : NSIOptions, optional
+        Identification settings (default ``NSIOptions()``).
+    evidence : EvidenceOptions, optional
+        Evidence settings (default ``EvidenceOptions()``); ``seed`` roots every random choice.
+    execution : ExecutionOptions, optional
+        Backend, cache and progress callback (:func:`bayesnsi.run.run_candidates`); they never
+        change a number.
+    validation : sequence of (str, Signals)
+        Held-out segments on which every identified model is simulated in closed loop
+        (:func:`bayesnsi.validation.validate`).
+
+    Returns
+    -------
+    Selection
+
+    Examples
+    --------
+    >>> from bayesnsi import EvidenceOptions, NSIOptions, simulate_case
+    >>> case = simulate_case("two-dof", seed=0, duration=10.0)
+    >>> fast = EvidenceOptions(n_steps=200, n_burn=50, likelihood="white")
+    >>> selection = select(case.signals, case.candidates, NSIOptions(block_rows=40, order=4), fast)
+    >>> selection.selected
+    'model 1'
+    """
+    from .evidence import compare_evidence
+
+    evidence = EvidenceOptions() if evidence is None else evidence
+    outcomes = tuple(run_candidates(signals, candidates, nsi, evidence, execution=execution))
+    rng = np.random.default_rng(np.random.SeedSequence(evidence.seed).spawn(len(outcomes) + 1)[-1])
+    table = compare_evidence(
+        {o.name: None if o.evidences is None else list(o.evidences.values()) for o in outcomes},
+        priors=[o.candidate.prior for o in outcomes],
+        rng=rng,
+    )
+    identified = [o for o in outcomes if o.result is not None]
+    segments = list(validation)
+    checks = {o.name: validate(o.result, segments) for o in identified} if segments else {}
+    adequacy = {}
+    for o in identified:
+        try:
+            adequacy[o.name] = residual_whiteness(o.result, signals, evidence.residual)
+        except (BayesNSIError, np.linalg.LinAlgError):
+            continue  # the outcome already says why this candidate has no evidence
+    return Selection(outcomes, table, nsi or NSIOptions(), evidence, checks, adequacy)

@@ -1,0 +1,195 @@
+"""Is an identified model good enough? Closed-loop errors on held-out data, residual whiteness.
+
+- :func:`validate`: closed-loop simulation on held-out segments (SPEC 9 ``validation``).
+- :func:`residual_whiteness`: the Ljung-Box test of the residual on the estimation data, the
+  classical adequacy check of system identification: a model that explains the data leaves a
+  white one-step-ahead residual; a missing or wrong nonlinear term leaves structure in it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from .exceptions import BayesNSIError, ConfigError
+
+__all__ = ["ADEQUACY_LEVEL", "VALIDATION_INIT_SAMPLES", "SegmentError", "Whiteness", "residual_whiteness", "validate"]
+
+ADEQUACY_LEVEL = 0.01
+"""Significance level of the whiteness test: a model is flagged when some channel's p < this."""
+
+VALIDATION_INIT_SAMPLES = 50
+"""Samples at the start of each validation segment used only to estimate the initial state."""
+
+
+@dataclass(frozen=True)
+class SegmentError:
+    """Closed-loop error of one model on one validation segment.
+
+    Attributes
+    ----------
+    name : str
+        Name of the segment (config ``[[validation]]``).
+    rmse : float or None
+        RMS error over all output channels, in the output's units; None when the simulation failed.
+    nrmse : float or None
+        ``sqrt(mean_c(mean(e_c^2) / mean(y_c^2)))``; None when the simulation failed.
+    rmse_per_channel : tuple of float
+        RMS error of each output channel.
+    error : str or None
+        Why the closed-loop simulation failed (diverged, unstable), else None.
+    """
+
+    name: str
+    rmse: float | None
+    nrmse: float | None
+    rmse_per_channel: tuple[float, ...] = ()
+    error: str | None = None
+
+    def to_dict(self) -> dict:
+        """Plain-data form, as written to results.json."""
+        out: dict[str, object] = {"name": self.name, "rmse": self.rmse, "nrmse": self.nrmse}
+        if self.error is None:
+            out["rmse_per_channel"] = list(self.rmse_per_channel)
+        else:
+            out["error"] = self.error
+        return out
+
+
+def validate(result, segments) -> tuple[SegmentError, ...]:
+    """Closed-loop simulation of ``result`` on each validation segment (SPEC 5, 9).
+
+    Parameters
+    ----------
+    result : NSIResult
+        Identified model.
+    segments : iterable of (str, Signals)
+        Held-out data, e.g. from :func:`bayesnsi.io.load_validation`.
+
+    Returns
+    -------
+    tuple of SegmentError
+        One per segment. The first :data:`VALIDATION_INIT_SAMPLES` samples fix the initial state;
+        the errors are computed on the rest.
+    """
+    out = []
+    for name, signals in segments:
+        try:
+            rec = result.reconstruct(signals, closed_loop=True, n_init=VALIDATION_INIT_SAMPLES)
+        except BayesNSIError as err:
+            out.append(SegmentError(name, None, None, error=str(err)))
+            continue
+        residual = rec.residual[VALIDATION_INIT_SAMPLES:]
+        meas = rec.measured[VALIDATION_INIT_SAMPLES:]
+        mean_square = np.mean(residual**2, axis=0)
+        out.append(
+            SegmentError(
+                name,
+                float(np.sqrt(np.mean(mean_square))),
+                float(np.sqrt(np.mean(mean_square / np.mean(meas**2, axis=0)))),
+                tuple(float(v) for v in np.sqrt(mean_square)),
+            )
+        )
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class Whiteness:
+    """Ljung-Box whiteness test of a model's residual, per output channel.
+
+    Attributes
+    ----------
+    residual : str
+        ``"innovations"`` (one-step-ahead predictor) or ``"reconstruction"`` (open loop).
+    max_lag : int
+        Autocorrelation lags tested (1 to ``max_lag``).
+    statistic : tuple of float
+        Ljung-Box ``Q = N (N + 2) sum_k r_k^2 / (N - k)`` of each channel.
+    p_value : tuple of float
+        ``P(chi2(max_lag) > Q)``: small when the residual is not white.
+    fraction_outside : tuple of float
+        Fraction of the lags whose autocorrelation lies outside ``±1.96 / sqrt(N)``.
+    """
+
+    residual: str
+    max_lag: int
+    statistic: tuple[float, ...]
+    p_value: tuple[float, ...]
+    fraction_outside: tuple[float, ...]
+
+    @property
+    def adequate(self) -> bool:
+        """True when no channel rejects whiteness at :data:`ADEQUACY_LEVEL`."""
+        return min(self.p_value) >= ADEQUACY_LEVEL
+
+    def to_dict(self) -> dict:
+        """Plain-data form, as written to results.json."""
+        return {
+            "residual": self.residual,
+            "max_lag": self.max_lag,
+            "ljung_box": list(self.statistic),
+            "p_value": list(self.p_value),
+            "fraction_outside": list(self.fraction_outside),
+            "adequate": self.adequate,
+        }
+
+
+def residual_whiteness(result, signals, residual: str = "innovations", max_lag: int = 20) -> Whiteness:
+    """Ljung-Box test of the residual of ``result`` on its estimation data.
+
+    Parameters
+    ----------
+    result : NSIResult
+        Identified model.
+    signals : Signals
+        The data it was identified from.
+    residual : {"innovations", "reconstruction"}
+        The one-step-ahead predictor's residual (white for an adequate model; see
+        :func:`bayesnsi.nsi.predictor_reconstruction`) or the open-loop reconstruction's (coloured
+        by the measurement noise the model feeds back, so a stricter test).
+    max_lag : int
+        Lags of the test (at least 1, fewer than the samples).
+
+    Returns
+    -------
+    Whiteness
+
+    References
+    ----------
+    G. M. Ljung and G. E. P. Box, "On a measure of lack of fit in time series models",
+    Biometrika 65(2), 297-303, 1978.
+
+    Examples
+    --------
+    >>> from bayesnsi import identify, simulate_case
+    >>> case = simulate_case("two-dof", seed=0)
+    >>> true_model, wrong_model = (identify(case.signals, c, case.recommended) for c in case.candidates[:2])
+    >>> residual_whiteness(true_model, case.signals).adequate, residual_whiteness(wrong_model, case.signals).adequate
+    (True, False)
+    """
+    from .nsi import affine_reconstruction, predictor_reconstruction
+
+    builders = {"innovations": predictor_reconstruction, "reconstruction": affine_reconstruction}
+    if residual not in builders:
+        raise ConfigError(f"residual {residual!r} unknown; use one of {sorted(builders)}")
+    affine = builders[residual](result, signals)
+    error = affine.measured - affine.predict(affine.estimate)
+    error = error - error.mean(axis=0)
+    n = error.shape[0]
+    if isinstance(max_lag, bool) or not isinstance(max_lag, (int, np.integer)) or not 1 <= max_lag < n - 1:
+        raise ConfigError(f"max_lag must be an integer from 1 to {n - 2} (the record has {n} samples), got {max_lag!r}")
+    lags = np.arange(1, max_lag + 1)
+    power = np.einsum("nc,nc->c", error, error)
+    power = np.where(power > 0, power, 1.0)
+    r = np.stack([np.einsum("nc,nc->c", error[:-k], error[k:]) for k in lags]) / power  # (max_lag, l)
+    statistic = n * (n + 2) * np.sum(r**2 / (n - lags)[:, None], axis=0)
+    outside = np.mean(np.abs(r) > 1.96 / np.sqrt(n), axis=0)
+    return Whiteness(
+        residual,
+        int(max_lag),
+        tuple(float(q) for q in statistic),
+        tuple(float(p) for p in stats.chi2.sf(statistic, max_lag)),
+        tuple(float(f) for f in outside),
+    )

@@ -136,9 +136,9 @@ def connect(scheduler):
     """
     try:
         from dask.distributed import Client
-    except ImportError as exc:  # pragma: no cover - a dependency
+    except ImportError as exc:  # the optional extra bayesnsi[dask]
         raise SchedulerError(
-            "--scheduler needs dask.distributed; install it with pip install 'dask[distributed]'"
+            "--scheduler needs dask.distributed, which is not installed; pip install 'bayesnsi[dask]'"
         ) from exc
     if isinstance(scheduler, Client):
         client, owned = scheduler, False

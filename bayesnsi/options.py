@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any, ClassVar
@@ -248,7 +249,7 @@ class LoopOptions(_Options):
         names = self.effects
         if not isinstance(names, (list, tuple)) or not names or not all(isinstance(n, str) for n in names):
             raise ConfigError(
-                f"[diagnose] effects: expected a non-empty list of effect type names, got {self.effects!r}"
+                f"[diagnose] effects: expected a non-empty list of effect type names, got {_shown(self.effects)}"
             )
         object.__setattr__(self, "effects", tuple(dict.fromkeys(names)))
 
@@ -294,7 +295,7 @@ def parse_likelihood(name: str) -> tuple[int, str]:
         return 0, name
     if isinstance(name, str) and name.startswith("ar") and name[2:].isdigit() and 1 <= int(name[2:]) <= 50:
         return int(name[2:]), name
-    raise ConfigError(f"likelihood {name!r} unknown; use 'white', 'ar1' or 'arP' (P an integer from 1 to 50)")
+    raise ConfigError(f"likelihood {_shown(name)} unknown; use 'white', 'ar1' or 'arP' (P an integer from 1 to 50)")
 
 
 def _coerce(section: str, item, value):
@@ -308,18 +309,18 @@ def _coerce(section: str, item, value):
         return value
     if kind == "bool":
         if not isinstance(value, bool):
-            raise ConfigError(f"{where}: expected true or false, got {value!r}")
+            raise ConfigError(f"{where}: expected true or false, got {_shown(value)}")
         return value
     if kind == "choice":
         if value not in meta["choices"]:
-            raise ConfigError(f"{where}: expected one of {list(meta['choices'])}, got {value!r}")
+            raise ConfigError(f"{where}: expected one of {list(meta['choices'])}, got {_shown(value)}")
         return value
     if kind == "likelihood":
         return parse_likelihood(value)[1]
     if kind == "likelihoods":
         values = [value] if isinstance(value, str) else value
         if not isinstance(values, (list, tuple)):
-            raise ConfigError(f"{where}: expected a likelihood name or a list of them, got {value!r}")
+            raise ConfigError(f"{where}: expected a likelihood name or a list of them, got {_shown(value)}")
         return tuple(parse_likelihood(v)[1] for v in values)
     if kind == "order":
         if value == "auto":
@@ -329,7 +330,7 @@ def _coerce(section: str, item, value):
         ok = isinstance(value, (list, tuple)) and len(value) == 2
         pair = tuple(_number(where, v, integer=False, low=0.0, high=None) for v in value) if ok else ()
         if not ok or not pair[0] < pair[1]:
-            raise ConfigError(f"{where}: expected [low, high] in Hz with 0 <= low < high, got {value!r}")
+            raise ConfigError(f"{where}: expected [low, high] in Hz with 0 <= low < high, got {_shown(value)}")
         return pair
     return _number(where, value, integer=kind == "int", low=meta["low"], high=meta["high"])
 
@@ -337,6 +338,8 @@ def _coerce(section: str, item, value):
 def _number(where: str, value, *, integer: bool, low, high, extra: str = ""):
     is_int = isinstance(value, int) and not isinstance(value, bool)
     is_real = is_int or (isinstance(value, float) and math.isfinite(value))
+    if is_int and not integer and not abs(value) <= sys.float_info.max:
+        is_real = False  # an integer beyond every float: float() would overflow
     if integer and isinstance(value, float) and value.is_integer() and math.isfinite(value):
         value, is_int = int(value), True
     if (
@@ -347,8 +350,17 @@ def _number(where: str, value, *, integer: bool, low, high, extra: str = ""):
     ):
         span = f"[{_fmt(low)}, {_fmt(high)}]" if high is not None else f">= {_fmt(low)}"
         noun = "an integer" if integer else "a finite number"
-        raise ConfigError(f"{where}: expected {noun} in {span}{extra}, got {value!r}")
+        raise ConfigError(f"{where}: expected {noun} in {span}{extra}, got {_shown(value)}")
     return int(value) if integer else float(value)
+
+
+def _shown(value) -> str:
+    """``repr`` of a refused value for a one-line message: shortened, safe for any integer."""
+    try:
+        text = repr(value)
+    except ValueError:  # an integer with more digits than Python converts to text
+        return "an integer too large to print"
+    return text if len(text) <= 80 else text[:77] + "..."
 
 
 def _fmt(bound) -> str:

@@ -148,6 +148,12 @@ def select(
     -------
     Selection
 
+    References
+    ----------
+    R. Zhu, Q. Fei, D. Jiang, S. Marchesiello, D. Anastasio, "Bayesian Model Selection in
+    Nonlinear Subspace Identification", AIAA Journal, doi:10.2514/1.J060782: Eqs. 1-4 (the plain
+    Gaussian ranking reported beside the marginal evidence).
+
     Examples
     --------
     >>> from bayesnsi import EvidenceOptions, NSIOptions, simulate_case

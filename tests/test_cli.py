@@ -100,10 +100,7 @@ def test_bad_input_exits_2_with_one_line(two_dof_config, tmp_path, capsys, edit,
     config.write_text(text.replace('file = "two_dof.csv"', f'file = "{two_dof_config.with_suffix(".csv")}"'))
     code = main(["select", str(config), "--out", str(tmp_path / "o"), "--quiet"])
     err = capsys.readouterr().err
-    if message == "too few":  # every candidate fails; the run itself completes and says so
-        assert code == 0
-        return
-    assert code == 2
+    assert code == 2  # "too few": every candidate fails; results.json keeps each error (issue 13)
     assert message in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
 
 

@@ -98,7 +98,11 @@ _scalars = (
     st.integers(-5, 300) | st.integers(-(2**63), 2**63 - 1) | st.floats(allow_nan=True, allow_infinity=True)
     | st.booleans() | st.text(max_size=8) | st.sampled_from(["auto", "ar1", "white", "robust", "fourth", "time"])
 )
-_values = st.recursive(_scalars, lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=4), inner, max_size=3), max_leaves=6)
+_values = st.recursive(
+    _scalars,
+    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=4), inner, max_size=3),
+    max_leaves=6,
+)
 _columns = st.sampled_from(["f2", "x1", "x2", "v1", "v2", "a1", "t", "missing", ""])
 _dof_map = st.dictionaries(_columns, st.integers(-1, 4) | _values, max_size=3)
 _expr = st.lists(st.sampled_from(GRAMMAR), min_size=1, max_size=8).map("".join) | st.text(max_size=10)
@@ -131,13 +135,18 @@ _nsi = st.fixed_dictionaries({}, optional={
 })
 _validation = st.fixed_dictionaries(
     {"name": st.text(max_size=4)},
-    optional={"start": st.integers(-2, 150) | _scalars, "stop": st.integers(-2, 150) | _scalars, "file": st.sampled_from(["data.csv", "x.csv"])},
+    optional={
+        "start": st.integers(-2, 150) | _scalars,
+        "stop": st.integers(-2, 150) | _scalars,
+        "file": st.sampled_from(["data.csv", "x.csv"]),
+    },
 )
 _config = st.fixed_dictionaries(
     {"data": _data | _values},
     optional={
         "seed": _scalars, "nsi": _nsi | _values, "candidates": st.lists(_candidate, max_size=3) | _values,
-        "validation": st.lists(_validation, max_size=2) | _values, "evidence": st.dictionaries(st.text(max_size=5), _values, max_size=3),
+        "validation": st.lists(_validation, max_size=2) | _values,
+        "evidence": st.dictionaries(st.text(max_size=5), _values, max_size=3),
         "meta": _values, "extra": _values,
     },
 )
@@ -215,10 +224,16 @@ def test_config_loader_on_arbitrary_bytes(content):
 _cell = (
     st.floats(allow_nan=True, allow_infinity=True).map(repr)
     | st.integers(-10, 10).map(str)
-    | st.sampled_from(["", " ", "nan", "NaN", "inf", "-inf", "1e999", "abc", '"1,5"', '"x"', "0x10", "1_000", "—", "\t", '"'])
+    | st.sampled_from(
+        ["", " ", "nan", "NaN", "inf", "-inf", "1e999", "abc", '"1,5"', '"x"', "0x10", "1_000", "—", "\t", '"']
+    )
     | st.text(max_size=4)
 )
-_header = st.lists(st.sampled_from(["t", "f2", "x1", "x2", "v1", "v2", "", "1.5", "x1 ", '"x2"', "ü"]) | st.text(max_size=3), min_size=0, max_size=7)
+_header = st.lists(
+    st.sampled_from(["t", "f2", "x1", "x2", "v1", "v2", "", "1.5", "x1 ", '"x2"', "ü"]) | st.text(max_size=3),
+    min_size=0,
+    max_size=7,
+)
 
 
 @st.composite
@@ -245,7 +260,9 @@ def _csv_text(draw):
 _specs = st.sampled_from([
     DataSpec(file=Path("unused"), fs=100.0, inputs={"f2": 2}, outputs={"x1": 1, "x2": 2}),
     DataSpec(file=Path("unused"), fs=None, inputs={"f2": 2}, outputs={"x1": 1}),
-    DataSpec(file=Path("unused"), fs=100.0, inputs={"f2": 2}, outputs={"x1": 1, "x2": 2}, velocities={"v1": 1, "v2": 2}),
+    DataSpec(
+        file=Path("unused"), fs=100.0, inputs={"f2": 2}, outputs={"x1": 1, "x2": 2}, velocities={"v1": 1, "v2": 2}
+    ),
     DataSpec(file=Path("unused"), fs=100.0, inputs={"f2": 2}, outputs={"x1": 1}, decimate=2),
 ])
 

@@ -338,3 +338,13 @@ def test_signal_stops_the_worker_processes(signum, code, slow_config, tmp_path):
     while any(_alive(pid) for pid in workers) and time.monotonic() < deadline:
         time.sleep(0.1)
     assert not [pid for pid in workers if _alive(pid)], [_cmdline(pid) for pid in workers]
+
+
+def test_missing_dask_extra_is_named(monkeypatch):
+    # dask is the optional extra bayesnsi[dask] (issue 12): without it --scheduler says what to install
+    from bayesnsi import _dispatch
+    from bayesnsi.exceptions import SchedulerError
+
+    monkeypatch.setitem(sys.modules, "dask.distributed", None)
+    with pytest.raises(SchedulerError, match=r"pip install 'bayesnsi\[dask\]'"):
+        _dispatch.connect("tcp://127.0.0.1:1")

@@ -1,16 +1,18 @@
 """The ``bayesnsi`` command line: one small module per command, each with ``main(args) -> int``.
 
 Exit codes (:data:`EXIT_CODES`): 0 success; 1 internal failure; 2 bad input (a
-:class:`~bayesnsi.exceptions.BayesNSIError`: config, data, output folder, scheduler); 74 an I/O
-fault of the system (:class:`OSError`: read-only or full disk); 130 interrupted (SIGINT, Ctrl-C);
-143 terminated (SIGTERM). Every error is reported in one line on stderr, without a traceback
-unless ``--debug``. On SIGINT and SIGTERM the local worker processes are stopped before exiting.
+:class:`~bayesnsi.exceptions.BayesNSIError`: config, data, output folder, scheduler; or a path
+longer than the system accepts); 74 an I/O fault of the system (:class:`OSError`: read-only or
+full disk); 130 interrupted (SIGINT, Ctrl-C); 143 terminated (SIGTERM). Every error is reported
+in one line on stderr, without a traceback unless ``--debug``. On SIGINT and SIGTERM the local
+worker processes are stopped before exiting.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import signal
 import sys
 import traceback
@@ -87,6 +89,10 @@ def _report_error(args, err: Exception) -> int:
         traceback.print_exc()
     if isinstance(err, BayesNSIError):
         text, code = f"error: {err}", 2
+    elif isinstance(err, OSError) and err.errno == errno.ENAMETOOLONG:  # a path given is bad input
+        name = str(err.filename)
+        name = name if len(name) <= 80 else f"{name[:77]}..."
+        text, code = f"error: {err.strerror}: {name!r} ({len(str(err.filename))} characters); choose a shorter path", 2
     elif isinstance(err, OSError):
         where = f" ({err.filename})" if err.filename and str(err.filename) not in str(err) else ""
         advice = "free space or fix permissions and rerun (finished candidates are cached)"

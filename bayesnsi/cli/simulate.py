@@ -78,7 +78,10 @@ def run(args) -> int:
     for path in (csv_path, toml_path):
         if path.exists() and not args.force:
             raise InputDataError(f"{path} exists; pass --force to overwrite it or choose another --out")
-    csv_path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        csv_path.parent.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError) as exc:  # a file on the way, e.g. /dev/null/x.csv
+        raise InputDataError(f"cannot create the folder {csv_path.parent} of --out: {exc.strerror}") from exc
     from ..simulate import UNDECLARED_CASES, undeclared_case
 
     kwargs = {} if args.duration is None else {"duration": args.duration}

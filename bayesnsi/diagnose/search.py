@@ -123,7 +123,27 @@ def close_the_loop(
     Notes
     -----
     Effects of the type and location of one already added (e.g. a second clearance at the same
-    DOF with another gap) are not proposed again.
+    DOF with another gap) are not proposed again. The guards' defaults and their measurements are
+    in ``docs/measurements.md`` ("Closing the loop").
+
+    References
+    ----------
+    R. Zhu, Q. Fei, D. Jiang, S. Marchesiello, D. Anastasio, "Bayesian Model Selection in
+    Nonlinear Subspace Identification", AIAA Journal, doi:10.2514/1.J060782 (the candidates'
+    identification and evidence that each step reuses); the search, the guards and the screen
+    are bayesnsi's (spec section 7). G. M. Ljung, G. E. P. Box, Biometrika 65(2), 1978, for the
+    whiteness test of :func:`bayesnsi.validation.residual_whiteness` that flags a missing effect.
+
+    Examples
+    --------
+    A two-DOF chain whose quadratic damping at DOF 1 is missing from a linear model:
+
+    >>> from bayesnsi import LoopOptions
+    >>> from bayesnsi.simulate import undeclared_case
+    >>> case = undeclared_case("quadratic-damping", seed=0)
+    >>> loop = close_the_loop(case.signals, case.declared, LoopOptions(max_steps=1), nsi=case.nsi)
+    >>> [(step.term.name, step.accepted) for step in loop.steps]
+    [('v1*abs(v1)@1', True)]
     """
     options = _checked(options, LoopOptions, "options")
     return close_the_loop_with(

@@ -194,6 +194,8 @@ def read_toml(path: Path, limits: Mapping[str, tuple[int, str]] | None = None) -
         raise ConfigError(
             f"{path}: tables or arrays nest too deeply to read; at most {MAX_NESTING} levels are accepted"
         ) from None
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits, which int() refuses
+        raise ConfigError(f"{path}: not valid TOML ({exc}); TOML integers have at most 19 digits") from None
     _check_depth(raw, path)
     return raw
 

@@ -73,6 +73,8 @@ def _toml_value(value: Any, where: str) -> str:
     if isinstance(value, (bool, np.bool_)):
         return "true" if value else "false"
     if isinstance(value, (int, np.integer)):
+        if not -(2**63) <= int(value) < 2**63:
+            raise ConfigError(f"{where} is an integer beyond 64 bits, which TOML cannot hold; use a float or a string")
         return str(int(value))
     if isinstance(value, (float, np.floating)):
         value = float(value)

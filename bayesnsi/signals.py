@@ -128,6 +128,9 @@ class Signals:
     velocity : array_like, shape (n_samples, l), optional
         Measured velocities [m/s] at ``output_dofs``; when absent they are derived with
         :func:`differentiate` where a term needs them.
+    period : int, optional
+        Samples per period of a periodic test (the force repeats every ``period`` samples;
+        SPEC 11); None for a non-periodic record.
     """
 
     force: np.ndarray
@@ -138,6 +141,7 @@ class Signals:
     velocity: np.ndarray | None = None
     input_names: tuple[str, ...] = field(default=())
     output_names: tuple[str, ...] = field(default=())
+    period: int | None = None
 
     def __post_init__(self):
         force = _as_matrix("force", self.force, None)
@@ -159,6 +163,13 @@ class Signals:
         set_("output_dofs", _as_dofs("output_dofs", self.output_dofs, self.displacement.shape[1]))
         set_("input_names", tuple(self.input_names) or tuple(f"f{d}" for d in self.input_dofs))
         set_("output_names", tuple(self.output_names) or tuple(f"x{d}" for d in self.output_dofs))
+        if self.period is not None:
+            period = self.period
+            if not isinstance(period, (int, np.integer)) or isinstance(period, bool) or not 2 <= period <= len(force):
+                raise InputDataError(
+                    f"period must be a whole number of samples in [2, {len(force)}] (the record), got {period!r}"
+                )
+            set_("period", int(period))
 
     @property
     def n_samples(self) -> int:
@@ -194,6 +205,7 @@ class Signals:
             velocity=None if self.velocity is None else self.velocity[start:stop],
             input_names=self.input_names,
             output_names=self.output_names,
+            period=self.period if self.period is not None and stop - start >= self.period else None,
         )
 
     def state_rows(self, displacement_dofs, velocity_dofs, velocity_method: str = "fourth"):

@@ -3,6 +3,14 @@
 from .feedback import extended_input
 from .identify import hankel_correlations, identify
 from .order import select_order, stabilization
+from .periodic import (
+    BestLinearApproximation,
+    PeriodicSpectra,
+    best_linear_approximation,
+    excited_lines,
+    period_dft,
+    period_spectra,
+)
 from .physics import CoefficientEstimate, Mode, coefficient_spectrum, split_poles
 from .reconstruct import (
     AffineReconstruction,
@@ -36,4 +44,10 @@ __all__ = [
     "initial_state",
     "nrmse",
     "StateSpaceModel",
+    "PeriodicSpectra",
+    "BestLinearApproximation",
+    "period_spectra",
+    "period_dft",
+    "excited_lines",
+    "best_linear_approximation",
 ]

@@ -17,6 +17,7 @@ from .cases import (
 )
 from .excitation import Excitation, band_limited_gaussian, fft_interpolate, from_samples
 from .integrate import Response, add_output_noise, rk4_modal_error, simulate_response
+from .multisine import multisine, multisine_lines
 from .records import CaseSetup
 from .reference import MAX_SIMULATION_BYTES, case_setup, simulation_bytes
 from .structures import cantilever_beam, chain_system, modal_damping, modal_parameters, state_matrix, underlying_frf
@@ -35,6 +36,8 @@ __all__ = [
     "band_limited_gaussian",
     "from_samples",
     "fft_interpolate",
+    "multisine",
+    "multisine_lines",
     # integration
     "Response",
     "simulate_response",

@@ -14,14 +14,45 @@ Example
 20
 """
 
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
 from ._version import __version__
 from .exceptions import BayesNSIError
-from .models import CandidateModel, Term, parse_expression
-from .nsi import NSIResult, affine_reconstruction, identify, reconstruct
 from .options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions
-from .selection import Selection, select
-from .signals import Signals, differentiate
-from .simulate import simulate_case
+
+if TYPE_CHECKING:
+    from .models import CandidateModel, Term, parse_expression
+    from .nsi import NSIResult, affine_reconstruction, identify, reconstruct
+    from .selection import Selection, select
+    from .signals import Signals, differentiate
+    from .simulate import simulate_case
+
+# The numerical names are imported on first use (PEP 562), so that `import bayesnsi.cli` and
+# `bayesnsi --help` do not pay for numpy and scipy.
+_LAZY = {
+    "CandidateModel": "models", "Term": "models", "parse_expression": "models",
+    "NSIResult": "nsi", "affine_reconstruction": "nsi", "identify": "nsi", "reconstruct": "nsi",
+    "Selection": "selection", "select": "selection",
+    "Signals": "signals", "differentiate": "signals",
+    "simulate_case": "simulate",
+}
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'bayesnsi' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __all__ = [
     "BayesNSIError",

@@ -56,6 +56,14 @@ class Selection:
     validation: Mapping[str, tuple[SegmentError, ...]] = field(default_factory=dict)
     adequacy: Mapping[str, Whiteness] = field(default_factory=dict)
 
+    def __repr__(self) -> str:
+        from ._repr import compact_repr
+
+        return compact_repr(
+            self, candidates=tuple(o.name for o in self.outcomes), selected=self.selected, likelihood=self.likelihood,
+            failed=tuple(o.name for o in self.outcomes if o.result is None),
+        )
+
     @property
     def likelihood(self) -> str | None:
         """Likelihood whose evidence selects the model (``EvidenceOptions.likelihood``)."""

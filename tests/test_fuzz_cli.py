@@ -130,8 +130,9 @@ def _capped(function):
 def _cheap_commands():
     """Stub the computations behind the commands (identify, select, diagnose, demo) for a block."""
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr("bayesnsi.cli.identify.run_candidates", _stub)
-        patch.setattr("bayesnsi.cli.select.select", _stub)
+        # the commands import these when they run (a fast --help), so they are patched at their source
+        patch.setattr("bayesnsi.run.run_candidates", _stub)
+        patch.setattr("bayesnsi.selection.select", _stub)
         patch.setattr(bayesnsi.simulate, "simulate_case", _capped(bayesnsi.simulate.simulate_case))
         patch.setattr(bayesnsi.simulate, "undeclared_case", _capped(bayesnsi.simulate.undeclared_case))
         yield patch

@@ -17,6 +17,7 @@ import signal
 import sys
 import traceback
 
+from .._version import __version__
 from ..exceptions import BayesNSIError
 
 __all__ = ["EXIT_CODES", "main", "build_parser"]
@@ -56,6 +57,7 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
+    parser.add_argument("--version", action="version", version=f"bayesnsi {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for module in (simulate, identify, select, diagnose, demo):
         module.add_parser(sub)
@@ -70,11 +72,11 @@ def main(argv=None) -> int:
     enters there, such as the lock of the output folder
     (:func:`bayesnsi.io.results.output_folder`), are released before the exit code is returned.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")  # reports are written to files; no display is needed
     parser = build_parser()
     args = parser.parse_args(argv)
+    import matplotlib  # after parsing: `bayesnsi --help` stays fast
+
+    matplotlib.use("Agg")  # reports are written to files; no display is needed
     with _sigterm_raises(), contextlib.ExitStack() as args.resources:
         try:
             return int(args.run(args) or 0)

@@ -6,8 +6,6 @@ import time
 from argparse import Namespace
 from pathlib import Path
 
-from ..io import prepare_output_dir
-from ..io.results import output_folder
 from ._common import progress
 
 __all__ = ["add_parser", "run"]
@@ -31,6 +29,8 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     """Execute the command."""
+    from ..io import prepare_output_dir
+    from ..io.results import output_folder
     from . import select, simulate
 
     start = time.perf_counter()

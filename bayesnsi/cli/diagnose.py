@@ -2,11 +2,8 @@
 
 from __future__ import annotations
 
-from ..io import RESULTS_FILENAME, atomic_write_json, load_validation, selection_payload, term_record, to_jsonable
 from ..options import LoopOptions
-from ..validation import validate
 from ._common import add_option_flags, add_run_arguments, option_overrides, progress, start_run
-from ._report import identification_report, selection_sections
 from .select import run_selection
 
 __all__ = ["add_parser", "run"]
@@ -33,7 +30,10 @@ def run(args) -> int:
     """Execute the command."""
     from ..diagnose import close_the_loop
     from ..exceptions import ConfigError
+    from ..io import RESULTS_FILENAME, atomic_write_json, load_validation, selection_payload, term_record, to_jsonable
     from ..options import ExecutionOptions
+    from ..validation import validate
+    from ._report import identification_report, selection_sections
 
     config, out, signals = start_run(args)
     selection = run_selection(config, signals, args, out)

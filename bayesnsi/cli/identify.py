@@ -2,10 +2,7 @@
 
 from __future__ import annotations
 
-from ..io import RESULTS_FILENAME, atomic_write_json, identification_payload
-from ..run import run_candidates
 from ._common import add_run_arguments, execution, progress, refuse_if_nothing_identified, start_run
-from ._report import identification_report
 
 __all__ = ["add_parser", "run"]
 
@@ -25,6 +22,10 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     """Execute the command."""
+    from ..io import RESULTS_FILENAME, atomic_write_json, identification_payload
+    from ..run import run_candidates
+    from ._report import identification_report
+
     config, out, signals = start_run(args)
     with execution(args, out, config) as options:
         outcomes = run_candidates(signals, config.candidates, config.nsi, execution=options)

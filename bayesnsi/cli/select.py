@@ -2,10 +2,7 @@
 
 from __future__ import annotations
 
-from ..io import RESULTS_FILENAME, atomic_write_json, load_validation, selection_payload
-from ..selection import select
 from ._common import add_run_arguments, execution, progress, refuse_if_nothing_identified, start_run
-from ._report import identification_report, selection_sections
 
 __all__ = ["add_parser", "run", "run_selection"]
 
@@ -26,6 +23,9 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     """Execute the command."""
+    from ..io import RESULTS_FILENAME, atomic_write_json, selection_payload
+    from ._report import identification_report, selection_sections
+
     config, out, signals = start_run(args)
     selection = run_selection(config, signals, args, out)
     payload = selection_payload(selection, "select", config)
@@ -57,6 +57,9 @@ def run_selection(config, signals, args, out):
     -------
     Selection
     """
+    from ..io import load_validation
+    from ..selection import select
+
     with execution(args, out, config) as options:
         return select(
             signals, config.candidates, config.nsi, config.evidence, execution=options,

@@ -5,30 +5,45 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..exceptions import InputDataError
-from ..io import atomic_write_text, dump_config, write_signals_csv
-from ..io.schema import term_record
 from ._common import progress
 
 __all__ = ["add_parser", "run", "case_config"]
 
 
+class _CaseNames:
+    """The simulated cases, looked up only when needed (parsing ``simulate``, its help): importing
+    :mod:`bayesnsi.simulate` costs scipy, which ``bayesnsi --help`` must not pay."""
+
+    @staticmethod
+    def _names() -> list[str]:
+        from ..simulate import CASES, UNDECLARED_CASES
+
+        return sorted(CASES) + sorted(UNDECLARED_CASES)
+
+    def __contains__(self, name) -> bool:
+        return name in self._names()
+
+    def __iter__(self):
+        return iter(self._names())
+
+
 def add_parser(sub) -> None:
     """Register the subcommand."""
-    from ..simulate import CASES, UNDECLARED_CASES
-
     p = sub.add_parser(
         "simulate",
-        help="simulate a reference case (SPEC 8) or an undeclared-effect case (SPEC 7) to CSV + config",
-        description="Simulate a reference case of the paper and write FILE.csv and, beside it, FILE.toml: "
-        "an experiment config with the paper's candidate set, ready for `bayesnsi identify`/`select`. "
-        "The undeclared-effect cases (" + ", ".join(sorted(UNDECLARED_CASES)) + ") hold an effect that the "
-        "config's one candidate does not declare (or, for the controls, nothing missing): data to try "
+        help="simulate a reference case of the paper or an undeclared-effect case to CSV + config",
+        description="Simulate a reference case of the paper and write FILE.csv (with a units row) and, beside "
+        "it, FILE.toml: an experiment config with the paper's candidate set, ready for `bayesnsi identify`/`select`. "
+        "The undeclared-effect cases (coulomb-dof2, cubic-pair, ..., and the controls control-*) hold an effect "
+        "that the config's one candidate does not declare (or, for the controls, nothing missing): data to try "
         "`bayesnsi diagnose` on; the config's [meta] names what is missing.",
         epilog="examples: bayesnsi simulate two-dof --seed 3 --noise 2 --out data/two_dof.csv\n"
         "          bayesnsi simulate coulomb-dof2 --seed 1 --out data/coulomb.csv && "
         "bayesnsi diagnose data/coulomb.toml --out out/loop",
     )
-    p.add_argument("case", choices=sorted(CASES) + sorted(UNDECLARED_CASES), help="reference or undeclared-effect case")
+    p.add_argument(
+        "case", choices=_CaseNames(), metavar="CASE", help="reference or undeclared-effect case: %(choices)s"
+    )
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--noise", type=float, default=None, help="output noise in %% of each signal's std")
     p.add_argument("--duration", type=float, default=None, help="record length [s] (default: the paper's)")
@@ -39,7 +54,9 @@ def add_parser(sub) -> None:
 
 
 def case_config(case, data_table: dict) -> dict:
-    """Experiment config (SPEC 9) of a simulated case, as a plain dict for ``dump_config``."""
+    """Experiment config of a simulated case, as a plain dict for ``dump_config``."""
+    from ..io.schema import term_record
+
     rec = case.recommended
     defaults = type(rec)().to_dict()
     nsi = {"block_rows": rec.block_rows, "order": rec.order}
@@ -69,6 +86,7 @@ def case_config(case, data_table: dict) -> dict:
 
 def run(args) -> int:
     """Execute the command."""
+    from ..io import atomic_write_text, dump_config, write_signals_csv
     from ..simulate import simulate_case
 
     csv_path = Path(args.out).expanduser().resolve()
@@ -93,7 +111,10 @@ def run(args) -> int:
         case, missing = undeclared.reference, undeclared.missing
     else:
         case = simulate_case(args.case, seed=args.seed, noise_percent=args.noise, **kwargs)
-    data_table = write_signals_csv(csv_path, case.signals)
+    sig = case.signals  # the simulated structures are in SI units
+    units = {name: "N" for name in sig.input_names} | {name: "m" for name in sig.output_names}
+    units |= {f"v{dof}": "m/s" for dof in sig.output_dofs} | {f"{name}_velocity": "m/s" for name in sig.output_names}
+    data_table = write_signals_csv(csv_path, sig, units=units)
     config = case_config(case, data_table)
     if missing is not None:
         config["meta"]["missing"] = [

@@ -129,6 +129,15 @@ class LoopResult:
     scores: tuple[tuple[EffectScore, ...], ...]
     settings: dict = field(default_factory=dict)
 
+    def __repr__(self) -> str:
+        from .._repr import compact_repr
+
+        return compact_repr(
+            self, start=self.start.candidate.name, final_terms=tuple(t.name for t in self.final.terms),
+            accepted=tuple(s.term.name for s in self.steps if s.accepted),
+            rejected=sum(not s.accepted for s in self.steps),
+        )
+
     @property
     def added(self) -> tuple[LoopStep, ...]:
         """The accepted steps."""

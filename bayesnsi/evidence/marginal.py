@@ -94,6 +94,15 @@ class EvidenceResult:
     priors_text: str = ""
     warnings: tuple[str, ...] = ()
 
+    def __repr__(self) -> str:
+        from .._repr import compact_repr
+
+        return compact_repr(
+            self, likelihood=self.likelihood, log_evidence=self.log_evidence, log_evidence_se=self.log_evidence_se,
+            coefficient_names=self.coefficient_names, rhat_max=self.rhat_max, ess_min=self.ess_min,
+            posterior=self.posterior.samples, warnings=len(self.warnings),
+        )
+
     @property
     def coefficient_mean(self) -> np.ndarray:
         """Posterior mean of ``λ``, shape (q,)."""

@@ -74,6 +74,14 @@ class PosteriorSamples:
     mode_covariance: np.ndarray
     settings: Mapping = field(default_factory=dict)
 
+    def __repr__(self) -> str:
+        from .._repr import compact_repr
+
+        return compact_repr(
+            self, likelihood=self.likelihood, coefficient_names=self.coefficient_names,
+            channel_names=self.channel_names, samples=self.samples,
+        )
+
     @property
     def n_coefficients(self) -> int:
         """``q``."""

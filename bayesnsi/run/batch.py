@@ -82,6 +82,14 @@ class CandidateOutcome:
     seconds: float = 0.0
     cached: bool = False
 
+    def __repr__(self) -> str:
+        from .._repr import compact_repr
+
+        return compact_repr(
+            self, name=self.name, status=self.status, nrmse=self.nrmse,
+            evidences=tuple(self.evidences or ()), error=self.error, cached=self.cached,
+        )
+
     @property
     def status(self) -> str:
         """``"ok"``, ``"failed"`` (no model) or ``"evidence_failed"`` (a model, no evidence)."""

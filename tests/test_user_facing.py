@@ -1,0 +1,88 @@
+"""What a user meets first (issue 16): --version, a fast --help, compact reprs, the state-space export."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from scipy import signal as sps
+
+import bayesnsi
+from bayesnsi import NSIOptions, identify, simulate_case
+from bayesnsi.cli import main
+
+
+@pytest.fixture(scope="module")
+def two_dof_result():
+    case = simulate_case("two-dof", seed=0)
+    return identify(case.signals, case.candidates[0], NSIOptions(block_rows=60, order=4))
+
+
+def _frf_from_transfer_functions(ss, freqs_hz):
+    """H(e^{jωdt}) from the transfer-function polynomials of each input (scipy.signal.ss2tf), not the modal form."""
+    z = np.exp(2j * np.pi * np.asarray(freqs_hz) * ss.dt)
+    columns = []
+    for j in range(ss.B.shape[1]):
+        num, den = sps.ss2tf(ss.A, ss.B, ss.C, ss.D, input=j)
+        columns.append(np.stack([np.polyval(row, z) for row in num], axis=1) / np.polyval(den, z)[:, None])
+    return np.stack(columns, axis=2)
+
+
+def test_to_statespace_reproduces_the_underlying_frf(two_dof_result):
+    ss = two_dof_result.to_statespace()
+    assert isinstance(ss, sps.StateSpace)
+    assert ss.dt == pytest.approx(two_dof_result.model.dt)
+    assert ss.B.shape == (4, len(two_dof_result.input_dofs))  # the force columns only, no term inputs
+    freqs = np.linspace(0.2, 20.0, 120)
+    expected = two_dof_result.underlying_frf(freqs)
+    np.testing.assert_allclose(_frf_from_transfer_functions(ss, freqs), expected, rtol=1e-7, atol=1e-12)
+    # and the resolvent by a linear solve at each frequency
+    z = np.exp(2j * np.pi * freqs * ss.dt)
+    direct = np.stack([ss.C @ np.linalg.solve(zk * np.eye(4) - ss.A, ss.B) + ss.D for zk in z])
+    np.testing.assert_allclose(direct, expected, rtol=1e-8, atol=1e-14)
+
+
+def test_to_statespace_python_control(two_dof_result):
+    control = pytest.importorskip("control", reason="python-control is optional (pip install control)")
+    s = two_dof_result.to_statespace()
+    sys_c = control.ss(s.A, s.B, s.C, s.D, s.dt)  # the recipe of the docstring
+    assert isinstance(sys_c, control.StateSpace) and sys_c.dt == pytest.approx(two_dof_result.model.dt)
+    freqs = np.array([1.0, 2.46, 7.5, 15.0])
+    h = sys_c(np.exp(2j * np.pi * freqs * sys_c.dt))  # (outputs, inputs, freqs)
+    np.testing.assert_allclose(np.moveaxis(h, -1, 0), two_dof_result.underlying_frf(freqs), rtol=1e-8)
+
+
+def test_result_reprs_are_compact(two_dof_result):
+    text = repr(two_dof_result)
+    assert text.startswith("NSIResult(candidate='model 1', order=4") and "array(" not in text and len(text) < 300
+    case = simulate_case("two-dof", seed=0)
+    rec = repr(two_dof_result.reconstruct(case.signals))
+    assert rec.startswith("Reconstruction(") and "<array 1000x2>" in rec and len(rec) < 200
+
+
+def test_version_flag(capsys):
+    with pytest.raises(SystemExit) as stop:
+        main(["--version"])
+    assert stop.value.code == 0
+    assert capsys.readouterr().out.strip() == f"bayesnsi {bayesnsi.__version__}"
+
+
+def test_help_imports_no_numerical_library():
+    """`bayesnsi --help` stays fast (benchmarks/cli_startup.py: ~0.06 s) because the parser imports neither
+    numpy, scipy, pandas nor matplotlib; the numerical names of `bayesnsi` load on first use."""
+    code = (
+        "import sys\nfrom bayesnsi.cli import build_parser\nbuild_parser().format_help()\n"
+        "print(sorted(m for m in ('numpy', 'scipy', 'pandas', 'matplotlib') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+
+
+def test_lazy_top_level_names_are_the_real_objects():
+    from bayesnsi.nsi import identify as nsi_identify
+
+    assert bayesnsi.identify is nsi_identify and "identify" in dir(bayesnsi)
+    with pytest.raises(AttributeError, match="no attribute 'nope'"):
+        bayesnsi.nope  # noqa: B018

@@ -108,7 +108,7 @@ def upsample(signals, factor: int):
     the record's ends), transformed, zero-padded to the finer rate and transformed back;
     output sample ``j·factor`` equals input sample ``j`` to rounding. This is exact for a
     band-limited record. NSI uses it (``identify(..., upsample=R)``) to evaluate
-    discontinuous nonlinear terms such as sign(ż) on a finer grid (SPEC 2 and 10): on the
+    discontinuous nonlinear terms such as sign(ż) on a finer grid (docs/method.md §2 and 10): on the
     negative-stiffness twin (512 Hz, noise-free) the sign-friction coefficient error falls
     from -2.3 % to -0.6 % with R = 2.
 

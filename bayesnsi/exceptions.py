@@ -37,7 +37,7 @@ class ShapeError(InputDataError):
 
 
 class ExpressionError(BayesNSIError, ValueError):
-    """A candidate term expression is outside the grammar of SPEC section 9."""
+    """A candidate term expression is outside the grammar of docs/method.md §9."""
 
 
 class ConfigError(BayesNSIError, ValueError):
@@ -53,7 +53,7 @@ class OrderError(BayesNSIError, ValueError):
 
 
 class NotIdentifiableError(BayesNSIError, ValueError):
-    """A nonlinear coefficient cannot be separated from the measured channels (SPEC section 4)."""
+    """A nonlinear coefficient cannot be separated from the measured channels (docs/method.md §4)."""
 
 
 class UnstableModelError(BayesNSIError, RuntimeError):

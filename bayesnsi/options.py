@@ -135,7 +135,7 @@ def option_help(options_class: type) -> dict[str, str]:
 
 @dataclass(frozen=True)
 class NSIOptions(_Options):
-    """Settings of the subspace identification (config ``[nsi]``; SPEC sections 3-4).
+    """Settings of the subspace identification (config ``[nsi]``; docs/method.md §3-4).
 
     Each field's help text (:func:`option_help`) states its meaning; measurements behind the
     defaults are in ``docs/measurements.md``.
@@ -177,7 +177,7 @@ class NSIOptions(_Options):
 
 @dataclass(frozen=True)
 class EvidenceOptions(_Options):
-    """Settings of the marginal evidence (config ``[evidence]``; SPEC section 6)."""
+    """Settings of the marginal evidence (config ``[evidence]``; docs/method.md §6)."""
 
     SECTION: ClassVar[str] = "evidence"
 
@@ -212,7 +212,7 @@ class EvidenceOptions(_Options):
 
 @dataclass(frozen=True)
 class LoopOptions(_Options):
-    """Settings of the loop that closes the model on its residual (config ``[diagnose]``; SPEC 7).
+    """Settings of the loop that closes the model on its residual (config ``[diagnose]``; docs/method.md §7).
 
     The guards (``threshold``, ``max_imag_ratio``, ``stability_factor``), the search
     (``screen``, ``n_tries``, ``lookahead``, ``max_steps``) and the dictionary (``effects``) are

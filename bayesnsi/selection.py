@@ -1,4 +1,4 @@
-"""Model selection as one library call: identify every candidate, rank them, validate (SPEC 6).
+"""Model selection as one library call: identify every candidate, rank them, validate (docs/method.md §6).
 
 :func:`select` runs every candidate through NSI and the evidence (:func:`bayesnsi.run.run_candidates`),
 ranks them by the plain Gaussian likelihood of the source paper and by the marginal evidence
@@ -132,7 +132,7 @@ def select(
     execution: ExecutionOptions | None = None,
     validation: Sequence = (),
 ) -> Selection:
-    """Identify every candidate, rank them by Bayesian evidence and check them (SPEC 6).
+    """Identify every candidate, rank them by Bayesian evidence and check them (docs/method.md §6).
 
     Parameters
     ----------

@@ -130,7 +130,7 @@ class Signals:
         :func:`differentiate` where a term needs them.
     period : int, optional
         Samples per period of a periodic test (the force repeats every ``period`` samples;
-        SPEC 11); None for a non-periodic record.
+        docs/method.md §11); None for a non-periodic record.
     """
 
     force: np.ndarray

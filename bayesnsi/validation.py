@@ -1,6 +1,6 @@
 """Is an identified model good enough? Closed-loop errors on held-out data, residual whiteness.
 
-- :func:`validate`: closed-loop simulation on held-out segments (SPEC 9 ``validation``).
+- :func:`validate`: closed-loop simulation on held-out segments (docs/method.md §9 ``validation``).
 - :func:`residual_whiteness`: the Ljung-Box test of the residual on the estimation data, the
   classical adequacy check of system identification: a model that explains the data leaves a
   white one-step-ahead residual; a missing or wrong nonlinear term leaves structure in it.
@@ -59,7 +59,7 @@ class SegmentError:
 
 
 def validate(result, segments) -> tuple[SegmentError, ...]:
-    """Closed-loop simulation of ``result`` on each validation segment (SPEC 5, 9).
+    """Closed-loop simulation of ``result`` on each validation segment (docs/method.md §5, 9).
 
     Parameters
     ----------

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -86,3 +87,44 @@ def test_lazy_top_level_names_are_the_real_objects():
     assert bayesnsi.identify is nsi_identify and "identify" in dir(bayesnsi)
     with pytest.raises(AttributeError, match="no attribute 'nope'"):
         bayesnsi.nope  # noqa: B018
+
+
+PUBLIC = ("bayesnsi", "bayesnsi.nsi", "bayesnsi.evidence", "bayesnsi.diagnose", "bayesnsi.models", "bayesnsi.simulate",
+          "bayesnsi.io", "bayesnsi.run", "bayesnsi.plots", "bayesnsi.options", "bayesnsi.selection")
+
+
+def _public_docstrings():
+    import importlib
+    import inspect
+
+    for name in PUBLIC:
+        module = importlib.import_module(name)
+        yield name, module.__doc__ or ""
+        for attr in getattr(module, "__all__", ()):
+            obj = getattr(module, attr)
+            if inspect.isfunction(obj) or inspect.isclass(obj):
+                yield f"{name}.{attr}", obj.__doc__ or ""
+                for member, value in vars(obj).items() if inspect.isclass(obj) else ():
+                    if not member.startswith("_") and (inspect.isfunction(value) or isinstance(value, property)):
+                        yield f"{name}.{attr}.{member}", value.__doc__ or ""
+
+
+def test_docstrings_and_help_cite_no_private_spec():
+    """Users have the paper and docs/, not the project's spec: `help()` and `--help` point to docs/method.md."""
+    import argparse
+    import re
+
+    from bayesnsi.cli import build_parser
+
+    pattern = re.compile(r"\bSPEC\b|\bspec section|\.\./shared")
+    offenders = [name for name, doc in _public_docstrings() if pattern.search(doc)]
+    parser = build_parser()
+    helps = {"bayesnsi": parser.format_help()}
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            helps |= {f"bayesnsi {c}": sub.format_help() for c, sub in action.choices.items()}
+    offenders += [name for name, text in helps.items() if pattern.search(text)]
+    assert not offenders, offenders
+    cited = {int(s) for _, doc in _public_docstrings() for s in re.findall(r"docs/method\.md §(\d+)", doc)}
+    method = (Path(__file__).resolve().parents[1] / "docs" / "method.md").read_text(encoding="utf-8")
+    assert cited and all(f"## §{k} " in method for k in cited), sorted(cited)

@@ -94,7 +94,7 @@ def identification_report(config, signals, results, records, title, report=None)
 
 _RESIDUAL_TEXT = {
     "reconstruction": "open-loop reconstruction residual",
-    "innovations": "one-step-ahead innovations of the Kalman predictor that carries the input noise (SPEC 10)",
+    "innovations": "one-step-ahead innovations of the Kalman predictor that carries the input noise",
 }
 
 

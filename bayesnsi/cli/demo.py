@@ -16,7 +16,7 @@ def add_parser(sub) -> None:
     p = sub.add_parser(
         "demo",
         help="run the paper's two-DOF case end to end and write a report",
-        description="Simulate the paper's two-DOF case (SPEC 8.1), identify its three candidates by NSI, "
+        description="Simulate the paper's two-DOF case (docs/method.md §8), identify its three candidates by NSI, "
         "rank them and write DIR/report.html and DIR/results.json.",
         epilog="example: bayesnsi demo --out demo-report",
     )

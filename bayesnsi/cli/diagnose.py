@@ -1,4 +1,4 @@
-"""``bayesnsi diagnose CONFIG --out DIR``: close the loop from the selected model (SPEC 7)."""
+"""``bayesnsi diagnose CONFIG --out DIR``: close the loop from the selected model (docs/method.md §7)."""
 
 from __future__ import annotations
 
@@ -116,14 +116,14 @@ def _loop_section(report, signals, loop, payload):
 
     from ..plots import plot_effect_force
 
-    blocks = report.section("Closing the loop (SPEC 7)")
+    blocks = report.section("Closing the loop (docs/method.md §7)")
     blocks.append(
         "Each row is the best effect of a step; it is added only if the log Bayes factor (Laplace, on the "
         "residual named in the loop settings) exceeds the threshold, its quality index |Im|/|Re| is small and its "
         "coefficient keeps sign and size on both record halves. The credible interval ci95 is sampled (emcee) "
         "for the effects that pass; rejected ones show none. nrmse_before/after: open-loop reconstruction of the "
         "estimation data; closed_loop_nrmse_before/after: closed-loop simulation of it (NaN where the simulation "
-        "diverges, e.g. chaotic responses, SPEC 10)."
+        "diverges, e.g. chaotic responses, docs/method.md §10)."
     )
     rows = payload["loop"] + payload["loop_rejected"]
     if rows:

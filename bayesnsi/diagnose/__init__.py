@@ -1,4 +1,4 @@
-"""Closing the loop on measured data (SPEC section 7): find what the model lacks, add it.
+"""Closing the loop on measured data (docs/method.md §7): find what the model lacks, add it.
 
 Modules: :mod:`~bayesnsi.diagnose.search` (the loop), :mod:`~bayesnsi.diagnose.scoring` (Laplace
 evidence of each effect, the screen, clearance gaps), :mod:`~bayesnsi.diagnose.guards` (Bayes

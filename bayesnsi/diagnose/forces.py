@@ -1,7 +1,7 @@
-"""The residual of a model seen as a force at one location (SPEC section 7, step 5).
+"""The residual of a model seen as a force at one location (docs/method.md §7, step 5).
 
 A restoring-force-surface view of what a model lacks: the open-loop residual ``r = y - ŷ``
-(SPEC 5) is mapped, frequency by frequency, to the one force ``f`` at the effect's location
+(docs/method.md §5) is mapped, frequency by frequency, to the one force ``f`` at the effect's location
 that best explains it through the identified underlying linear FRF of that location,
 
     F(ω) = h(ω)ᴴ R(ω) / (h(ω)ᴴ h(ω) + ε),

@@ -1,4 +1,4 @@
-"""The guards an effect must pass to be added (SPEC section 7, step 4).
+"""The guards an effect must pass to be added (docs/method.md §7, step 4).
 
 An effect proposed against the current model is kept only if
 
@@ -6,7 +6,7 @@ An effect proposed against the current model is kept only if
   the full evidence (emcee + bridge sampling) then gives its credible interval,
 * its coefficient is physically sound: quality index |Im λ|/|Re λ| below ``max_imag_ratio``,
 * its coefficient is stable: identified on each half of the record it keeps its sign and stays
-  within a factor ``stability_factor`` (SPEC 7: "the stability of the coefficient across data
+  within a factor ``stability_factor`` (docs/method.md §7: "the stability of the coefficient across data
   segments" guards against terms that only absorb model-form error). When the halves are too
   short to be identified (too few samples for the block rows), the effect is rejected with the
   reason "record too short for the halves".
@@ -191,7 +191,7 @@ def _closed_loop_nrmse(result, signals) -> float:
 
 
 def documented(step: LoopStep, before, after, signals) -> LoopStep:
-    """``step`` with its closed-loop errors and residual-force view (accepted steps, SPEC 7.5)."""
+    """``step`` with its closed-loop errors and residual-force view (accepted steps, docs/method.md §7)."""
     return replace(
         step,
         closed_loop_nrmse_before=_closed_loop_nrmse(before, signals),

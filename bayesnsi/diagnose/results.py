@@ -1,4 +1,4 @@
-"""What the loop returns: a scored effect, a checked step, the loop's outcome (SPEC section 7)."""
+"""What the loop returns: a scored effect, a checked step, the loop's outcome (docs/method.md §7)."""
 
 from __future__ import annotations
 
@@ -71,10 +71,10 @@ class LoopStep:
     candidate : CandidateModel
         The enlarged candidate.
     closed_loop_nrmse_before, closed_loop_nrmse_after : float
-        NRMSE of the closed-loop simulation (SPEC 5) on the estimation data of the model without
+        NRMSE of the closed-loop simulation (docs/method.md §5) on the estimation data of the model without
         and with the effect (for an effect accepted in exchange, "without" is the model holding
         the effect it replaced, as for ``nrmse_before`` and ``log_bayes_factor``); NaN when that
-        simulation diverges (chaotic or unstable in feedback, SPEC 10) and for rejected effects
+        simulation diverges (chaotic or unstable in feedback, docs/method.md §10) and for rejected effects
         (not computed).
     residual_force : ResidualForce or None
         The residual of the models without and with the effect as a force at its location

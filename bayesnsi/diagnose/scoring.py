@@ -2,7 +2,7 @@
 
 Every effect ``e`` is added to the current candidate, the enlarged model is identified by NSI
 (sharing the current model's Hankel products, :func:`bayesnsi.nsi.hankel_correlations`) and scored
-by its Laplace log-evidence (a free, accurate approximation of the marginal evidence, SPEC 6).
+by its Laplace log-evidence (a free, accurate approximation of the marginal evidence, docs/method.md §6).
 With the screen on, only the best ``LoopOptions.screen`` effects of the frequency-domain screen
 (:func:`bayesnsi.diagnose.screen.screen_effects`) are identified; clearances among the best have
 their gap refined off the grid (:func:`refine_gap`).
@@ -44,7 +44,7 @@ def laplace_score(result, signals, evidence: EvidenceOptions) -> tuple[float, fl
     (float, float)
         The log-evidence (primary likelihood) and the NRMSE, NaN unless the evidence scores the
         open-loop reconstruction residual (then the affine model at the NSI estimate is that
-        reconstruction, SPEC 5).
+        reconstruction, docs/method.md §5).
     """
     affine = candidate_affine(result, signals, evidence.residual)
     priors = candidate_priors(result, signals, affine, evidence)
@@ -145,7 +145,7 @@ def refine_gap(
 ) -> EffectScore:
     """Refine the gap of a clearance effect between its neighbours on the dictionary's grid.
 
-    SPEC 7 offers clearances "on a grid of g"; the coefficient of a clearance spring is only
+    docs/method.md §7 offers clearances "on a grid of g"; the coefficient of a clearance spring is only
     meaningful with the right gap (a gap 10 % too large inflates the stiffness by far more), so
     the gap of a promising clearance is refined by two rounds of a ``points``-point grid search
     of the Laplace log-evidence: first between the neighbouring grid gaps at the same location

@@ -1,4 +1,4 @@
-"""Cheap screening of candidate effects before they are re-identified (SPEC section 7, step 3).
+"""Cheap screening of candidate effects before they are re-identified (docs/method.md §7, step 3).
 
 Re-identifying the model with every effect of the dictionary costs one NSI run and one
 reconstruction per effect. The screen ranks all of them from the data alone, at a small fraction

@@ -1,4 +1,4 @@
-"""Closing the loop: from the residual of a model to an effect it lacks (SPEC section 7).
+"""Closing the loop: from the residual of a model to an effect it lacks (docs/method.md §7).
 
 Greedy forward search with a backward check. Every effect of a dictionary (type × location,
 :class:`bayesnsi.models.Effect`) is added in turn to the current candidate, identified by NSI and
@@ -13,7 +13,7 @@ added. A final model that holds a friction-like term (``sign()`` of a velocity) 
 more on an upsampled grid for its reported coefficients (``refine_final``). The effects of a
 search can be scored in worker processes or on a Dask cluster with the same result. Every accepted
 step carries its open- and closed-loop errors before and after, and the residual of both models
-as a force at the effect's location (:mod:`bayesnsi.diagnose.forces`, SPEC 7.5).
+as a force at the effect's location (:mod:`bayesnsi.diagnose.forces`, docs/method.md §7).
 
 The measurements behind the defaults of :class:`bayesnsi.options.LoopOptions` are in
 ``docs/measurements.md`` (``benchmarks/diagnose_suite.py``, ``benchmarks/diagnose.py``).
@@ -84,7 +84,7 @@ def close_the_loop(
     evidence: EvidenceOptions | None = None,
     execution: ExecutionOptions | None = None,
 ) -> LoopResult:
-    """Search the effects a candidate lacks and add those the data support (SPEC section 7).
+    """Search the effects a candidate lacks and add those the data support (docs/method.md §7).
 
     Parameters
     ----------
@@ -131,7 +131,7 @@ def close_the_loop(
     R. Zhu, Q. Fei, D. Jiang, S. Marchesiello, D. Anastasio, "Bayesian Model Selection in
     Nonlinear Subspace Identification", AIAA Journal, doi:10.2514/1.J060782 (the candidates'
     identification and evidence that each step reuses); the search, the guards and the screen
-    are bayesnsi's (spec section 7). G. M. Ljung, G. E. P. Box, Biometrika 65(2), 1978, for the
+    are bayesnsi's (docs/method.md §7). G. M. Ljung, G. E. P. Box, Biometrika 65(2), 1978, for the
     whiteness test of :func:`bayesnsi.validation.residual_whiteness` that flags a missing effect.
 
     Examples
@@ -256,8 +256,8 @@ def _step(context: LoopContext, state: LoopState) -> bool:
 def _refined(context: LoopContext, current):
     """The final model, re-identified upsampled when it holds a velocity-switching term.
 
-    Such terms jump between samples, which biases their coefficients at the data rate (SPEC
-    10); decisions stay at the data rate. Returns ``(NSIResult, NSIOptions it was identified with)``.
+    Such terms jump between samples, which biases their coefficients at the data rate
+    (docs/method.md §10); decisions stay at the data rate. Returns ``(NSIResult, NSIOptions it was identified with)``.
     """
     nsi, factor = context.nsi, context.options.refine_final
     if not factor or nsi.upsample != 1 or not any(t.expr.switches_with_velocity for t in current.terms):

@@ -1,4 +1,4 @@
-"""Evidence and posterior model probabilities of NSI candidates (SPEC section 6).
+"""Evidence and posterior model probabilities of NSI candidates (docs/method.md §6).
 
 The only subpackage that uses emcee and arviz; they are imported when a sampling or summary
 function runs, so ``import bayesnsi.evidence`` itself stays light, and ``import bayesnsi`` does not

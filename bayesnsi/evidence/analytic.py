@@ -1,4 +1,4 @@
-"""Evidence by formula: exact quadrature for affine models and the Laplace approximation (spec section 6).
+"""Evidence by formula: exact quadrature for affine models and the Laplace approximation (docs/method.md §6).
 
 ``Z = ∫ L(θ) π(θ) dθ`` over ``θ = (λ, log σ_1..log σ_l[, φ])``:
 

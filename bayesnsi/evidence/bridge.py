@@ -1,4 +1,4 @@
-"""Bridge-sampling estimate of the marginal evidence from posterior draws (spec section 6).
+"""Bridge-sampling estimate of the marginal evidence from posterior draws (docs/method.md §6).
 
 A Gaussian (or multivariate-t) proposal is fitted to half of the walkers, the other half is used
 in the bridge (Meng & Wong 1996, iterative scheme; Gronau et al. 2017 tutorial); the Monte-Carlo

@@ -19,7 +19,7 @@ the one-step-ahead innovations of the errors-in-variables Kalman predictor
 
 
 def candidate_priors(result, signals, affine, options: EvidenceOptions | None = None, candidate=None):
-    """Default priors of SPEC 6 for one identified candidate (per-term overrides honoured).
+    """Default priors of docs/method.md §6 for one identified candidate (per-term overrides honoured).
 
     Parameters
     ----------
@@ -49,13 +49,13 @@ def candidate_priors(result, signals, affine, options: EvidenceOptions | None = 
 
 
 def candidate_affine(result, signals, residual: str = "innovations"):
-    """The affine model ``ŷ(λ)`` whose residual the evidence scores (SPEC 6).
+    """The affine model ``ŷ(λ)`` whose residual the evidence scores (docs/method.md §6).
 
     ``"reconstruction"``: the open-loop reconstruction (:func:`bayesnsi.nsi.affine_reconstruction`),
     whose residual is the paper's. ``"innovations"``: the one-step-ahead predictor that accounts
     for the measurement noise carried into the nonlinear inputs
     (:func:`bayesnsi.nsi.predictor_reconstruction`); it does not count that propagated noise
-    as misfit, which a spurious superset term would otherwise absorb (SPEC 10).
+    as misfit, which a spurious superset term would otherwise absorb (docs/method.md §10).
 
     Parameters
     ----------

@@ -1,7 +1,7 @@
-"""Convergence diagnostics of the posterior draws via arviz (SPEC 6).
+"""Convergence diagnostics of the posterior draws via arviz (docs/method.md §6).
 
 ``r_hat`` (rank-normalised split R-hat) and bulk/tail effective sample sizes come from
-``arviz_stats`` on the arviz ``DataTree`` of the draws, one chain per emcee walker. The SPEC 6
+``arviz_stats`` on the arviz ``DataTree`` of the draws, one chain per emcee walker. The docs/method.md §6
 criteria are ``r_hat <= 1.01`` and ``ESS >= 400`` for every parameter; otherwise a
 :class:`~bayesnsi.exceptions.ConvergenceWarning` carries the numbers and the advice.
 
@@ -145,7 +145,7 @@ def convergence_report(
     summary : pandas.DataFrame
         With columns ``r_hat``, ``ess_bulk``, ``ess_tail``.
     rhat_threshold, ess_threshold : float
-        Criteria (SPEC 6 defaults 1.01 and 400).
+        Criteria (docs/method.md §6 defaults 1.01 and 400).
     n_chains, n_draws : int
         Run size, quoted in the advice.
 

@@ -1,7 +1,7 @@
-"""Gaussian likelihoods of an affine reconstruction from sufficient statistics (SPEC section 6).
+"""Gaussian likelihoods of an affine reconstruction from sufficient statistics (docs/method.md §6).
 
 For a fixed underlying linear model the NSI reconstruction is affine in the coefficients,
-``ŷ(λ) = ŷ₀ + G λ`` (SPEC 6), so the residual of channel ``j`` is
+``ŷ(λ) = ŷ₀ + G λ`` (docs/method.md §6), so the residual of channel ``j`` is
 
 .. math:: r_j(λ) = r_{0,j} - G_j λ = Z_j β,  \\qquad  Z_j = [r_j(c), G_j],\\; β = [1, -(λ - c)]
 
@@ -61,7 +61,7 @@ class SufficientStatistics:
     ar_order : int
         ``p``; 0 means white-noise statistics only.
     measured_std : ndarray, shape (l,)
-        Standard deviation of each measured channel (default noise-prior range, SPEC 6).
+        Standard deviation of each measured channel (default noise-prior range, docs/method.md §6).
     names : tuple of str
         Coefficient (term) names, length ``q``.
     """
@@ -160,7 +160,7 @@ class SufficientStatistics:
 def sufficient_statistics(
     affine, ar_order: int = 0, center=None, chunk_size: int | None = None
 ) -> SufficientStatistics:
-    """Sufficient statistics of the Gaussian likelihood of an affine reconstruction (SPEC 6).
+    """Sufficient statistics of the Gaussian likelihood of an affine reconstruction (docs/method.md §6).
 
     Parameters
     ----------
@@ -263,7 +263,7 @@ def sufficient_statistics(
 
 
 def log_likelihood_white(lam, sigma, stats: SufficientStatistics) -> np.ndarray:
-    """Gaussian white-noise log-likelihood of the coefficients (SPEC 6, paper Eq. 3).
+    """Gaussian white-noise log-likelihood of the coefficients (docs/method.md §6, paper Eq. 3).
 
     Parameters
     ----------
@@ -287,7 +287,7 @@ def log_likelihood_white(lam, sigma, stats: SufficientStatistics) -> np.ndarray:
 
 
 def log_likelihood_ar(lam, sigma, rho, stats: SufficientStatistics, method: str | None = None) -> np.ndarray:
-    """Gaussian log-likelihood with AR(p) residuals, from sufficient statistics (SPEC 6).
+    """Gaussian log-likelihood with AR(p) residuals, from sufficient statistics (docs/method.md §6).
 
     Parameters
     ----------
@@ -330,7 +330,7 @@ def log_likelihood_ar(lam, sigma, rho, stats: SufficientStatistics, method: str 
 
 
 def plain_log_likelihood(residual) -> float:
-    """The paper's Gaussian log-likelihood at the ML noise level (Eq. 4, SPEC 6).
+    """The paper's Gaussian log-likelihood at the ML noise level (Eq. 4, docs/method.md §6).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Marginal evidence of a candidate model with its posterior and diagnostics (spec section 6; paper Eqs. 1-4).
+"""Marginal evidence of a candidate model with its posterior and diagnostics (docs/method.md §6; paper Eqs. 1-4).
 
 ``Z = ∫ L(θ) π(θ) dθ`` over ``θ = (λ, log σ_1..log σ_l[, φ])``, estimated three ways:
 
@@ -40,7 +40,7 @@ DISAGREEMENT_NAT = 0.1
 
 @dataclass(frozen=True)
 class EvidenceResult:
-    """Evidence of one candidate with the draws and diagnostics behind it (SPEC 6).
+    """Evidence of one candidate with the draws and diagnostics behind it (docs/method.md §6).
 
     Attributes
     ----------
@@ -148,7 +148,7 @@ def marginal_evidence(
     closed_form: bool | str = "auto",
     warn: bool = True,
 ) -> EvidenceResult:
-    """Marginal evidence of one candidate from its affine reconstruction (spec section 6).
+    """Marginal evidence of one candidate from its affine reconstruction (docs/method.md §6).
 
     Parameters
     ----------
@@ -217,7 +217,7 @@ def evidence_from_statistics(
     proposal : {"normal", "t"}
         Bridge-sampling proposal.
     rhat_threshold, ess_threshold : float
-        Convergence criteria (SPEC 6: 1.01, 400).
+        Convergence criteria (docs/method.md §6: 1.01, 400).
     disagreement_tol : float
         Bridge-vs-Laplace difference [nat] above which a warning is issued (0.1).
     warn : bool

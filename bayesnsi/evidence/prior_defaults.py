@@ -1,4 +1,4 @@
-"""Default priors of a candidate, set from the data before the fit (spec section 6).
+"""Default priors of a candidate, set from the data before the fit (docs/method.md §6).
 
 Coefficient scales ``s_i = F_ref / rms(n_i)`` (a coefficient one standard deviation from zero
 makes the term's force as large as a reference force), noise ranges from the measured channels'
@@ -18,7 +18,7 @@ __all__ = ["coefficient_prior", "default_coefficient_scales", "default_priors"]
 
 
 def default_coefficient_scales(term_rms, reference_force_rms) -> np.ndarray:
-    """Default prior scales ``s_i = F_ref / rms(n_i)`` (SPEC 6).
+    """Default prior scales ``s_i = F_ref / rms(n_i)`` (docs/method.md §6).
 
     With this scale a coefficient one standard deviation from zero makes the term's force
     ``λ_i n_i(x, ẋ)`` as large (in RMS) as the reference force, typically the linear restoring
@@ -83,7 +83,7 @@ def default_priors(
     noise_factors: tuple[float, float] = (1e-4, 10.0),
     ar_bounds: tuple[float, float] = (-0.9999, 0.9999),
 ) -> Priors:
-    """The default priors of SPEC 6 for an affine reconstruction.
+    """The default priors of docs/method.md §6 for an affine reconstruction.
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Proper, stated priors for the evidence of a candidate model (SPEC section 6).
+"""Proper, stated priors for the evidence of a candidate model (docs/method.md §6).
 
 The priors are fixed before the fit and written into every report (:meth:`Priors.describe`).
 A prior centred on the NSI estimate with a width taken from the fit would cancel the Occam
@@ -164,7 +164,7 @@ class NoisePrior:
 
     @classmethod
     def from_std(cls, measured_std, lower_factor: float = 1e-4, upper_factor: float = 10.0, channel_names=()):
-        """Default range ``[lower_factor, upper_factor] × std(y_j)`` (SPEC 6).
+        """Default range ``[lower_factor, upper_factor] × std(y_j)`` (docs/method.md §6).
 
         Parameters
         ----------

@@ -1,4 +1,4 @@
-"""Posterior model probabilities and the paper's plain ranking (SPEC 6; paper Eqs. 1-4).
+"""Posterior model probabilities and the paper's plain ranking (docs/method.md §6; paper Eqs. 1-4).
 
 Bayes' rule over a finite candidate set ``μ_1..μ_S`` (paper Eq. 1):
 
@@ -145,7 +145,7 @@ def ranking_table(
     rng=None,
     n_draws: int = 2000,
 ):
-    """Plain ranking and evidence-based posterior probabilities side by side (SPEC 6).
+    """Plain ranking and evidence-based posterior probabilities side by side (docs/method.md §6).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Posterior sampling of a candidate's coefficients and noise parameters with emcee (SPEC 6).
+"""Posterior sampling of a candidate's coefficients and noise parameters with emcee (docs/method.md §6).
 
 The unnormalised posterior ``π(θ) L(θ)`` of ``θ = (λ, log σ_1..log σ_l[, φ])`` is evaluated
 from :class:`~bayesnsi.evidence.likelihood.SufficientStatistics` for all walkers at once
@@ -174,7 +174,7 @@ def sample_posterior(
     start=None,
     moves: str = "mixed",
 ) -> PosteriorSamples:
-    """Sample the posterior of ``(λ, log σ[, φ])`` with emcee (SPEC 6).
+    """Sample the posterior of ``(λ, log σ[, φ])`` with emcee (docs/method.md §6).
 
     Parameters
     ----------

@@ -282,7 +282,7 @@ def _parse_terms(item: Mapping, where: Where, data: DataSpec) -> tuple[tuple[Ter
         if outside:
             raise where.problem(
                 f"{key}.at", f"the term acts at DOF(s) {outside}, which are neither forced nor measured "
-                f"(known DOFs: {sorted(located)}), so its coefficient cannot be identified (SPEC section 4); "
+                f"(known DOFs: {sorted(located)}), so its coefficient cannot be identified (docs/method.md §4); "
                 "place it at a measured DOF"
             )
         terms.append(term)

@@ -1,4 +1,4 @@
-"""Experiment configuration: TOML file -> frozen :class:`ExperimentConfig` (SPEC section 9).
+"""Experiment configuration: TOML file -> frozen :class:`ExperimentConfig` (docs/method.md §9).
 
 Layout (everything but ``[data]`` inputs/outputs and ``[[candidates]]`` has a default)::
 
@@ -86,7 +86,7 @@ _TOP_KEYS = (
 
 
 def load_config(path: str | os.PathLike, check_files: bool = True) -> ExperimentConfig:
-    """Read and validate an experiment configuration (TOML, SPEC section 9).
+    """Read and validate an experiment configuration (TOML, docs/method.md §9).
 
     Parameters
     ----------

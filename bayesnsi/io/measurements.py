@@ -1,4 +1,4 @@
-"""Measurements: files -> :class:`~bayesnsi.signals.Signals`, and Signals -> CSV (SPEC section 9).
+"""Measurements: files -> :class:`~bayesnsi.signals.Signals`, and Signals -> CSV (docs/method.md §9).
 
 The format follows the extension of the file (:data:`FORMATS`): ``.mat`` (MATLAB; v4/v5/v7 via
 :func:`scipy.io.loadmat`, v7.3 = HDF5 via h5py), ``.h5``/``.hdf5`` (HDF5 via h5py),

@@ -5,7 +5,7 @@ the content is written to a temporary file in the target's folder, flushed to di
 renamed over the target with :func:`os.replace`, so a reader never sees a half-written file
 and an interrupted run leaves the previous file intact (STYLE section 3, item 14).
 
-``results.json`` (SPEC section 9) holds plain JSON only: :func:`to_jsonable` converts numpy
+``results.json`` (docs/method.md §9) holds plain JSON only: :func:`to_jsonable` converts numpy
 scalars and arrays, tuples, paths and dataclasses, and writes NaN and ±Inf as ``null``
 (JSON has no NaN).
 """

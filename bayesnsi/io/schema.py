@@ -1,6 +1,6 @@
-"""results.json records (SPEC section 9): plain dicts built from the library's result objects.
+"""results.json records (docs/method.md §9): plain dicts built from the library's result objects.
 
-Field names listed in SPEC 9 are stable; further fields are additions. Every record of a run is
+Field names listed in docs/method.md §9 are stable; further fields are additions. Every record of a run is
 assembled here, from a :class:`bayesnsi.selection.Selection` or a list of
 :class:`bayesnsi.run.CandidateOutcome`, so the commands and workflows write the same shape.
 """

@@ -1,4 +1,4 @@
-"""Dictionary of candidate effects for closing the loop (SPEC section 7, step 2)."""
+"""Dictionary of candidate effects for closing the loop (docs/method.md §7, step 2)."""
 
 from __future__ import annotations
 
@@ -106,9 +106,9 @@ def clearance_effect(at, gap: float) -> Effect:
     Parameters
     ----------
     at : int or (int, int)
-        Location (SPEC 1: grounded at DOF k, or an element between j and k acting on x_j - x_k).
+        Location (docs/method.md §1: grounded at DOF k, or an element between j and k acting on x_j - x_k).
     gap : float
-        Gap g [m] of ``max(0, |x| - g)·sign(x)`` (SPEC 7, step 2), kept to 6 significant digits.
+        Gap g [m] of ``max(0, |x| - g)·sign(x)`` (docs/method.md §7, step 2), kept to 6 significant digits.
 
     Returns
     -------
@@ -126,7 +126,7 @@ def effect_dictionary(
     gaps: dict[tuple[int, ...], Sequence[float]] | None = None,
     pairs: Sequence[tuple[int, int]] | None = None,
 ) -> list[Effect]:
-    """Effects at each measured DOF and between neighbouring measured DOFs (SPEC 7).
+    """Effects at each measured DOF and between neighbouring measured DOFs (docs/method.md §7).
 
     Parameters
     ----------

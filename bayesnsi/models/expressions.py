@@ -1,4 +1,4 @@
-"""Safe parser for candidate-term expressions (SPEC sections 1 and 9).
+"""Safe parser for candidate-term expressions (docs/method.md §1 and 9).
 
 Grammar (whitespace ignored)::
 
@@ -95,7 +95,7 @@ class Expression:
     @property
     def switches_with_velocity(self) -> bool:
         """True when a ``sign()`` reads a velocity: the force jumps at velocity reversals
-        (friction-like terms), between samples of the data (SPEC 10: such terms need the
+        (friction-like terms), between samples of the data (docs/method.md §10: such terms need the
         interval-mean input and, for accurate coefficients, an upsampled identification grid)."""
         return _sign_of_velocity(self._tree)
 
@@ -146,7 +146,7 @@ class Expression:
 
 
 def parse_expression(text: str) -> Expression:
-    """Parse a term expression safely (SPEC section 9).
+    """Parse a term expression safely (docs/method.md §9).
 
     Parameters
     ----------

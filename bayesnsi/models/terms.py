@@ -1,4 +1,4 @@
-"""Nonlinear terms with a location, and candidate models (SPEC sections 1 and 9)."""
+"""Nonlinear terms with a location, and candidate models (docs/method.md §1 and 9)."""
 
 from __future__ import annotations
 
@@ -42,7 +42,7 @@ def _normalise_location(at) -> tuple[int, ...]:
 
 @dataclass(frozen=True)
 class Term:
-    """One nonlinear term λ l n(x, v) of the equation of motion (SPEC Eq. 6).
+    """One nonlinear term λ l n(x, v) of the equation of motion (paper Eq. 6).
 
     Parameters
     ----------
@@ -76,7 +76,7 @@ class Term:
         return tuple(sorted(set(self.expr.dofs) | set(self.at)))
 
     def location_vector(self, n_dofs: int) -> np.ndarray:
-        """Location vector l (SPEC Eq. 6), shape (n_dofs,)."""
+        """Location vector l (paper Eq. 6), shape (n_dofs,)."""
         if max(self.at) > n_dofs:
             raise ExpressionError(f"term {self.name} acts on DOF {max(self.at)} but the model has {n_dofs} DOFs")
         loc = np.zeros(n_dofs)
@@ -95,7 +95,7 @@ class Term:
 
 @dataclass(frozen=True)
 class CandidateModel:
-    """A named set of nonlinear terms with a prior probability (SPEC section 9).
+    """A named set of nonlinear terms with a prior probability (docs/method.md §9).
 
     Parameters
     ----------
@@ -207,7 +207,7 @@ def _proportional(a: np.ndarray, b: np.ndarray) -> bool:
 
 
 def nonlinear_force(terms: Sequence[Term], coefficients, x, v, n_dofs: int) -> np.ndarray:
-    """Total nonlinear restoring force Σ λ_i l_i n_i(x, v) (SPEC Eq. 6).
+    """Total nonlinear restoring force Σ λ_i l_i n_i(x, v) (paper Eq. 6).
 
     Parameters
     ----------

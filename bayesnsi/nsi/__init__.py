@@ -1,4 +1,4 @@
-"""Nonlinear subspace identification (SPEC sections 2-5); numpy/scipy only."""
+"""Nonlinear subspace identification (docs/method.md §2-5); numpy/scipy only."""
 
 from .feedback import extended_input
 from .identify import hankel_correlations, identify

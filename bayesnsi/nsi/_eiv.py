@@ -1,7 +1,7 @@
-"""Errors in variables: B, D by prediction error with a Kalman predictor (SPEC sections 3 and 10).
+"""Errors in variables: B, D by prediction error with a Kalman predictor (docs/method.md §3 and 10).
 
 The nonlinear inputs ``u_i = -n_i(y, ẏ)`` are built from *noisy* measured responses
-(SPEC 10, "Errors in variables"). Written with the noise-free input ``u⁰``, the extended-input
+(docs/method.md §10, "Errors in variables"). Written with the noise-free input ``u⁰``, the extended-input
 model is::
 
     x_{k+1} = A x_k + B u_k + w_k,      w_k = -B (u_k - u⁰_k) ≈ -B_n J_k e_k
@@ -12,7 +12,7 @@ sample k. So the input noise is a *process noise* of known structure, correlated
 measurement noise of the same sample (a term reading x13 uses the noise of output x13). The
 output-error least squares of :mod:`._output_error` (K = 0) leaves that process noise, filtered
 by the structure, in its residual: it correlates with the noisy regressors and biases B, hence
-λ. When the structure is soft where the term acts (the beam, SPEC 8.2: ≈1.5 N/m at DOF 13),
+λ. When the structure is soft where the term acts (the beam, docs/method.md §8: ≈1.5 N/m at DOF 13),
 this propagated noise dominates the residual.
 
 Here B, D and x₀ minimise the one-step *prediction* error of the steady-state Kalman

@@ -1,4 +1,4 @@
-"""Block Hankel products: correlation (Gram) route and LQ reference route (SPEC section 3).
+"""Block Hankel products: correlation (Gram) route and LQ reference route (docs/method.md §3).
 
 Both routes return the lower-triangular factor ``L`` of the normalised Gram matrix of the
 stacked block Hankel matrix, ``L Lᵀ = H Hᵀ / j``, with rows ordered ``[U_f; U_p; Y_p; Y_f]``

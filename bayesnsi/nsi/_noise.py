@@ -1,4 +1,4 @@
-"""Measurement-noise level of the recorded channels, estimated from the data (spec section 10).
+"""Measurement-noise level of the recorded channels, estimated from the data (docs/method.md §10).
 
 Used by the output-error pole refinement (:mod:`._output_error`) and by the errors-in-variables
 predictor (:mod:`._eiv`), which both weigh or model the noise of each output channel.
@@ -44,7 +44,7 @@ def white_noise_std(signal: np.ndarray) -> np.ndarray:
 
 
 def measured_noise_std(signals: Signals):
-    """Noise std of the measured displacement and velocity channels (SPEC 10).
+    """Noise std of the measured displacement and velocity channels (docs/method.md §10).
 
     With measured velocities the two channels of a DOF must agree: ``r = v - dx/dt`` (spectral
     derivative, exact for band-limited records) holds only the noise, whose one-sided spectral

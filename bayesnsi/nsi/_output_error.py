@@ -1,4 +1,4 @@
-"""Output-error refinement of B, D and x₀ with A, C fixed (SPEC sections 3 and 10).
+"""Output-error refinement of B, D and x₀ with A, C fixed (docs/method.md §3 and 10).
 
 ``y_k = C A^k x₀ + Σ_{τ<k} C A^{k-1-τ} B u_τ + D u_k`` is linear in (x₀, B, D). In modal
 coordinates (``A = V Λ V⁻¹``) every regressor of every output channel is a fixed real linear
@@ -124,7 +124,7 @@ def refine_output_error(A, C, u, y, dt, zero_feedthrough=True, output_weights=No
 
 
 # --------------------------------------------------------------------------------------------
-# Pole refinement (SPEC sections 3 and 10): output error on band-passed data, variable projection
+# Pole refinement (docs/method.md §3 and 10): output error on band-passed data, variable projection
 # --------------------------------------------------------------------------------------------
 
 
@@ -208,7 +208,7 @@ def refine_poles(
     iterations: int = 20,
     prefilter_order: int = 4,
 ):
-    """Refine the poles of A in a band by output error on band-passed data (SPEC 3 and 10).
+    """Refine the poles of A in a band by output error on band-passed data (docs/method.md §3 and 10).
 
     The subspace estimate of A is consistent but not efficient: with output noise its damping
     ratios scatter by several percent even when the inputs are exact. This step minimises

@@ -1,4 +1,4 @@
-"""Combined deterministic-stochastic subspace steps on the Hankel factor (SPEC section 3).
+"""Combined deterministic-stochastic subspace steps on the Hankel factor (docs/method.md §3).
 
 Van Overschee & De Moor (1996), "Subspace Identification for Linear Systems", ch. 4:
 oblique projection (Eq. 4.21 / paper Eq. 22), weighting W₂ = Π_{U_f⊥} (paper Eq. 23, the

@@ -2,7 +2,7 @@
 
 The nonlinear terms of a candidate enter as extra "feedback" inputs ``u = [f; -n_1(y, ẏ); ...;
 -n_q(y, ẏ)]`` of a linear system, whose identification then gives the underlying linear model and
-the coefficients λ_i (spec section 2).
+the coefficients λ_i (docs/method.md §2).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Time-domain nonlinear subspace identification, NSI (spec sections 2-4).
+"""Time-domain nonlinear subspace identification, NSI (docs/method.md §2-4).
 
 The nonlinear terms enter as extra "feedback" inputs ``u = [f; -n_1(y, ẏ); ...; -n_q]``
 (paper Eq. 8, :mod:`bayesnsi.nsi.feedback`); a linear subspace identification of the
@@ -267,7 +267,7 @@ def _input_output_matrices(options: NSIOptions, data, A, C_s, stack, signals: Si
 
 
 def _coefficients(model: StateSpaceModel, signals: Signals, terms, band) -> tuple[CoefficientEstimate, ...]:
-    """λ_i as the band mean of Re λ_i(ω), with its imaginary ratio and spread (spec section 4)."""
+    """λ_i as the band mean of Re λ_i(ω), with its imaginary ratio and spread (docs/method.md §4)."""
     if not terms:
         return ()
     freqs = np.linspace(band[0], band[1], _BAND_POINTS)

@@ -1,4 +1,4 @@
-"""Model order and block rows of the subspace step: order choice and stabilisation diagrams (spec section 3)."""
+"""Model order and block rows of the subspace step: order choice and stabilisation diagrams (docs/method.md §3)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ __all__ = ["check_block_rows", "oblique_decomposition", "scaled_stack", "select_
 
 
 def select_order(singular_values: np.ndarray, max_order: int, even: bool = True) -> int:
-    """Model order at the largest gap of log σ (spec section 3).
+    """Model order at the largest gap of log σ (docs/method.md §3).
 
     Parameters
     ----------
@@ -133,7 +133,7 @@ def oblique_decomposition(stack: _hankel.ScaledStack, block_rows: int, route: st
 
 
 def stabilization(signals: Signals, candidate=None, *, block_rows: int = 40, orders=None, velocity_method="fourth"):
-    """Poles against model order for a stabilisation diagram (spec section 3, paper Figs. 3, 7, 11).
+    """Poles against model order for a stabilisation diagram (docs/method.md §3, paper Figs. 3, 7, 11).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Periodic data: period-averaged spectra, noise per line, best linear approximation (SPEC 11).
+"""Periodic data: period-averaged spectra, noise per line, best linear approximation (docs/method.md §11).
 
 A periodic test repeats the same force for several periods of ``P`` samples. The DFT of each
 period gives the force and the responses on the same lines ``k`` (frequency ``k fs / P``); their

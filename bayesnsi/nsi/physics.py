@@ -1,4 +1,4 @@
-"""From the identified model to physics: FRFs, λ_i(ω), modes (SPEC section 4, Eqs. 24-32)."""
+"""From the identified model to physics: FRFs, λ_i(ω), modes (docs/method.md §4, Eqs. 24-32)."""
 
 from __future__ import annotations
 
@@ -41,7 +41,7 @@ class Mode:
 
 @dataclass(frozen=True)
 class CoefficientEstimate:
-    """Nonlinear coefficient λ_i from the mean real part of λ_i(ω) over a band (SPEC 4).
+    """Nonlinear coefficient λ_i from the mean real part of λ_i(ω) over a band (docs/method.md §4).
 
     Attributes
     ----------
@@ -63,7 +63,7 @@ class CoefficientEstimate:
 
 
 def split_poles(poles: np.ndarray, dt: float | None = None, min_imag_ratio: float = 1e-6):
-    """Separate physical modes from spurious poles (SPEC section 3).
+    """Separate physical modes from spurious poles (docs/method.md §3).
 
     Physical: complex pole with positive imaginary part and 0 < ζ < 1. Spurious: real poles,
     poles of negative real discrete eigenvalues (``Im s = π/dt`` when ``dt`` is given: they sit
@@ -100,7 +100,7 @@ def split_poles(poles: np.ndarray, dt: float | None = None, min_imag_ratio: floa
 
 
 def default_band(modes, fs: float) -> tuple[float, float]:
-    """Averaging band holding the identified modes, ends excluded (SPEC 4 and 10).
+    """Averaging band holding the identified modes, ends excluded (docs/method.md §4 and 10).
 
     ``[0.5 f_min, 1.1 f_max]``, clipped to ``(0, 0.45 fs)``: past the last mode λ(ω) is
     dominated by noise.
@@ -132,7 +132,7 @@ def default_band(modes, fs: float) -> tuple[float, float]:
 
 
 def coefficient_spectrum(extended_frf, input_dofs, output_dofs, terms) -> np.ndarray:
-    """λ_i(ω) from the extended FRF (SPEC section 4, paper Eqs. 25-32).
+    """λ_i(ω) from the extended FRF (docs/method.md §4, paper Eqs. 25-32).
 
     Parameters
     ----------
@@ -199,7 +199,7 @@ def identification_routes(terms, input_dofs, output_dofs) -> list[str]:
     ------
     NotIdentifiableError
         When a term's location is neither forced nor measured together with a DOF that is both
-        forced and measured (SPEC section 4: "say so - do not guess").
+        forced and measured (docs/method.md §4: "say so - do not guess").
     """
     input_dofs, output_dofs = list(input_dofs), list(output_dofs)
     shared = [p for p in input_dofs if p in output_dofs]

@@ -1,4 +1,4 @@
-"""Open- and closed-loop reconstruction of an identified candidate (SPEC section 5)."""
+"""Open- and closed-loop reconstruction of an identified candidate (docs/method.md §5)."""
 
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ __all__ = [
 
 
 def nrmse(measured: np.ndarray, predicted: np.ndarray):
-    """NRMSE per channel ``rms(y - ŷ)/rms(y)`` and overall (RMS over channels), spec section 5.
+    """NRMSE per channel ``rms(y - ŷ)/rms(y)`` and overall (RMS over channels), docs/method.md §5.
 
     Parameters
     ----------
@@ -126,7 +126,7 @@ def initial_state(model: StateSpaceModel, inputs: np.ndarray, outputs: np.ndarra
 
 
 def reconstruct(result, signals: Signals, closed_loop: bool = False, n_init: int | None = None) -> Reconstruction:
-    """Reconstruct the measured response with an identified candidate (SPEC section 5).
+    """Reconstruct the measured response with an identified candidate (docs/method.md §5).
 
     Parameters
     ----------
@@ -210,7 +210,7 @@ def _closed_loop(result, signals: Signals, x0: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class AffineReconstruction:
-    """Open-loop reconstruction as an affine function of the coefficients (SPEC section 6).
+    """Open-loop reconstruction as an affine function of the coefficients (docs/method.md §6).
 
     For the fixed underlying linear model of an NSI result, ``ŷ(λ) = ŷ₀ + Σ_i g_i λ_i`` where
     ``ŷ₀`` is the response to the measured forces (with the least-squares initial state) and
@@ -307,7 +307,7 @@ def affine_reconstruction(result, signals: Signals) -> AffineReconstruction:
 
 
 def predictor_reconstruction(result, signals: Signals, noise_std=None) -> AffineReconstruction:
-    """One-step-ahead (innovations) form of the affine reconstruction (SPEC 6 and 10).
+    """One-step-ahead (innovations) form of the affine reconstruction (docs/method.md §6 and 10).
 
     The nonlinear inputs are built from *noisy* measurements, so the model is really
     ``x_{k+1} = A x_k + B u_k + w_k`` with a process noise ``w = -B_n J e`` of known structure
@@ -319,7 +319,7 @@ def predictor_reconstruction(result, signals: Signals, noise_std=None) -> Affine
     through ``(A - K C, b_i - K d_i, C, d_i)``. ``K`` comes from the Riccati equation with the
     measurement noise per channel (estimated from the data unless given) and the input-noise
     process noise of this candidate's own terms. An open-loop residual counts the input noise
-    that the resonances amplify as misfit, which a spurious extra term can absorb (SPEC 10:
+    that the resonances amplify as misfit, which a spurious extra term can absorb (docs/method.md §10:
     the negative-stiffness superset); the innovations do not. The gain needs the noise level of
     every channel a term reads (:func:`bayesnsi.nsi._noise.measured_noise_std`); an overestimated
     velocity noise makes the innovations anti-correlated (measurements in

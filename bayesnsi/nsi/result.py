@@ -1,4 +1,4 @@
-"""The result of nonlinear subspace identification and its reusable Hankel products (spec sections 3-4)."""
+"""The result of nonlinear subspace identification and its reusable Hankel products (docs/method.md §3-4)."""
 
 from __future__ import annotations
 
@@ -71,7 +71,7 @@ class NSIResult:
         return np.array([c.value for c in self.coefficients])
 
     def frf(self, freqs_hz) -> np.ndarray:
-        """Extended FRF H_E(ω) of the identified model (spec section 4).
+        """Extended FRF H_E(ω) of the identified model (docs/method.md §4).
 
         Parameters
         ----------

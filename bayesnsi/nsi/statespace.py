@@ -1,4 +1,4 @@
-"""Discrete-time state-space model with modal-form evaluation (SPEC sections 2 and 4).
+"""Discrete-time state-space model with modal-form evaluation (docs/method.md §2 and 4).
 
 ``x_{k+1} = A x_k + B u_k``, ``y_k = C x_k + D u_k`` with sampling interval ``dt``.
 Frequency responses and simulations use the eigendecomposition ``A = V Λ V⁻¹``: the FRF costs
@@ -85,7 +85,7 @@ def modal_filter_step(lam: complex, u: np.ndarray, state):
 
 
 def modal_parameters_from_poles(poles_continuous: np.ndarray):
-    """Natural frequency [Hz] and damping ratio of continuous-time poles (SPEC section 4).
+    """Natural frequency [Hz] and damping ratio of continuous-time poles (docs/method.md §4).
 
     ``s = -ζω_n ± jω_n√(1-ζ²)``: ``f_n = |s|/2π``, ``ζ = -Re(s)/|s|``.
 
@@ -138,7 +138,7 @@ class StateSpaceModel:
 
     @property
     def poles(self) -> np.ndarray:
-        """Continuous-time poles ``log(λ)/dt`` (principal branch; SPEC Eq. 18 inverted)."""
+        """Continuous-time poles ``log(λ)/dt`` (principal branch; paper Eq. 18 inverted)."""
         return np.log(self.poles_discrete.astype(complex)) / self.dt
 
     @property
@@ -158,7 +158,7 @@ class StateSpaceModel:
         return lam, vec, vinv
 
     def frf(self, freqs_hz) -> np.ndarray:
-        """Frequency response ``D + C (e^{jωdt} I - A)⁻¹ B`` (SPEC section 4, discrete form).
+        """Frequency response ``D + C (e^{jωdt} I - A)⁻¹ B`` (docs/method.md §4, discrete form).
 
         Parameters
         ----------
@@ -176,7 +176,7 @@ class StateSpaceModel:
         return np.einsum("on,fn,ni->foi", cm, resolvent, bm) + self.D[None]
 
     def continuous_state_matrix(self) -> np.ndarray:
-        """Continuous-time state matrix ``A_c = logm(A)/dt`` (spec Eq. 18 inverted).
+        """Continuous-time state matrix ``A_c = logm(A)/dt`` (paper Eq. 18 inverted).
 
         Returns
         -------

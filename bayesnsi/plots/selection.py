@@ -165,7 +165,7 @@ def _figure_kwargs(width: float, height: float) -> dict:
 
 
 def plot_effect_force(step, signals, max_points: int = 4000):
-    """Restoring-force view of an added effect at its location, before and after (SPEC 7.5).
+    """Restoring-force view of an added effect at its location, before and after (docs/method.md §7).
 
     With the step's :class:`~bayesnsi.diagnose.forces.ResidualForce` (accepted steps of
     :func:`bayesnsi.diagnose.close_the_loop`): top row, the residual of the model without the

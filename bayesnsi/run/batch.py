@@ -54,7 +54,7 @@ class CandidateOutcome:
         Per likelihood (``EvidenceOptions.likelihood`` and ``compare``); None without evidence
         options or when the evidence failed.
     nrmse : float or None
-        NRMSE of the open-loop reconstruction of the estimation data (SPEC eq. 5.1).
+        NRMSE of the open-loop reconstruction of the estimation data (paper Eq. 5.1).
     nrmse_per_channel : tuple of float
     error : str or None
         ``"<ExceptionType>: <message>"`` of the failure, None when everything succeeded.

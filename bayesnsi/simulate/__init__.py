@@ -1,4 +1,4 @@
-"""Reference simulators: structures, band-limited excitation, RK4 and the SPEC 8 cases.
+"""Reference simulators: structures, band-limited excitation, RK4 and the docs/method.md §8 cases.
 
 numpy/scipy only. Signals follow the library convention ``(n_samples, n_channels)``; DOFs
 are numbered from 1; forces in N, displacements in m, frequencies in Hz (``*_hz``).
@@ -57,7 +57,7 @@ __all__ = [
     "case_setup",
     "simulation_bytes",
     "MAX_SIMULATION_BYTES",
-    # undeclared-effect cases for closing the loop (SPEC 7)
+    # undeclared-effect cases for closing the loop (docs/method.md §7)
     "UndeclaredCase",
     "MissingEffect",
     "UNDECLARED_CASES",

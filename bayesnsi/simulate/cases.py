@@ -1,4 +1,4 @@
-"""The reference cases of SPEC 8 as reproducible simulations: one registry entry per case.
+"""The reference cases of docs/method.md §8 as reproducible simulations: one registry entry per case.
 
 Each case is defined once, by a set-up function registered with
 :func:`~bayesnsi.simulate.reference.reference_case`: its keyword defaults are the case's
@@ -40,7 +40,7 @@ __all__ = [
     "simulate_cases",
 ]
 
-# SPEC 8.3 constants (paper section IV, Table 10 with SPEC's consistency fixes)
+# docs/method.md §8 constants (paper section IV, Table 10 with the consistency fixes of docs/method.md §8)
 _K3_TWIN = 7.23e5  # N/m³
 _W_LOWER = -0.0301  # m, lower well
 _W_UPPER = 0.0242  # m, upper well
@@ -58,7 +58,7 @@ def _white_force(n_samples, fs, rms, oversample, band_hz=None):
 
 @reference_case("two-dof", noise_percent=2.0)
 def two_dof(duration=10.0, fs=100.0, oversample=8, force_rms=10.0) -> CaseSetup:
-    """Two-DOF chain with quadratic damping at DOF 1 (SPEC 8.1, paper III.A).
+    """Two-DOF chain with quadratic damping at DOF 1 (docs/method.md §8, paper III.A).
 
     Parameters
     ----------
@@ -75,7 +75,7 @@ def two_dof(duration=10.0, fs=100.0, oversample=8, force_rms=10.0) -> CaseSetup:
     Notes
     -----
     Ground–k1–m1–k2–m2 with m1 = 1, m2 = 1.5 kg, k1 = 800, k2 = 1000 N/m and c1 = c2 = 1
-    N s/m (SPEC 8.1: the paper's c = 2 contradicts its own Table 3), plus 20·v1|v1| at DOF 1.
+    N s/m (docs/method.md §8: the paper's c = 2 contradicts its own Table 3), plus 20·v1|v1| at DOF 1.
     Gaussian white force of rms 10 N at DOF 2 (trigonometrically interpolated between
     samples). Exact modes 2.46 Hz / 0.91 % and 7.51 Hz / 2.53 %. Candidates (paper Table 2):
     model 1 {v1|v1|} (true), model 2 {sign(v1)}, model 3 {v1|v1|, sign(v1)}.
@@ -89,7 +89,7 @@ def two_dof(duration=10.0, fs=100.0, oversample=8, force_rms=10.0) -> CaseSetup:
     )
     return CaseSetup(
         name="two-dof",
-        title="Two-DOF chain with quadratic damping (SPEC 8.1, paper III.A)",
+        title="Two-DOF chain with quadratic damping (docs/method.md §8, paper III.A)",
         M=M, C=C, K=K,
         terms=cands[0].terms,
         coefficients=np.array([20.0]),
@@ -107,7 +107,7 @@ def two_dof(duration=10.0, fs=100.0, oversample=8, force_rms=10.0) -> CaseSetup:
 
 @reference_case("beam", noise_percent=1.0)
 def cantilever_beam_case(duration=100.0, fs=1000.0, oversample=4, force_rms=10.0, damping_ratio=0.01) -> CaseSetup:
-    """Cantilever beam with a quadratic + cubic spring at DOF 13 (SPEC 8.2, paper III.B).
+    """Cantilever beam with a quadratic + cubic spring at DOF 13 (docs/method.md §8, paper III.B).
 
     Parameters
     ----------
@@ -144,14 +144,14 @@ def cantilever_beam_case(duration=100.0, fs=1000.0, oversample=4, force_rms=10.0
     )
     return CaseSetup(
         name="beam",
-        title="Cantilever beam with quadratic and cubic stiffness at DOF 13 (SPEC 8.2, paper III.B)",
+        title="Cantilever beam with quadratic and cubic stiffness at DOF 13 (docs/method.md §8, paper III.B)",
         M=M, C=C, K=K,
         terms=cands[2].terms,
         coefficients=np.array([8e4, 4e6]),
         true_model="model 3",
         force_dofs=(15,), output_dofs=tuple(range(1, 16, 2)),
         candidates=cands,
-        # errors in variables (SPEC 10): prediction-error B, C, D and refined in-band poles give
+        # errors in variables (docs/method.md §10): prediction-error B, C, D and refined in-band poles give
         # k2, k3 within 0.5 %, damping within 3.6 %, frequencies within 0.1 % (seeds 0-7,
         # benchmarks/beam_bias.py); the default output-error B/D is 20-40x faster but k is off by up to 6 %
         recommended=NSIOptions(block_rows=40, order=32, band_hz=(1.0, 30.0), bd_method="prediction-error",
@@ -175,7 +175,7 @@ def cantilever_beam_case(duration=100.0, fs=1000.0, oversample=4, force_rms=10.0
 def negative_stiffness_twin(
     duration=140.0, fs=512.0, oversample=6, table_rms=_TWIN_TABLE_RMS, damping_ratio=0.05, band_hz=None
 ) -> CaseSetup:
-    """Simulated twin of the negative-stiffness oscillator (SPEC 8.3, paper IV).
+    """Simulated twin of the negative-stiffness oscillator (docs/method.md §8, paper IV).
 
     Parameters
     ----------
@@ -184,7 +184,7 @@ def negative_stiffness_twin(
         discontinuous, so RK4 is only first-order accurate across velocity reversals; with
         6 the one-sample local error, written as an equivalent force, is 0.036 N rms on the
         8 % of samples holding a reversal and its projection on sign(ż) is 2.5e-4 N (0.02 %
-        of α1, 2 % of the spurious α3 of SPEC 10), measured against 128× oversampling.
+        of α1, 2 % of the spurious α3 of docs/method.md §10), measured against 128× oversampling.
     table_rms : float
         Rms of the white table acceleration [m/s²]. The default 35 m/s² (force rms ≈ 8 N;
         most of its energy lies far above the 11.4 Hz mode) gives z an std of ≈ 4 mm with
@@ -205,7 +205,7 @@ def negative_stiffness_twin(
 
     Notes
     -----
-    One DOF z = w - w₋ about the lower well (SPEC 8.3)::
+    One DOF z = w - w₋ about the lower well (docs/method.md §8)::
 
         m z̈ + c ż + k1 z + k2 z² + k3 z³ + α1 sign(ż) g(z) + α2 ż|ż| = -m a_table(t)
 
@@ -231,7 +231,7 @@ def negative_stiffness_twin(
     n_samples = n_samples_of(duration, fs)
     return CaseSetup(
         name="negative-stiffness",
-        title="Negative-stiffness oscillator twin (SPEC 8.3, paper IV)",
+        title="Negative-stiffness oscillator twin (docs/method.md §8, paper IV)",
         M=M, C=C, K=K,
         terms=cands[1].terms,
         coefficients=np.array([p["k2"], p["k3"], p["alpha1"], p["alpha2"]]),
@@ -322,7 +322,7 @@ def three_dof(duration=20.0, fs=100.0, oversample=8, force_rms=10.0) -> CaseSetu
 
 
 def negative_stiffness_parameters(damping_ratio: float = 0.05) -> dict:
-    """Physical parameters of the negative-stiffness twin (SPEC 8.3).
+    """Physical parameters of the negative-stiffness twin (docs/method.md §8).
 
     Parameters
     ----------

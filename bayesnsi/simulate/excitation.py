@@ -1,6 +1,6 @@
 """Band-limited random excitation and its continuous-time (fine-grid) interpolation.
 
-SPEC 10: a force held constant between samples (zero-order hold) biases the NSI
+docs/method.md §10: a force held constant between samples (zero-order hold) biases the NSI
 coefficients (|Im/Re| ≈ 0.15) and a first-order hold by ≈ +1 %; only a band-limited force,
 i.e. the trigonometric (FFT zero-padded, periodic sinc) interpolation of its samples, is
 unbiased. Every simulated force is therefore carried on two grids: the coarse samples the
@@ -108,7 +108,7 @@ def band_limited_gaussian(
     -----
     White samples ``e ~ N(0, 1)`` are drawn from ``rng``; if a band is given their FFT is
     zeroed outside it; the result is scaled to the requested rms and interpolated by
-    :func:`fft_interpolate` (SPEC 10: a band-limited force, never a held one). The signal is
+    :func:`fft_interpolate` (docs/method.md §10: a band-limited force, never a held one). The signal is
     periodic with period ``n_samples / fs``.
 
     Examples

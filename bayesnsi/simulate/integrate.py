@@ -1,8 +1,8 @@
-"""Fixed-step RK4 simulation of the nonlinear equation of motion (SPEC 1, Eqs. 5-7).
+"""Fixed-step RK4 simulation of the nonlinear equation of motion (docs/method.md §1, Eqs. 5-7).
 
     M ẅ + C ẇ + K w + Σ_i λ_i l_i n_i(w, ẇ) = F f(t)
 
-The force is read exactly from a fine, band-limited grid (SPEC 10: no hold between samples):
+The force is read exactly from a fine, band-limited grid (docs/method.md §10: no hold between samples):
 the RK4 step is ``h = 2 / fs_fine`` so that its stages at t, t + h/2 and t + h fall on fine
 samples. Many independent realisations (a leading batch dimension) advance in one time loop.
 """
@@ -114,7 +114,7 @@ def simulate_response(
         at ``t = j * decimation / fs_fine``, aligned with the coarse force samples when
         ``decimation`` equals the oversampling factor.
     terms : sequence of Term
-        Nonlinear terms n_i with their locations l_i (SPEC Eq. 6).
+        Nonlinear terms n_i with their locations l_i (paper Eq. 6).
     coefficients : array_like, shape (q,)
         Coefficients λ_i.
     x0, v0 : array_like, shape (N,) or (n_batch, N), optional
@@ -325,7 +325,7 @@ def add_output_noise(signal, percent: float, rng=None) -> np.ndarray:
         (n_batch, n_samples, n_channels); not modified.
     percent : float
         Noise level: the noise of each channel has standard deviation ``percent / 100``
-        times that channel's standard deviation over time (SPEC 8: "2 % output noise (of
+        times that channel's standard deviation over time (docs/method.md §8: "2 % output noise (of
         each signal's std)").
     rng : int, numpy.random.Generator or None
         Source of randomness (:func:`numpy.random.default_rng`).

@@ -1,4 +1,4 @@
-"""Periodic multisine excitation: full, odd and random-odd (SPEC 11; Pintelon and Schoukens, ch. 2-3).
+"""Periodic multisine excitation: full, odd and random-odd (docs/method.md §11; Pintelon and Schoukens, ch. 2-3).
 
 A multisine of period ``P`` samples excites chosen DFT lines ``k`` (frequency ``k fs / P``) with
 a flat amplitude and random phases. "random-odd" excites the odd lines of the band and leaves

@@ -24,7 +24,7 @@ __all__ = ["ReferenceCase", "CaseSetup"]
 
 @dataclass(frozen=True, eq=False)
 class ReferenceCase:
-    """One simulated reference case of SPEC 8.
+    """One simulated reference case of docs/method.md §8.
 
     Attributes
     ----------
@@ -52,7 +52,7 @@ class ReferenceCase:
         The paper's candidate set, in the paper's order ("model 1", ...).
     recommended : NSIOptions
         Suggested NSI settings: ``block_rows``, ``order`` and ``band_hz`` (a frequency band
-        for averaging λ(ω), SPEC 10).
+        for averaging λ(ω), docs/method.md §10).
     seed : int or None
         Seed of the realisation (None when a Generator was passed).
     noise_percent : float

@@ -1,4 +1,4 @@
-"""Linear structural matrices: spring-mass chains and Euler-Bernoulli cantilevers (SPEC 8).
+"""Linear structural matrices: spring-mass chains and Euler-Bernoulli cantilevers (docs/method.md §8).
 
 Conventions: DOFs are numbered from 1 in the documentation and stored from 0 in the
 matrices; masses in kg, stiffnesses in N/m, dampings in N s/m, frequencies in Hz
@@ -20,7 +20,7 @@ def chain_system(masses, stiffnesses, dampings):
 
     Topology: ground - k_1 - m_1 - k_2 - m_2 - ... - k_N - m_N; spring (and damper) ``i``
     connects DOF ``i - 1`` to DOF ``i`` (the ground for ``i = 1``). This is the two-DOF system
-    of SPEC 8.1 (paper section III.A) for ``N = 2``.
+    of docs/method.md §8 (paper section III.A) for ``N = 2``.
 
     Parameters
     ----------
@@ -63,7 +63,7 @@ def cantilever_beam(
     inertia: float | None = None,
     rotary_inertia_factor: float = 4.0,
 ):
-    """Lumped-mass Euler-Bernoulli cantilever (SPEC 8.2, paper section III.B).
+    """Lumped-mass Euler-Bernoulli cantilever (docs/method.md §8, paper section III.B).
 
     Parameters
     ----------
@@ -72,7 +72,7 @@ def cantilever_beam(
     length : float
         Beam length L [m].
     youngs_modulus : float
-        Young's modulus E [Pa]. The paper's "7×10⁷ GPa" is a typo (SPEC 8.2). SPEC 8.2 reads
+        Young's modulus E [Pa]. The paper's "7×10⁷ GPa" is a typo (docs/method.md §8). docs/method.md §8 reads
         it as 2.044 MPa, which gives Table 6 to 0.041 % (4.308 Hz against 4.310 Hz); the
         default 2.0453 MPa reproduces all ten printed frequencies to their last digit
         (the frequencies scale as sqrt(E), so the two readings differ by 0.032 %).
@@ -103,7 +103,7 @@ def cantilever_beam(
                 [ 6le,  2le²,  -6le,  4le² ]]
 
     Lumped mass: each element end receives a translational mass ρA·le/2 and a rotary
-    inertia κ·ρA·le³/2 (SPEC 8.2). With the defaults the natural frequencies rounded to
+    inertia κ·ρA·le³/2 (docs/method.md §8). With the defaults the natural frequencies rounded to
     1 mHz are 0.509, 2.098, 4.310, 6.266, 7.934, 9.221, 10.105, 10.554, 18.648, 27.132 Hz,
     exactly paper Table 6, and all 16 modes lie below 74 Hz.
 
@@ -205,7 +205,7 @@ def modal_parameters(M, C, K):
     -----
     ``s_r`` are the eigenvalues with positive imaginary part of the first-order state
     matrix ``[[0, I], [-M⁻¹K, -M⁻¹C]]``; these are the exact reference values the NSI
-    modes (SPEC 4) are compared with. Overdamped (real) poles are not modes and are left
+    modes (docs/method.md §4) are compared with. Overdamped (real) poles are not modes and are left
     out, so ``n_modes <= N``.
     """
     M, C, K = _square("M", M), _square("C", C), _square("K", K)

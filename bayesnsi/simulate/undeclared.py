@@ -1,7 +1,7 @@
-"""Simulated cases with an effect the declared model lacks, for closing the loop (SPEC section 7).
+"""Simulated cases with an effect the declared model lacks, for closing the loop (docs/method.md §7).
 
-Each case simulates a chain of SPEC 8 (the two- or three-DOF chain, RK4 on a band-limited
-force, SPEC 10) with a set of true nonlinear terms, and *declares* only some of them: the
+Each case simulates a chain of docs/method.md §8 (the two- or three-DOF chain, RK4 on a band-limited
+force, docs/method.md §10) with a set of true nonlinear terms, and *declares* only some of them: the
 declared candidate is what a config would state, the missing effects are what
 :func:`bayesnsi.diagnose.close_the_loop` should find (type, location, coefficient). Negative
 controls declare the whole truth.
@@ -30,7 +30,7 @@ two-missing 16-18 % (Coulomb) and 21-29 % (cubic).
 
 The clearance gap (15 mm) is a round number that is *not* on the loop's default gap grid
 (0.5, 1 and 1.5 displacement std, :func:`bayesnsi.models.default_gaps`); the loop has to
-refine it (SPEC 7: "a clearance on a grid of g").
+refine it (docs/method.md §7: "a clearance on a grid of g").
 """
 
 from __future__ import annotations
@@ -104,7 +104,7 @@ class MissingEffect:
 
 @dataclass(frozen=True, eq=False)
 class UndeclaredCase:
-    """A simulated record, the candidate a config declares, and what it lacks (SPEC 7).
+    """A simulated record, the candidate a config declares, and what it lacks (docs/method.md §7).
 
     Attributes
     ----------
@@ -213,7 +213,7 @@ UNDECLARED_CASES: dict[str, str] = {name: spec[0] for name, spec in _DEFINITIONS
 
 
 def undeclared_case(name: str, seed=0, noise_percent: float = 2.0, **kwargs) -> UndeclaredCase:
-    """One seeded realisation of an undeclared-effect case (SPEC 7).
+    """One seeded realisation of an undeclared-effect case (docs/method.md §7).
 
     Parameters
     ----------

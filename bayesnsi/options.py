@@ -169,6 +169,13 @@ class NSIOptions(_Options):
     c_method: str = _option(
         "subspace", "C from the subspace step or re-fitted by prediction error", kind="choice",
         choices=("subspace", "prediction-error"))
+    domain: str = _option(
+        "time", 'identify from the time samples, or "frequency" (FNSI on the excited lines of periodic data; '
+        "needs [data] period)", kind="choice", choices=("time", "frequency"))
+    virtual_stiffness: float | str = _option(
+        "auto", 'known spring [N/m] added at forced, measured DOFs so that free bodies identify (rigid-body '
+        'pole z = 1), removed again from modes, FRF and physical parameters; "auto": only when the data '
+        "hold a rigid-body pole, with k = std(force)/std(displacement); 0: never", kind="auto-number")
 
     def _check(self) -> None:
         if self.c_method == "prediction-error" and self.bd_method != "prediction-error":
@@ -322,6 +329,10 @@ def _coerce(section: str, item, value):
         if not isinstance(values, (list, tuple)):
             raise ConfigError(f"{where}: expected a likelihood name or a list of them, got {_shown(value)}")
         return tuple(parse_likelihood(v)[1] for v in values)
+    if kind == "auto-number":
+        if value == "auto":
+            return value
+        return _number(where, value, integer=False, low=0.0, high=None, extra=' or "auto"')
     if kind == "order":
         if value == "auto":
             return value

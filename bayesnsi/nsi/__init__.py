@@ -1,7 +1,9 @@
 """Nonlinear subspace identification (docs/method.md §2-5); numpy/scipy only."""
 
 from .feedback import extended_input
+from .free_body import PhysicalParameters, physical_parameters
 from .identify import hankel_correlations, identify
+from .inverse import ForcePrediction, force_prediction, short_horizon_nrmse
 from .order import select_order, stabilization
 from .periodic import (
     BestLinearApproximation,
@@ -26,6 +28,11 @@ from .statespace import StateSpaceModel
 
 __all__ = [
     "identify",
+    "PhysicalParameters",
+    "physical_parameters",
+    "ForcePrediction",
+    "force_prediction",
+    "short_horizon_nrmse",
     "hankel_correlations",
     "HankelCorrelations",
     "NSIResult",

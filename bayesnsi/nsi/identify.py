@@ -18,10 +18,12 @@ from ..options import NSIOptions
 from ..signals import Signals
 from . import _hankel, _subspace
 from ._eiv import refine_prediction_error, refine_prediction_error_bc
+from ._frequency import identify_frequency
 from ._noise import white_noise_std
 from ._output_error import refine_output_error
 from ._output_error import refine_poles as _refine_poles
 from .feedback import as_candidate, extended_input, resolve_input_hold, working_signals
+from .free_body import auto_stiffness, free_model, rigid_body_poles, stabilise
 from .order import oblique_decomposition, scaled_stack, select_order
 from .physics import CoefficientEstimate, coefficient_spectrum, default_band, identification_routes, split_poles
 from .result import HankelCorrelations, NSIResult, correlation_key
@@ -52,13 +54,14 @@ def hankel_correlations(signals: Signals, candidate=None, options: NSIOptions | 
     options = _as_options(options)
     block_rows, velocity_method, upsample = options.block_rows, options.velocity_method, options.upsample
     cand = as_candidate(candidate)
-    work = working_signals(signals, int(upsample))
+    stiffness = _fixed_stiffness(options)
+    work = stabilise(working_signals(signals, int(upsample)), stiffness)
     hold = resolve_input_hold(options.input_hold, cand.terms)
     u = extended_input(work, cand.terms, velocity_method, hold)
     stack = scaled_stack(u, np.asarray(work.displacement), block_rows)
     return HankelCorrelations(
         term_names=tuple(t.name for t in cand.terms),
-        key=correlation_key(len(u), block_rows, hold, velocity_method, upsample),
+        key=correlation_key(len(u), block_rows, hold, velocity_method, upsample, stiffness),
         scales=np.concatenate([stack.u_scale, stack.y_scale]),
         lagged=_hankel.lagged_products(stack, 2 * block_rows),
     )
@@ -113,7 +116,9 @@ def identify(
         When a term reads an unmeasured DOF, is constant, or its coefficient cannot be
         separated with the measured forces and responses.
     UnstableModelError
-        When the identified model is unstable or has no physical mode.
+        When the identified model is unstable or has no physical mode (a rigid-body pole, z = 1,
+        is not a failure: with ``virtual_stiffness = "auto"`` it is identified with a known
+        spring on the input, see :mod:`bayesnsi.nsi.free_body`).
 
     Warns
     -----
@@ -149,20 +154,28 @@ def identify(
     options = _as_options(options)
     cand = as_candidate(candidate)
     identification_routes(cand.terms, signals.input_dofs, signals.output_dofs)
+    if options.domain == "frequency":
+        return identify_frequency(signals, cand, options)
     block_rows, upsample, velocity_method = options.block_rows, int(options.upsample), options.velocity_method
-    data_fs = signals.fs
-    signals = working_signals(signals, upsample)
+    data_fs, measured = signals.fs, signals
+    stiffness = _fixed_stiffness(options)
+    signals = stabilise(working_signals(signals, upsample), stiffness)
     input_hold = resolve_input_hold(options.input_hold, cand.terms)
     u = extended_input(signals, cand.terms, velocity_method, input_hold)
     stack = scaled_stack(u, np.asarray(signals.displacement), block_rows)
     lagged = None
     if options.route == "correlation" and correlations is not None:
-        key = correlation_key(len(u), block_rows, input_hold, velocity_method, upsample)
+        key = correlation_key(len(u), block_rows, input_hold, velocity_method, upsample, stiffness)
         lagged = correlations.extended(cand.terms, key, stack)
     data, left, singular_values = oblique_decomposition(stack, block_rows, options.route, lagged)
     order = _model_order(options, singular_values, block_rows, stack.y.shape[1])
     A, C_s = _subspace.system_matrices_ac(left, singular_values, order, stack.y.shape[1])
-    radius = np.max(np.abs(np.linalg.eigvals(A)))
+    eigenvalues = np.linalg.eigvals(A)
+    radius = np.max(np.abs(eigenvalues))
+    if options.virtual_stiffness == "auto" and len(rigid_body_poles(eigenvalues, signals.dt, len(u))):
+        # a free body: identify again with a known spring on the input (bayesnsi.nsi.free_body)
+        fixed = options.replace(virtual_stiffness=auto_stiffness(measured))
+        return identify(measured, cand, fixed, correlations=correlations)
     if radius >= 1.0:
         raise UnstableModelError(
             f"candidate {cand.name!r}: the identified underlying linear model is unstable "
@@ -174,12 +187,20 @@ def identify(
         A, _ = _refine_poles(A, stack.u, stack.y, signals.dt, options.refine_poles, noise_std=noise_std)
     B, C, D = _input_output_matrices(options, data, A, C_s, stack, signals, cand.terms, noise_std)
     model = StateSpaceModel(A=A, B=B, C=C, D=D, dt=signals.dt)
-    modes, spurious = split_poles(model.poles, signals.dt)
-    if not modes:
+    band_modes, _ = split_poles(model.poles, signals.dt)
+    if not band_modes:
         raise UnstableModelError(
             f"candidate {cand.name!r}: no physical mode among the {order} identified poles; "
             "check the order (singular values) and the sampling rate"
         )
+    modes, spurious, rigid = band_modes, model.poles[:0], np.zeros(0, dtype=complex)
+    if stiffness:  # the physical poles are those of the free model (spring removed)
+        free = free_model(model, stiffness, signals.input_dofs, signals.output_dofs)
+        rigid = rigid_body_poles(free.poles_discrete, signals.dt, len(u))
+        modes, spurious = split_poles(free.poles, signals.dt)
+        spurious = np.array([s for s in spurious if not np.any(np.isclose(s, rigid))], dtype=complex)
+    else:
+        _, spurious = split_poles(model.poles, signals.dt)
     if len(spurious):
         warnings.warn(
             f"candidate {cand.name!r}: {len(spurious)} of {order} poles discarded as non-physical "
@@ -187,7 +208,7 @@ def identify(
             SpuriousPoleWarning,
             stacklevel=2,
         )
-    band = tuple(float(b) for b in (options.band_hz or default_band(modes, signals.fs)))
+    band = tuple(float(b) for b in (options.band_hz or default_band(band_modes, signals.fs)))
     settings = dict(
         block_rows=int(block_rows),
         order=order,
@@ -202,6 +223,7 @@ def identify(
         c_method=options.c_method,
         n_samples=int(len(u)) // upsample,
         fs=data_fs,
+        virtual_stiffness=stiffness,
     )
     return NSIResult(
         candidate=cand,
@@ -216,7 +238,13 @@ def identify(
         spurious_poles=spurious,
         coefficients=_coefficients(model, signals, cand.terms, band),
         settings=settings,
+        rigid_body_poles=rigid,
     )
+
+
+def _fixed_stiffness(options: NSIOptions) -> float:
+    """The virtual stiffness to apply now: the given number, 0 for "auto" (decided after a first try)."""
+    return 0.0 if options.virtual_stiffness == "auto" else float(options.virtual_stiffness)
 
 
 def _as_options(options) -> NSIOptions:

@@ -161,7 +161,8 @@ def reconstruct(result, signals: Signals, closed_loop: bool = False, n_init: int
     if not closed_loop:
         predicted = model.simulate(u, x0)
     else:
-        predicted = _closed_loop(result, work, x0)
+        free = _measured_grid(result, signals) if result.virtual_stiffness else work
+        predicted = _closed_loop(result, free, x0)
     y = np.asarray(signals.displacement)
     predicted = predicted[::factor]
     per, overall = nrmse(y, predicted)
@@ -170,9 +171,16 @@ def reconstruct(result, signals: Signals, closed_loop: bool = False, n_init: int
     )
 
 
+def _measured_grid(result, signals: Signals) -> Signals:
+    """The measured forces on the model's grid, without a free body's virtual spring."""
+    from .feedback import working_signals
+
+    return working_signals(signals, result.upsample)
+
+
 def _closed_loop(result, signals: Signals, x0: np.ndarray) -> np.ndarray:
-    """Simulate with the nonlinear inputs fed back from the model's own output."""
-    model = result.model
+    """Simulate with the nonlinear inputs fed back from the model's own output (free model)."""
+    model = result.free_model
     terms = result.terms
     m = len(result.input_dofs)
     A, B, C, D = model.A, model.B, model.C, model.D

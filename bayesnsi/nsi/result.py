@@ -10,6 +10,7 @@ from ..models import CandidateModel, Term
 from ..signals import Signals
 from . import _hankel
 from .feedback import extended_input, working_signals
+from .free_body import PhysicalParameters, free_frf, free_model, physical_parameters, stabilise
 from .physics import CoefficientEstimate, Mode, coefficient_spectrum
 from .statespace import StateSpaceModel
 
@@ -40,6 +41,9 @@ class NSIResult:
     coefficients : tuple of CoefficientEstimate
     settings : dict
         Everything needed to reproduce the identification.
+    rigid_body_poles : ndarray of complex
+        Rigid-body poles (s ≈ 0) of a free body, reported as such (``settings["virtual_stiffness"]``
+        then holds the known spring the identification used, see :mod:`bayesnsi.nsi.free_body`).
 
     See Also
     --------
@@ -59,6 +63,7 @@ class NSIResult:
     spurious_poles: np.ndarray
     coefficients: tuple[CoefficientEstimate, ...]
     settings: dict = field(default_factory=dict)
+    rigid_body_poles: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=complex))
 
     @property
     def terms(self) -> tuple[Term, ...]:
@@ -70,8 +75,23 @@ class NSIResult:
         """Estimated λ_i (mean Re λ_i(ω) over the band), shape (q,)."""
         return np.array([c.value for c in self.coefficients])
 
+    @property
+    def virtual_stiffness(self) -> float:
+        """Known spring [N/m] on the input during identification (0: none; free bodies)."""
+        return float(self.settings.get("virtual_stiffness", 0.0) or 0.0)
+
+    @property
+    def free_model(self) -> StateSpaceModel:
+        """The identified model driven by the measured forces (any virtual spring removed)."""
+        return free_model(self.model, self.virtual_stiffness, self.input_dofs, self.output_dofs)
+
+    @property
+    def physical_parameters(self) -> tuple[PhysicalParameters, ...]:
+        """Mass, viscous damping and stiffness of a one-DOF model from its FRF (else empty)."""
+        return physical_parameters(self)
+
     def frf(self, freqs_hz) -> np.ndarray:
-        """Extended FRF H_E(ω) of the identified model (docs/method.md §4).
+        """Extended FRF H_E(ω) of the identified model (docs/method.md §4; free body: spring removed).
 
         Parameters
         ----------
@@ -82,7 +102,7 @@ class NSIResult:
         -------
         ndarray of complex, shape (n_freq, l, m + q)
         """
-        return self.model.frf(freqs_hz)
+        return free_frf(self.model.frf(freqs_hz), self.virtual_stiffness, self.input_dofs, self.output_dofs)
 
     def underlying_frf(self, freqs_hz) -> np.ndarray:
         """Underlying linear FRF H(ω)[O, P]: the force columns of the extended FRF.
@@ -115,7 +135,7 @@ class NSIResult:
         from scipy.signal import StateSpace
 
         m = len(self.input_dofs)
-        model = self.model
+        model = self.free_model  # a free body's virtual spring removed (the same model otherwise)
         return StateSpace(model.A, model.B[:, :m], model.C, model.D[:, :m], dt=model.dt)
 
     def __repr__(self) -> str:
@@ -158,8 +178,9 @@ class NSIResult:
         Returns
         -------
         Signals
+            With the known spring moved to the input (``f + k·x``) for a free body.
         """
-        return working_signals(signals, self.upsample)
+        return stabilise(working_signals(signals, self.upsample), self.virtual_stiffness)
 
     def extended_input(self, signals: Signals, on_grid: bool = False) -> np.ndarray:
         """Extended input of this candidate on the model's grid.
@@ -262,7 +283,7 @@ class HankelCorrelations:
         return _hankel.extend_lagged_products(self.lagged, stack, old)
 
 
-def correlation_key(n_samples, block_rows, input_hold, velocity_method, upsample) -> tuple:
+def correlation_key(n_samples, block_rows, input_hold, velocity_method, upsample, stiffness=0.0) -> tuple:
     """Settings that must agree for :class:`HankelCorrelations` to be reused.
 
     Parameters
@@ -273,9 +294,11 @@ def correlation_key(n_samples, block_rows, input_hold, velocity_method, upsample
         Resolved input hold and differentiator.
     upsample : int
         Identification-grid factor.
+    stiffness : float
+        Virtual stiffness on the input (free bodies).
 
     Returns
     -------
     tuple
     """
-    return (int(n_samples), int(block_rows), input_hold, velocity_method, int(upsample))
+    return (int(n_samples), int(block_rows), input_hold, velocity_method, int(upsample), float(stiffness))

@@ -1,0 +1,286 @@
+"""Frequency-domain subspace identification of the extended-input system (SPEC 11, FNSI).
+
+McKelvey, Akçay and Ljung (IEEE TAC 41, 1996) with the noise weighting of Pintelon (2002), on
+the lines of a periodic record (Noël and Kerschen, MSSP 40, 2013). In periodic steady state a
+model ``G(w) = D + C (w I - A)⁻¹ B`` relates the spectra exactly, ``Y(k) = G(w_k) U(k)``, on every
+line k, with ``w_k = e^{jω_kΔt}`` for a discrete model or ``w_k = jω_k`` for a continuous one.
+The continuous model is fitted (exact for the structure's FRF; a discrete one of the same order
+is not) through the bilinear map ``w̃ = (ω0 + jω)/(ω0 - jω)`` that puts the lines on the unit
+circle. Stacking ``w̃_k^0 .. w̃_k^{r-1}`` times Y(k) and U(k) over the lines gives
+``𝒴 = O_r 𝒳 + Γ_r 𝒰`` with the extended observability matrix O_r, so the range of 𝒴 projected
+off 𝒰 (real and imaginary parts as columns), whitened by the stacked noise covariance, is that
+of O_r: A and C follow by shift invariance, B and D by weighted linear least squares on the same
+lines; a variable-projection refinement of A and C (:func:`refine`) then minimises the weighted
+misfit on the lines.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..exceptions import BlockRowsError, InputDataError
+from ..signals import Signals
+from .feedback import extended_input
+from .periodic import excited_lines, period_dft
+
+_SMOOTH_LINES = 9  # running median of the noise variance over this many lines (weights)
+
+
+@dataclass(frozen=True)
+class LineData:
+    """Period-averaged spectra of the extended input and the outputs on the fitted lines."""
+
+    lines: np.ndarray  # (M,) DFT line indices
+    freqs_hz: np.ndarray  # (M,)
+    z: np.ndarray  # (M,) e^{jωΔt}
+    inputs: np.ndarray  # (M, m + q) complex: [F; -N]
+    outputs: np.ndarray  # (M, l) complex
+    output_cov: np.ndarray  # (M, l, l) noise covariance of the mean outputs
+    n_periods: int
+
+
+def line_data(signals: Signals, terms, velocity_method: str, band_hz, drop: int = 0) -> LineData:
+    """Extended input and outputs averaged over the periods, on the excited lines inside the band.
+
+    The basis functions are evaluated on the period-averaged time signals (velocity by exact
+    spectral differentiation of the averaged displacement unless velocities are measured), so
+    the noise they carry is that of the average (errors in variables reduced by the number of
+    periods).
+    """
+    period = signals.period
+    if period is None:
+        raise InputDataError(
+            'the frequency route ([nsi] domain = "frequency") needs periodic data: give [data] period '
+            "(samples per period), or Signals(period=...)"
+        )
+    x_periods = period_dft(signals.displacement, period, drop)
+    f_periods = period_dft(signals.force, period, drop)
+    n_periods = x_periods.shape[0]
+    if n_periods < 2:
+        raise InputDataError(
+            f"the frequency route needs at least two periods for the noise level, the record holds {n_periods}"
+        )
+    x_mean, f_mean = x_periods.mean(axis=0), f_periods.mean(axis=0)
+    omega = 2 * np.pi * np.fft.rfftfreq(period, 1.0 / signals.fs)
+    if signals.velocity is not None:
+        v_time = _time(period_dft(signals.velocity, period, drop).mean(axis=0), period)
+    else:
+        v_spec = 1j * omega[:, None] * x_mean
+        if period % 2 == 0:
+            v_spec[-1] = 0.0  # the Nyquist line of a real signal has no derivative
+        v_time = _time(v_spec, period)
+    averaged = Signals(
+        force=_time(f_mean, period), displacement=_time(x_mean, period), velocity=v_time, fs=signals.fs,
+        input_dofs=signals.input_dofs, output_dofs=signals.output_dofs,
+    )
+    u = extended_input(averaged, terms, velocity_method, "sample")
+    u_spec = np.fft.rfft(u, axis=0) / period
+    u_spec[:, : f_mean.shape[1]] = f_mean
+    dev = x_periods - x_mean
+    cov = np.einsum("pki,pkj->kij", dev, dev.conj()) / (n_periods - 1) / n_periods
+    power = np.sum(np.abs(f_mean) ** 2, axis=1)
+    noise = np.sum(np.abs(f_periods - f_mean) ** 2, axis=(0, 2)) / (n_periods - 1) / n_periods
+    mask = excited_lines(power, noise)
+    freqs = omega / (2 * np.pi)
+    if band_hz is not None:
+        mask &= (freqs >= band_hz[0]) & (freqs <= band_hz[1])
+    lines = np.flatnonzero(mask)
+    if len(lines) < 4:
+        raise InputDataError(
+            f"only {len(lines)} excited line(s) inside the band {band_hz} Hz; widen [nsi] band_hz or check "
+            "[data] period"
+        )
+    return LineData(
+        lines=lines, freqs_hz=freqs[lines], z=np.exp(1j * omega[lines] / signals.fs), inputs=u_spec[lines],
+        outputs=x_mean[lines], output_cov=cov[lines], n_periods=n_periods,
+    )
+
+
+def subspace(data: LineData, block_rows: int, points=None):
+    """Whitened range of the stacked outputs projected off the stacked inputs.
+
+    ``points`` replace ``data.z`` as the unit-circle variable (e.g. the bilinear map of jω).
+
+    Returns
+    -------
+    left : ndarray, shape (r l, r l)
+        Left singular vectors un-whitened (columns span the estimate of O_r).
+    singular_values : ndarray, shape (r l,)
+    scales : (ndarray, ndarray)
+        Channel scales of inputs and outputs used for conditioning.
+    """
+    U, Y = data.inputs, data.outputs
+    z = data.z if points is None else np.asarray(points)
+    n_lines, n_in = U.shape
+    n_out = Y.shape[1]
+    r = int(block_rows)
+    if r * (n_in + n_out) > 2 * n_lines:
+        raise BlockRowsError(
+            f"{r} block rows need at least {r * (n_in + n_out) // 2} lines, the band holds {n_lines} excited "
+            f"lines; lower [nsi] block_rows to at most {max(1, 2 * n_lines // (n_in + n_out))} or widen the band"
+        )
+    u_scale, y_scale = _rms(U), _rms(Y)
+    Us, Ys = U / u_scale, Y / y_scale
+    powers = z[None, :] ** np.arange(r)[:, None]  # (r, M)
+    stacked_u = (powers[:, None, :] * Us.T[None]).reshape(r * n_in, n_lines)
+    stacked_y = (powers[:, None, :] * Ys.T[None]).reshape(r * n_out, n_lines)
+    real = lambda a: np.hstack([a.real, a.imag])  # noqa: E731
+    _, R = np.linalg.qr(np.vstack([real(stacked_u), real(stacked_y)]).T)
+    ru = r * n_in
+    projected = R[ru:, ru:].T  # rows of 𝒴 Π⊥ in an orthonormal basis of the columns
+    cov = data.output_cov / np.outer(y_scale, y_scale)[None]
+    weight = np.real(np.einsum("ak,bk,kij->aibj", powers, powers.conj(), cov)).reshape(r * n_out, r * n_out)
+    weight = (weight + weight.T) / 2 + 1e-12 * np.trace(weight) / len(weight) * np.eye(len(weight))
+    chol = np.linalg.cholesky(weight)
+    left, singular_values, _ = np.linalg.svd(np.linalg.solve(chol, projected))
+    return chol @ left, singular_values, (u_scale, y_scale)
+
+
+def system_ac(left: np.ndarray, order: int, n_out: int, y_scale: np.ndarray):
+    """A and C (physical output units) by shift invariance of the estimated O_r."""
+    obs = left[:, :order]
+    A = np.linalg.lstsq(obs[:-n_out], obs[n_out:], rcond=None)[0]
+    return A, obs[:n_out] * y_scale[:, None]
+
+
+def input_matrices(data: LineData, A: np.ndarray, C: np.ndarray, zero_feedthrough: bool, points=None):
+    """B and D by least squares on the lines, weighted by the (smoothed) output noise level.
+
+    ``points`` are where the transfer function is evaluated: ``z_k`` (default, discrete A) or
+    ``jω_k`` (continuous A).
+
+    Returns
+    -------
+    B, D : ndarray
+    weighted_residual : ndarray, shape (M, l) complex
+        Whitened residual of the fit on the lines.
+    """
+    U, Y = data.inputs, data.outputs
+    z = data.z if points is None else np.asarray(points)
+    n_lines, n_in = U.shape
+    n_out, n = C.shape
+    u_scale = _rms(U)
+    Us = U / u_scale
+    sigma = noise_std(data)
+    lam, vec = np.linalg.eig(A)
+    G = np.einsum("on,kn,nm->kom", C @ vec, 1.0 / (z[:, None] - lam[None]), np.linalg.inv(vec))  # C(zI-A)^-1
+    phi_b = np.einsum("kj,koi->koji", Us, G).reshape(n_lines, n_out, n_in * n)
+    blocks = [phi_b]
+    if not zero_feedthrough:
+        eye = np.eye(n_out)
+        blocks.append(np.einsum("kj,op->kojp", Us, eye).reshape(n_lines, n_out, n_in * n_out))
+    phi = np.concatenate(blocks, axis=2) / sigma[:, :, None]
+    target = Y / sigma
+    design = np.vstack([phi.real.reshape(-1, phi.shape[2]), phi.imag.reshape(-1, phi.shape[2])])
+    rhs = np.concatenate([target.real.ravel(), target.imag.ravel()])
+    col = np.linalg.norm(design, axis=0)
+    col[col == 0] = 1.0
+    theta = np.linalg.lstsq(design / col, rhs, rcond=None)[0] / col
+    B = np.real(theta[: n_in * n].reshape((n, n_in), order="F")) / u_scale
+    D = np.zeros((n_out, n_in))
+    if not zero_feedthrough:
+        D = theta[n_in * n :].reshape((n_out, n_in), order="F") / u_scale
+    fitted = np.einsum("kom,mj,kj->ko", G, B, U) + U @ D.T
+    return B, D, (Y - fitted) / sigma
+
+
+def noise_std(data: LineData) -> np.ndarray:
+    """Noise std of the averaged outputs per line and channel, smoothed over neighbouring lines."""
+    return np.sqrt(_smoothed(np.real(np.diagonal(data.output_cov, axis1=1, axis2=2))))
+
+
+def _time(spectrum: np.ndarray, period: int) -> np.ndarray:
+    return np.fft.irfft(spectrum * period, period, axis=0)
+
+
+def _rms(a: np.ndarray) -> np.ndarray:
+    scale = np.sqrt(np.mean(np.abs(a) ** 2, axis=0))
+    return np.where(scale > 0, scale, 1.0)
+
+
+def _smoothed(var: np.ndarray) -> np.ndarray:
+    """Running median over neighbouring lines (a variance from few periods scatters by χ²)."""
+    half = _SMOOTH_LINES // 2
+    padded = np.pad(var, ((half, half), (0, 0)), mode="edge")
+    windows = np.lib.stride_tricks.sliding_window_view(padded, _SMOOTH_LINES, axis=0)
+    out = np.median(windows, axis=-1)
+    positive = out[out > 0]
+    floor = 1e-12 * (np.max(positive) if positive.size else 1.0)
+    return np.maximum(out, floor)
+
+
+def bilinear_points(freqs_hz: np.ndarray) -> tuple[np.ndarray, float]:
+    """``(ω0 + jω)/(ω0 - jω)`` on the lines, ω0 the geometric centre of the band: jω on the unit circle."""
+    omega = 2 * np.pi * np.asarray(freqs_hz)
+    omega0 = float(np.sqrt(omega[0] * omega[-1]))
+    return (omega0 + 1j * omega) / (omega0 - 1j * omega), omega0
+
+
+def continuous_ac(A_tilde: np.ndarray, C_tilde: np.ndarray, omega0: float):
+    """Continuous A_c, C_c from the bilinear-domain pair (s = ω0 (z - 1)/(z + 1)); C_c up to the B scaling."""
+    inv = np.linalg.inv(A_tilde + np.eye(len(A_tilde)))
+    return omega0 * inv @ (A_tilde - np.eye(len(A_tilde))), C_tilde @ inv
+
+
+def stabilise_continuous(Ac: np.ndarray):
+    """Reflect poles with Re s >= 0 into the left half-plane (-conj s); the reflected ones."""
+    lam, vec = np.linalg.eig(Ac)
+    outside = lam.real >= 0
+    if not outside.any():
+        return Ac, lam[:0]
+    reflected = lam.copy()
+    reflected[outside] = -np.conj(lam[outside])
+    return np.real(vec @ np.diag(reflected) @ np.linalg.inv(vec)), lam[outside]
+
+
+def refine(data: LineData, Ac: np.ndarray, C: np.ndarray, zero_feedthrough: bool, max_nfev: int = 400):
+    """Weighted least-squares refinement of A_c, C on the lines (variable projection, SPEC 11).
+
+    A_c in real modal form, each pair ``σ ± jω`` parametrised by ``log(-σ)`` and ``ω`` (so the
+    refined model stays stable), C free; B and D are solved by weighted linear least squares
+    (:func:`input_matrices`) for every trial, so only the poles and C are searched
+    (Levenberg-Marquardt, numerical Jacobian). Returns the better of start and end.
+    """
+    from scipy.optimize import least_squares
+
+    blocks, T = _real_modal(Ac)
+    if blocks is None:
+        return Ac, C
+    C0 = C @ T
+    jw = 2j * np.pi * data.freqs_hz
+    n_out = C.shape[0]
+
+    def unpack(theta):
+        n_pairs = len(blocks)
+        A = np.zeros_like(Ac)
+        for i, (sig, om) in enumerate(zip(-np.exp(theta[:n_pairs]), theta[n_pairs : 2 * n_pairs])):
+            A[2 * i : 2 * i + 2, 2 * i : 2 * i + 2] = [[sig, om], [-om, sig]]
+        return A, theta[2 * n_pairs :].reshape(n_out, -1)
+
+    def residual(theta):
+        A, Cm = unpack(theta)
+        res = input_matrices(data, A, Cm, zero_feedthrough, jw)[2]
+        return np.concatenate([res.real.ravel(), res.imag.ravel()])
+
+    start = np.concatenate([np.log(-blocks[:, 0]), blocks[:, 1], C0.ravel()])
+    cost0 = np.sum(residual(start) ** 2)
+    fit = least_squares(residual, start, method="lm", x_scale="jac", max_nfev=max_nfev, ftol=1e-7, xtol=1e-7)
+    if not np.isfinite(fit.cost) or 2 * fit.cost >= cost0:
+        return Ac, C
+    return unpack(fit.x)
+
+
+def _real_modal(Ac: np.ndarray):
+    """Pairs (σ, ω) and the real basis T with ``T⁻¹ A_c T`` block-diagonal; (None, None) if a pole is real
+    or unstable (no refinement then)."""
+    lam, vec = np.linalg.eig(Ac)
+    upper = lam.imag > 0
+    if 2 * upper.sum() != len(lam) or np.any(lam.real >= 0):
+        return None, None
+    order = np.argsort(lam[upper].imag)
+    lam_u, vec_u = lam[upper][order], vec[:, upper][:, order]
+    T = np.empty_like(Ac)
+    T[:, 0::2], T[:, 1::2] = vec_u.real, vec_u.imag
+    return np.column_stack([lam_u.real, lam_u.imag]), T

@@ -1,0 +1,154 @@
+"""The frequency route of :func:`bayesnsi.nsi.identify` (``NSIOptions.domain = "frequency"``; SPEC 11).
+
+Frequency-domain NSI (FNSI, Noël and Kerschen 2013) on a periodic record: the extended input
+``[F; -N]`` and the outputs averaged over the periods, fitted on the excited lines inside
+``band_hz`` (:mod:`._fnsi`). It returns the same :class:`NSIResult` as the time route, a discrete
+model at the data's sampling, so modes, the extended FRF, λ(ω), reconstruction and the evidence
+work unchanged.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+import scipy.linalg
+
+from ..exceptions import OrderError, SpuriousPoleWarning, UnstableModelError
+from ..options import NSIOptions
+from ..signals import Signals
+from . import _fnsi
+from .order import select_order
+from .physics import CoefficientEstimate, coefficient_spectrum, default_band, split_poles
+from .result import NSIResult
+from .statespace import StateSpaceModel
+
+_BAND_POINTS = 512
+
+
+def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult:
+    """Identify ``cand`` from periodic ``signals`` by frequency-domain subspace (see module doc).
+
+    Parameters
+    ----------
+    signals : Signals
+        With ``period`` set; every whole period is used (drop a transient with ``segment``).
+    cand : CandidateModel
+    options : NSIOptions
+        ``block_rows`` (r, block rows of the frequency-domain data matrices), ``order``,
+        ``max_order``, ``band_hz`` (fitted lines and λ band), ``zero_feedthrough``,
+        ``velocity_method`` (only when the basis needs velocities and none are measured:
+        spectral differentiation is used instead, exact for periodic data).
+
+    Returns
+    -------
+    NSIResult
+    """
+    data = _fnsi.line_data(signals, cand.terms, options.velocity_method, options.band_hz)
+    n_out = signals.displacement.shape[1]
+    points, omega0 = _fnsi.bilinear_points(data.freqs_hz)
+    left, singular_values, (_, y_scale) = _fnsi.subspace(data, options.block_rows, points)
+    order = _order(options, singular_values, n_out)
+    Ac, C = _fnsi.continuous_ac(*_fnsi.system_ac(left, order, n_out, y_scale), omega0)
+    Ac, reflected = _fnsi.stabilise_continuous(Ac)
+    Ac, C = _fnsi.refine(data, Ac, C, options.zero_feedthrough)
+    dt = 1.0 / signals.fs
+    jw = 2j * np.pi * data.freqs_hz
+    Bc, Dc, residual = _fnsi.input_matrices(data, Ac, C, options.zero_feedthrough, jw)
+    upsample = int(options.upsample)
+    dt_model = dt / upsample  # the stored discrete model; its FRF nears the continuous one as (ωΔt)²
+    A = np.real(scipy.linalg.expm(Ac * dt_model))
+    if len(reflected):
+        named = ", ".join(f"{abs(p.imag) / (2 * np.pi):.3g} Hz (Re s = {p.real:.3g})" for p in reflected)
+        warnings.warn(
+            f"candidate {cand.name!r}: {len(reflected)} unstable pole(s) at {named} reflected inside the unit "
+            "circle before B, D were fitted (the lines cannot inform them)",
+            SpuriousPoleWarning,
+            stacklevel=3,
+        )
+    z_model = np.exp(2j * np.pi * data.freqs_hz * dt_model)
+    # the stored discrete model: closest on the lines to the continuous one (not to the data again)
+    continuous = dataclasses.replace(data, outputs=data.outputs - residual * _fnsi.noise_std(data))
+    B, D, _ = _fnsi.input_matrices(continuous, A, C, False, z_model)
+    model = StateSpaceModel(A=A, B=B, C=C, D=D, dt=dt_model)
+    modes, spurious = split_poles(model.poles, dt_model)
+    if not modes:
+        raise UnstableModelError(
+            f"candidate {cand.name!r}: no physical mode among the {order} identified poles; "
+            "check the order (singular values) and the band"
+        )
+    if len(spurious):
+        warnings.warn(
+            f"candidate {cand.name!r}: {len(spurious)} of {order} poles discarded as non-physical "
+            "(real or with damping outside (0, 1)); see NSIResult.spurious_poles",
+            SpuriousPoleWarning,
+            stacklevel=3,
+        )
+    fit_band = (float(data.freqs_hz[0]), float(data.freqs_hz[-1]))
+    band = tuple(float(b) for b in (options.band_hz or default_band(modes, signals.fs)))
+    settings = dict(
+        domain="frequency",
+        block_rows=int(options.block_rows),
+        order=order,
+        band_hz=list(band),
+        fit_band_hz=list(fit_band),
+        velocity_method=options.velocity_method,
+        zero_feedthrough=options.zero_feedthrough,
+        input_hold="sample",
+        upsample=upsample,
+        period=int(signals.period or 0),
+        n_periods=int(data.n_periods),
+        n_lines=int(len(data.lines)),
+        reflected_poles_hz=[float(abs(p.imag) / (2 * np.pi)) for p in reflected],
+        line_misfit=float(np.sqrt(np.mean(np.abs(residual) ** 2))),
+        n_samples=int(signals.n_samples),
+        fs=signals.fs,
+    )
+    return NSIResult(
+        candidate=cand,
+        model=model,
+        singular_values=singular_values,
+        order=order,
+        block_rows=int(options.block_rows),
+        input_dofs=tuple(signals.input_dofs),
+        output_dofs=tuple(signals.output_dofs),
+        band_hz=(float(band[0]), float(band[1])),
+        modes=tuple(modes),
+        spurious_poles=spurious,
+        coefficients=_coefficients(Ac, Bc, C, Dc, signals, cand.terms, band),
+        settings=settings,
+    )
+
+
+def _order(options: NSIOptions, singular_values: np.ndarray, n_out: int) -> int:
+    limit = options.block_rows * n_out - 1
+    if options.order == "auto":
+        return select_order(singular_values, min(limit, options.max_order))
+    if not 1 <= int(options.order) <= limit:
+        raise OrderError(
+            f"order {options.order!r} is impossible with {options.block_rows} block rows and {n_out} outputs "
+            f"(1 ≤ n ≤ {limit}); lower the order or raise block_rows"
+        )
+    return int(options.order)
+
+
+def _coefficients(Ac, Bc, Cc, Dc, signals: Signals, terms, band) -> tuple[CoefficientEstimate, ...]:
+    """λ_i as the band mean of Re λ_i(ω) of the continuous model, with its quality index (SPEC 4)."""
+    if not terms:
+        return ()
+    freqs = np.linspace(band[0], band[1], _BAND_POINTS)
+    lam, vec = np.linalg.eig(Ac)
+    resolvent = 1.0 / (2j * np.pi * freqs[:, None] - lam[None])
+    frf = np.einsum("on,fn,ni->foi", Cc @ vec, resolvent, np.linalg.solve(vec, Bc)) + Dc[None]
+    spectrum = coefficient_spectrum(frf, signals.input_dofs, signals.output_dofs, terms)
+    return tuple(
+        CoefficientEstimate(
+            term=term,
+            value=float(np.mean(spectrum[:, k].real)),
+            imag_ratio=float(np.mean(np.abs(spectrum[:, k].imag)) / abs(np.mean(spectrum[:, k].real))),
+            band_hz=band,
+            spread=float(np.std(spectrum[:, k].real)),
+        )
+        for k, term in enumerate(terms)
+    )

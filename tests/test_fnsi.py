@@ -98,3 +98,26 @@ def test_time_route_stays_the_default(record):
         warnings.simplefilter("ignore")
         result = identify(record, CUBIC, NSIOptions(order=4))
     assert "domain" not in result.settings or result.settings["domain"] == "time"
+
+
+def test_config_data_period_and_nsi_domain_load_a_periodic_record(tmp_path, record):
+    from bayesnsi.exceptions import ConfigError as _ConfigError
+    from bayesnsi.io import load_config, load_signals
+
+    rows = ["f2,x1,x2"] + [f"{f:.17g},{a:.17g},{b:.17g}" for f, (a, b) in zip(record.force[:, 0], record.displacement)]
+    (tmp_path / "data.csv").write_text("\n".join(rows) + "\n")
+    text = (
+        '[data]\nfile = "data.csv"\nfs = 100.0\nperiod = 1000\nestimation = [1000, 10000]\n'
+        "inputs = { f2 = 2 }\noutputs = { x1 = 1, x2 = 2 }\n"
+        '[nsi]\ndomain = "frequency"\norder = 4\n'
+        '[[candidates]]\nname = "cubic"\nterms = [{ expr = "x1**3", at = 1 }]\n'
+    )
+    (tmp_path / "experiment.toml").write_text(text)
+    config = load_config(tmp_path / "experiment.toml")
+    signals = load_signals(config)
+    assert config.nsi.domain == "frequency" and signals.period == P and signals.n_samples == 9 * P
+    result = identify(signals, config.candidates[0], config.nsi)
+    assert abs(result.coefficient_values[0] / K3 - 1) < 0.01 and result.settings["n_periods"] == 9
+    (tmp_path / "bad.toml").write_text(text.replace("period = 1000", "period = 1000\ndecimate = 3"))
+    with pytest.raises(_ConfigError, match="period"):
+        load_config(tmp_path / "bad.toml")

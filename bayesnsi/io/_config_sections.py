@@ -92,10 +92,13 @@ def parse_data(table: Any, where: Where, check_files: bool) -> DataSpec:
     if estimation is not None:
         estimation = get_window(estimation, where, "estimation")
     decimate = get_int(table, "decimate", where, 1, minimum=1)
+    period = get_int(table, "period", where, None, minimum=2)
+    if period is not None and period % decimate:
+        raise where.error("period", f"a multiple of decimate ({decimate}) samples", period)
     return DataSpec(
         file=file, fs=fs, inputs=inputs, outputs=outputs, velocities=velocities,
         accelerations=accelerations, estimation=estimation,
-        remove_mean=get_bool(table, "remove_mean", where, False), time_column=time_column,
+        remove_mean=get_bool(table, "remove_mean", where, False), time_column=time_column, period=period,
         integrate=integrate, decimate=decimate,
     )
 

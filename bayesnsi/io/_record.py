@@ -99,6 +99,7 @@ class Record:
             fs=self.fs / self.data.decimate,
             input_dofs=tuple(self.data.inputs.values()), output_dofs=tuple(self.data.outputs.values()),
             input_names=tuple(self.data.inputs), output_names=tuple(self.data.outputs),
+            period=None if self.data.period is None else self.data.period // self.data.decimate,
         )
 
     def _processed(self, start: int, stop: int) -> _Window:

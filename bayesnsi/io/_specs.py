@@ -99,6 +99,11 @@ class DataSpec:
         Name of the time column [s], read when ``fs`` is None (and checked when present).
     integrate : IntegrationSpec or None
         Derive displacements and velocities from ``accelerations`` (``[data] integrate``).
+    period : int or None
+        Samples per period of a periodic test, counted at the file's rate (``[data] period``; a
+        multiple of ``decimate``); the signals then carry ``period / decimate``. Give the
+        estimation and validation windows in whole periods; leave a leading transient period out
+        of them (start at ``period``).
     decimate : int
         Anti-aliased down-sampling factor q >= 1 (:func:`bayesnsi.preprocess.decimate`, zero-phase
         FIR): the signals have ``fs / q``. Keep the modes below ~0.75 of the new Nyquist frequency.
@@ -115,6 +120,7 @@ class DataSpec:
     time_column: str = "t"
     integrate: IntegrationSpec | None = None
     decimate: int = 1
+    period: int | None = None
 
     @property
     def signal_fs(self) -> float | None:

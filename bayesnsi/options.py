@@ -189,7 +189,8 @@ class EvidenceOptions(_Options):
     SECTION: ClassVar[str] = "evidence"
 
     residual: str = _option(
-        "innovations", "residual the evidence scores: Kalman innovations or open-loop reconstruction error",
+        "innovations", "residual the evidence scores: Kalman innovations or open-loop reconstruction error "
+        "(a free body, one DOF with a rigid-body pole: always the force predicted from the measured motion)",
         kind="choice", choices=("innovations", "reconstruction"))
     likelihood: str = _option("ar1", "primary likelihood: white, ar1 or arP (P an integer)", kind="likelihood")
     compare: tuple[str, ...] = _option(("white",), "likelihoods reported beside the primary one", kind="likelihoods")
@@ -201,6 +202,9 @@ class EvidenceOptions(_Options):
         kind="float", low=0.0, none=True)
     seed: int = _option(0, "root seed of every random draw (emcee walkers, Monte-Carlo errors)", kind="int",
                         low=0, high=2**63 - 1)
+    noise_floor: float | None = _option(
+        None, "lower end of the noise prior as a multiple of std(y) (default: the smaller of 1e-4 and a tenth of "
+        "the output's white-noise level, so that precise data are not refused)", kind="float", low=0.0, none=True)
 
     def _check(self) -> None:
         if self.n_burn >= self.n_steps:
@@ -210,6 +214,10 @@ class EvidenceOptions(_Options):
             )
         if self.reference_force_rms is not None and self.reference_force_rms <= 0:
             raise ConfigError(f"[evidence] reference_force_rms must be positive, got {self.reference_force_rms!r}")
+        if self.noise_floor is not None and not 0 < self.noise_floor < 10.0:
+            raise ConfigError(
+                f"[evidence] noise_floor must lie in (0, 10) (a multiple of std(y)), got {self.noise_floor!r}"
+            )
 
     @property
     def likelihoods(self) -> tuple[str, ...]:

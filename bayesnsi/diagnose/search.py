@@ -201,7 +201,10 @@ def close_the_loop_with(
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", BayesNSIWarning)
         start = identify(signals, candidate, nsi)
-    screen_hz = None if options.screen is None else SCREEN_BAND * max(m.frequency_hz for m in start.modes)
+    if start.virtual_stiffness and nsi.virtual_stiffness == "auto":  # a free body: keep the start's spring
+        nsi = nsi.replace(virtual_stiffness=start.virtual_stiffness)
+    top_hz = max([m.frequency_hz for m in start.modes] or [start.band_hz[1]])  # free bodies: no mode
+    screen_hz = None if options.screen is None else SCREEN_BAND * top_hz
     context = LoopContext(signals, effects, nsi, evidence, options, execution, screen_hz)
     state = LoopState(start, laplace_score(start, signals, evidence)[0], evidence.seed)
     while len(state.added) < options.max_steps and _step(context, state):

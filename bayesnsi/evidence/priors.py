@@ -170,7 +170,7 @@ class NoisePrior:
         ----------
         measured_std : array_like, shape (l,)
             Standard deviation of each measured channel.
-        lower_factor, upper_factor : float
+        lower_factor, upper_factor : float (or array_like per channel for the lower one)
             Multipliers of ``std(y_j)`` (defaults 1e-4 and 10).
         channel_names : sequence of str, optional
         """
@@ -181,7 +181,7 @@ class NoisePrior:
             lower=lower_factor * std,
             upper=upper_factor * std,
             channel_names=tuple(channel_names),
-            source=f"[{lower_factor:g}, {upper_factor:g}] x std(measured channel)",
+            source=f"[{float(np.min(lower_factor)):.3g}, {upper_factor:g}] x std(measured channel)",
         )
 
     @property

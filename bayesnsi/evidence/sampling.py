@@ -358,8 +358,10 @@ def _initial_walkers(target: Target, mode, cov, n_walkers: int, rng) -> np.ndarr
         p0[bad] = mode + 1e-3 * (rng.standard_normal((int(bad.sum()), ndim)) @ chol.T)
     if not np.all(np.isfinite(target.log_posterior(p0))):
         raise InputDataError(
-            "could not place the walkers inside the prior support near the posterior mode; "
-            "check the noise and AR prior ranges against the residual"
+            "could not place the walkers inside the prior support near the posterior mode; the noise prior "
+            f"spans {np.array2string(target.priors.noise.lower, precision=3)} to "
+            f"{np.array2string(target.priors.noise.upper, precision=3)} (output units): check it against the "
+            "residual, e.g. lower [evidence] noise_floor (a multiple of std(y))"
         )
     return p0
 

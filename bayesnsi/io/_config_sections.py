@@ -95,12 +95,32 @@ def parse_data(table: Any, where: Where, check_files: bool) -> DataSpec:
     period = get_int(table, "period", where, None, minimum=2)
     if period is not None and period % decimate:
         raise where.error("period", f"a multiple of decimate ({decimate}) samples", period)
+    scale = _scale_map(table, where, [*inputs, *outputs, *(velocities or {}), *accelerations])
     return DataSpec(
         file=file, fs=fs, inputs=inputs, outputs=outputs, velocities=velocities,
         accelerations=accelerations, estimation=estimation,
         remove_mean=get_bool(table, "remove_mean", where, False), time_column=time_column, period=period,
-        integrate=integrate, decimate=decimate,
+        integrate=integrate, decimate=decimate, scale=scale,
     )
+
+
+def _scale_map(table: Mapping, where: Where, columns: list[str]) -> dict[str, float]:
+    """``[data] scale = { column = factor }``: finite, non-zero gains of mapped columns."""
+    value = table.get("scale", {})
+    example = "scale = { current = 35.15 }"
+    if not isinstance(value, dict):
+        raise where.error("scale", "an inline table of column = factor", value, f"write {example}")
+    out = {}
+    for column, factor in value.items():
+        if column not in columns:
+            raise where.problem(
+                "scale", f"column {column!r} is not one of the mapped columns {columns}; name a column of "
+                "inputs, outputs, velocities or accelerations"
+            )
+        if isinstance(factor, bool) or not isinstance(factor, (int, float)) or not math.isfinite(factor) or not factor:
+            raise where.error("scale", f"a finite, non-zero number for {column!r}", factor, f"write {example}")
+        out[str(column)] = float(factor)
+    return out
 
 
 def _parse_integrate(table: Mapping, where: Where, fs: float | None, accelerations) -> IntegrationSpec | None:

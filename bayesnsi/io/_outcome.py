@@ -238,6 +238,7 @@ NSI_RESULT = _Struct(NSIResult, {
         "term": TERM, "value": FLOAT, "imag_ratio": FLOAT, "band_hz": FLOATS, "spread": FLOAT,
     })),
     "settings": _Typed(dict),
+    "rigid_body_poles": _Array("complex128", 1),
 }, none=True, check=_check_nsi)
 
 EVIDENCE_RESULT = _Struct(EvidenceResult, {

@@ -53,7 +53,7 @@ class Record:
         self.table = table
         self.fs = _resolve_fs(table, data)
         _check_units(table, roles)
-        self.force = _stack(table, data.inputs)
+        self.force = _stack(table, data.inputs, data.scale)
         # accelerations with integrate, else displacements (and measured velocities, in output order)
         self.velocity_columns: list[str] = []
         if self.integrate is not None:
@@ -62,8 +62,8 @@ class Record:
             self.response_columns = list(data.outputs)
             by_dof = {dof: column for column, dof in (data.velocities or {}).items()}
             self.velocity_columns = [by_dof[dof] for dof in data.outputs.values()] if by_dof else []
-        self.response = _stack(table, self.response_columns)
-        self.velocity = _stack(table, self.velocity_columns) if self.velocity_columns else None
+        self.response = _stack(table, self.response_columns, data.scale)
+        self.velocity = _stack(table, self.velocity_columns, data.scale) if self.velocity_columns else None
         self._cache: dict[tuple[int, int], _Window] = {}
 
     @property
@@ -190,5 +190,7 @@ def _check_units(table: MeasurementColumns, roles: Mapping[str, str]) -> None:
             )
 
 
-def _stack(table, columns) -> np.ndarray:
-    return np.column_stack([table.values[c] for c in columns])
+def _stack(table, columns, scale=None) -> np.ndarray:
+    """The columns side by side, each times its ``[data] scale`` factor (1 when not given)."""
+    gains = scale or {}
+    return np.column_stack([table.values[c] * gains.get(c, 1.0) for c in columns])

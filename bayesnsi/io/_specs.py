@@ -107,6 +107,9 @@ class DataSpec:
     decimate : int
         Anti-aliased down-sampling factor q >= 1 (:func:`bayesnsi.preprocess.decimate`, zero-phase
         FIR): the signals have ``fs / q``. Keep the modes below ~0.75 of the new Nyquist frequency.
+    scale : dict of str to float
+        Gain per column (``[data] scale = { column = factor }``), applied on load before anything
+        else, e.g. force = drive gain × current; columns not named keep their values.
     """
 
     file: Path
@@ -121,6 +124,7 @@ class DataSpec:
     integrate: IntegrationSpec | None = None
     decimate: int = 1
     period: int | None = None
+    scale: dict[str, float] = field(default_factory=dict)
 
     @property
     def signal_fs(self) -> float | None:

@@ -15,6 +15,7 @@ Layout (everything but ``[data]`` inputs/outputs and ``[[candidates]]`` has a de
     estimation = [0, 800]                     # optional sample window [start, stop) of the file
     remove_mean = false                       # optional
     decimate = 1                              # optional integer factor (anti-aliased)
+    scale = { f2 = 35.15 }                    # optional gain per column (force = drive gain × current)
 
     # accelerations only: instead of outputs/velocities
     # accelerations = { a1 = 1, a2 = 2 }

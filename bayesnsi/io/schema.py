@@ -81,6 +81,13 @@ def _identification(result) -> dict[str, Any]:
         ],
         "modes": [{"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio} for m in result.modes],
         "spurious_poles": [{"real": p.real, "imag": p.imag} for p in result.spurious_poles],
+        # free bodies: rigid-body poles (s ≈ 0) and the known spring used while identifying
+        "rigid_body_poles": [{"real": p.real, "imag": p.imag} for p in result.rigid_body_poles],
+        "virtual_stiffness": result.virtual_stiffness,
+        "physical_parameters": [
+            {"dof": p.dof, "mass": p.mass, "damping": p.damping, "stiffness": p.stiffness, "band_hz": list(p.band_hz)}
+            for p in result.physical_parameters
+        ],
         "order": result.order,
         "block_rows": result.block_rows,
         "band_hz": list(result.band_hz),

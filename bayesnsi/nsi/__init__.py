@@ -1,9 +1,10 @@
 """Nonlinear subspace identification (docs/method.md §2-5); numpy/scipy only."""
 
+from ._noise import white_noise_std
 from .feedback import extended_input
 from .free_body import PhysicalParameters, physical_parameters
 from .identify import hankel_correlations, identify
-from .inverse import ForcePrediction, force_prediction, short_horizon_nrmse
+from .inverse import ForcePrediction, force_affine, force_prediction, short_horizon_nrmse
 from .order import select_order, stabilization
 from .periodic import (
     BestLinearApproximation,
@@ -32,7 +33,9 @@ __all__ = [
     "physical_parameters",
     "ForcePrediction",
     "force_prediction",
+    "force_affine",
     "short_horizon_nrmse",
+    "white_noise_std",
     "hankel_correlations",
     "HankelCorrelations",
     "NSIResult",

@@ -22,9 +22,16 @@ from scipy import signal as _signal
 from ..exceptions import NotIdentifiableError
 from ..signals import Signals
 from .feedback import extended_input, working_signals
-from .reconstruct import initial_state
+from .reconstruct import AffineReconstruction, initial_state
 
-__all__ = ["ForcePrediction", "force_prediction", "inverse_force", "short_horizon_nrmse", "filtered_kinematics"]
+__all__ = [
+    "ForcePrediction",
+    "force_affine",
+    "force_prediction",
+    "inverse_force",
+    "short_horizon_nrmse",
+    "filtered_kinematics",
+]
 
 
 @dataclass(frozen=True)
@@ -154,6 +161,61 @@ def force_prediction(
     err = (f - predicted)[keep]
     rmse = float(np.sqrt(np.mean(err**2)))
     return ForcePrediction(f, predicted, rmse, rmse / float(np.sqrt(np.mean(f[keep] ** 2))), cutoff)
+
+
+def force_affine(result, signals: Signals, cutoff_hz: float | None = None) -> AffineReconstruction:
+    """The force residual of a one-DOF model as an affine function of its coefficients (IDIM view).
+
+    ``f̂(λ) = M a + C v + K x + c + Σ_i λ_i n_i(x, v)`` on the low-pass filtered record, with M, C,
+    K from :attr:`NSIResult.physical_parameters` and the constant ``c`` (the force offset, which
+    the data's mean removal may have left) fitted at ``λ̂``; sampled every ``fs/(4·cutoff)``
+    samples so that the filter does not multiply correlated residual samples. The evidence of a
+    free body scores this residual (:func:`bayesnsi.evidence.candidate_affine`): its displacement
+    residual is dominated by the drift of the rigid-body mode.
+
+    Parameters
+    ----------
+    result : NSIResult
+        A one-DOF candidate.
+    signals : Signals
+        The estimation data.
+    cutoff_hz : float, optional
+        Low-pass cutoff (default fs/20).
+
+    Returns
+    -------
+    AffineReconstruction
+        ``measured`` the filtered force, ``signatures`` the basis functions ``n_i`` (units of force
+        per unit coefficient), shape (n, 1, q).
+
+    Raises
+    ------
+    NotIdentifiableError
+        When the model is not a one-DOF model.
+    """
+    params = result.physical_parameters
+    if not params:
+        raise NotIdentifiableError(
+            f"candidate {result.candidate.name!r}: a force residual needs a one-DOF model (one force and one "
+            "displacement at the same DOF)"
+        )
+    (phys,) = params
+    x, v, a, f, cutoff = filtered_kinematics(signals, cutoff_hz)
+    step = max(1, int(signals.fs / (4.0 * cutoff)))
+    trim = int(np.ceil(signals.fs / cutoff))
+    keep = slice(trim, len(f) - trim, step)
+    linear = inverse_force(phys.mass, phys.damping, phys.stiffness, (), (), x, v, a)
+    columns = [inverse_force(0.0, 0.0, 0.0, (t,), (1.0,), x, v, a) for t in result.terms]
+    signatures = np.stack(columns, axis=-1)[keep] if columns else np.zeros((len(f), 0))[keep]
+    estimate = np.asarray(result.coefficient_values, dtype=float)
+    offset = float(np.mean((f - linear)[keep] - signatures @ estimate))
+    return AffineReconstruction(
+        measured=f[keep][:, None],
+        baseline=(linear[keep] + offset)[:, None],
+        signatures=signatures[:, None, :],
+        estimate=estimate,
+        names=tuple(t.name for t in result.terms),
+    )
 
 
 def short_horizon_nrmse(result, signals: Signals, horizon: int, n_init: int | None = None) -> float:

@@ -1,0 +1,88 @@
+"""Issue 14: gains in the config, the noise prior's floor, a free body's evidence (force residual)."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+import scipy.io
+
+from bayesnsi.evidence import candidate_evidence
+from bayesnsi.evidence.candidate import candidate_affine, noise_floor_factor
+from bayesnsi.exceptions import ConfigError
+from bayesnsi.io import dump_config, load_config, load_signals
+from bayesnsi.nsi import identify
+from bayesnsi.options import EvidenceOptions, NSIOptions
+from bayesnsi.signals import Signals
+
+from .test_free_body import FC, _free_body_record
+
+
+def _mat_config(tmp_path, **data):
+    rng = np.random.default_rng(0)
+    current, position = rng.normal(size=500), np.cumsum(rng.normal(size=500))
+    variables = {"vir": current[:, None], "qm": position[:, None], "t": np.arange(500) / 1e3}
+    scipy.io.savemat(tmp_path / "axis.mat", variables)
+    section = {"file": "axis.mat", "inputs": {"vir": 1}, "outputs": {"qm": 1}, **data}
+    path = tmp_path / "axis.toml"
+    path.write_text(dump_config({"data": section, "candidates": [{"name": "linear", "terms": []}]}))
+    return path, current, position
+
+
+def test_scale_multiplies_the_named_column(tmp_path):
+    path, current, position = _mat_config(tmp_path, scale={"vir": 35.15})
+    signals = load_signals(load_config(path))
+    np.testing.assert_allclose(signals.force[:, 0], 35.15 * current)
+    np.testing.assert_allclose(signals.displacement[:, 0], position)
+
+
+@pytest.mark.parametrize(
+    ("scale", "message"),
+    [({"current": 2.0}, "not one of the mapped columns"), ({"vir": 0.0}, "non-zero"), ({"vir": "2"}, "non-zero"),
+     ("vir", "inline table")],
+)
+def test_bad_scale_is_refused_in_one_line(tmp_path, scale, message):
+    path, _, _ = _mat_config(tmp_path, scale=scale)
+    with pytest.raises(ConfigError, match=message):
+        load_config(path)
+
+
+def test_noise_floor_follows_the_white_noise_level():
+    rng = np.random.default_rng(0)
+    smooth = np.sin(np.linspace(0, 20, 20000))[:, None]
+    precise = smooth + 1e-8 * rng.normal(size=smooth.shape)
+    noisy = smooth + 1e-2 * rng.normal(size=smooth.shape)
+    # the white-noise level is 1e-8 / std = 1.4e-8: a tenth of it, far below the old 1e-4
+    assert noise_floor_factor(precise)[0] == pytest.approx(0.1 * 1e-8 / smooth.std(), rel=0.3)
+    assert noise_floor_factor(noisy)[0] == 1e-4  # ordinary noise keeps the former bound
+    with pytest.raises(ConfigError, match="noise_floor"):
+        EvidenceOptions(noise_floor=20.0)
+
+
+@pytest.fixture(scope="module")
+def carriage() -> Signals:
+    q, tau = _free_body_record(duration=30.0)
+    return Signals(
+        force=(tau - tau.mean())[:, None],
+        displacement=(q - q.mean())[:, None],
+        fs=200.0,
+        input_dofs=(1,),
+        output_dofs=(1,),
+    )
+
+
+def test_free_body_evidence_scores_the_force_and_prefers_friction(carriage):
+    options = EvidenceOptions(n_walkers=16, n_steps=300, n_burn=100, compare=())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        linear = identify(carriage, None, NSIOptions(block_rows=20, order=2))
+        coulomb = identify(carriage, [("sign(v1)", 1)], NSIOptions(block_rows=20, order=2))
+        affine = candidate_affine(coulomb, carriage, "innovations")
+        # the force residual: measured filtered force, signature sign(v) itself (units of force)
+        assert affine.signatures.shape[1:] == (1, 1)
+        assert set(np.unique(np.round(affine.signatures[:, 0, 0]))) <= {-1.0, 0.0, 1.0}
+        assert affine.estimate[0] == pytest.approx(FC, rel=0.05)
+        z_linear = candidate_evidence(linear, carriage, options)["ar1"].log_evidence
+        z_coulomb = candidate_evidence(coulomb, carriage, options)["ar1"].log_evidence
+    assert np.isfinite(z_linear) and z_coulomb > z_linear + 10

@@ -40,6 +40,15 @@ class LineData:
     output_cov: np.ndarray  # (M, l, l) noise covariance of the mean outputs
     n_periods: int
 
+    @property
+    def output_std(self) -> np.ndarray:
+        """Noise std of the averaged outputs per line and channel, smoothed over neighbouring lines."""
+        cached = self.__dict__.get("_output_std")
+        if cached is None:
+            cached = np.sqrt(_smoothed(np.real(np.diagonal(self.output_cov, axis1=1, axis2=2))))
+            object.__setattr__(self, "_output_std", cached)
+        return cached
+
 
 def line_data(signals: Signals, terms, velocity_method: str, band_hz, drop: int = 0) -> LineData:
     """Extended input and outputs averaged over the periods, on the excited lines inside the band.
@@ -131,7 +140,8 @@ def subspace(data: LineData, block_rows: int, points=None):
     ru = r * n_in
     projected = R[ru:, ru:].T  # rows of 𝒴 Π⊥ in an orthonormal basis of the columns
     cov = data.output_cov / np.outer(y_scale, y_scale)[None]
-    weight = np.real(np.einsum("ak,bk,kij->aibj", powers, powers.conj(), cov)).reshape(r * n_out, r * n_out)
+    outer = powers[:, None, :] * powers.conj()[None, :, :]  # (r, r, M)
+    weight = np.real(np.tensordot(outer, cov, axes=([2], [0]))).transpose(0, 2, 1, 3).reshape(r * n_out, r * n_out)
     weight = (weight + weight.T) / 2 + 1e-12 * np.trace(weight) / len(weight) * np.eye(len(weight))
     chol = np.linalg.cholesky(weight)
     left, singular_values, _ = np.linalg.svd(np.linalg.solve(chol, projected))
@@ -157,15 +167,23 @@ def input_matrices(data: LineData, A: np.ndarray, C: np.ndarray, zero_feedthroug
     weighted_residual : ndarray, shape (M, l) complex
         Whitened residual of the fit on the lines.
     """
+    fit = _weighted_fit(data, A, C, zero_feedthrough, points)
+    return fit["B"], fit["D"], fit["residual"]
+
+
+def _weighted_fit(data: LineData, A, C, zero_feedthrough: bool, points=None) -> dict:
+    """The weighted linear least squares of :func:`input_matrices` with what the Jacobian of
+    :func:`refine` reuses (resolvent, orthonormal basis of the weighted design)."""
     U, Y = data.inputs, data.outputs
     z = data.z if points is None else np.asarray(points)
     n_lines, n_in = U.shape
     n_out, n = C.shape
     u_scale = _rms(U)
     Us = U / u_scale
-    sigma = noise_std(data)
+    sigma = data.output_std
     lam, vec = np.linalg.eig(A)
-    G = np.einsum("on,kn,nm->kom", C @ vec, 1.0 / (z[:, None] - lam[None]), np.linalg.inv(vec))  # C(zI-A)^-1
+    resolvent = (vec[None] / (z[:, None] - lam[None])[:, None, :]) @ np.linalg.inv(vec)  # (zI-A)^-1, (M, n, n)
+    G = C @ resolvent  # (M, l, n)
     phi_b = np.einsum("kj,koi->koji", Us, G).reshape(n_lines, n_out, n_in * n)
     blocks = [phi_b]
     if not zero_feedthrough:
@@ -177,18 +195,14 @@ def input_matrices(data: LineData, A: np.ndarray, C: np.ndarray, zero_feedthroug
     rhs = np.concatenate([target.real.ravel(), target.imag.ravel()])
     col = np.linalg.norm(design, axis=0)
     col[col == 0] = 1.0
-    theta = np.linalg.lstsq(design / col, rhs, rcond=None)[0] / col
+    q, r = np.linalg.qr(design / col)
+    theta = np.linalg.lstsq(r, q.T @ rhs, rcond=None)[0] / col
     B = np.real(theta[: n_in * n].reshape((n, n_in), order="F")) / u_scale
     D = np.zeros((n_out, n_in))
     if not zero_feedthrough:
         D = theta[n_in * n :].reshape((n_out, n_in), order="F") / u_scale
     fitted = np.einsum("kom,mj,kj->ko", G, B, U) + U @ D.T
-    return B, D, (Y - fitted) / sigma
-
-
-def noise_std(data: LineData) -> np.ndarray:
-    """Noise std of the averaged outputs per line and channel, smoothed over neighbouring lines."""
-    return np.sqrt(_smoothed(np.real(np.diagonal(data.output_cov, axis1=1, axis2=2))))
+    return dict(B=B, D=D, residual=(Y - fitted) / sigma, resolvent=resolvent, G=G, basis=q, sigma=sigma)
 
 
 def _time(spectrum: np.ndarray, period: int) -> np.ndarray:
@@ -235,38 +249,68 @@ def stabilise_continuous(Ac: np.ndarray):
     return np.real(vec @ np.diag(reflected) @ np.linalg.inv(vec)), lam[outside]
 
 
-def refine(data: LineData, Ac: np.ndarray, C: np.ndarray, zero_feedthrough: bool, max_nfev: int = 400):
+def refine(data: LineData, Ac: np.ndarray, C: np.ndarray, zero_feedthrough: bool, max_nfev: int = 200):
     """Weighted least-squares refinement of A_c, C on the lines (variable projection, SPEC 11).
 
     A_c in real modal form, each pair ``σ ± jω`` parametrised by ``log(-σ)`` and ``ω`` (so the
     refined model stays stable), C free; B and D are solved by weighted linear least squares
     (:func:`input_matrices`) for every trial, so only the poles and C are searched
-    (Levenberg-Marquardt, numerical Jacobian). Returns the better of start and end.
+    (Levenberg-Marquardt with Kaufman's Jacobian of the projected residual). Returns the better
+    of start and end.
     """
     from scipy.optimize import least_squares
 
     blocks, T = _real_modal(Ac)
     if blocks is None:
         return Ac, C
-    C0 = C @ T
+    n_pairs, n_out = len(blocks), C.shape[0]
     jw = 2j * np.pi * data.freqs_hz
-    n_out = C.shape[0]
+    U = data.inputs
+    cache: dict = {}
 
     def unpack(theta):
-        n_pairs = len(blocks)
         A = np.zeros_like(Ac)
         for i, (sig, om) in enumerate(zip(-np.exp(theta[:n_pairs]), theta[n_pairs : 2 * n_pairs])):
             A[2 * i : 2 * i + 2, 2 * i : 2 * i + 2] = [[sig, om], [-om, sig]]
         return A, theta[2 * n_pairs :].reshape(n_out, -1)
 
+    def fitted(theta):
+        key = theta.tobytes()
+        if key not in cache:
+            cache.clear()
+            cache[key] = _weighted_fit(data, *unpack(theta), zero_feedthrough, jw)
+        return cache[key]
+
     def residual(theta):
-        A, Cm = unpack(theta)
-        res = input_matrices(data, A, Cm, zero_feedthrough, jw)[2]
+        res = fitted(theta)["residual"]
         return np.concatenate([res.real.ravel(), res.imag.ravel()])
 
-    start = np.concatenate([np.log(-blocks[:, 0]), blocks[:, 1], C0.ravel()])
+    def jacobian(theta):
+        fit = fitted(theta)
+        sigma, G = fit["sigma"], fit["G"]
+        X = np.einsum("kab,bj,kj->ka", fit["resolvent"], fit["B"], U)  # (zI-A)^-1 B U per line
+        sig = -np.exp(theta[:n_pairs])
+        columns = []
+        for i in range(n_pairs):  # d/d log(-σ_i): σ_i ∂A/∂σ_i; d/dω_i: the rotation part
+            a, b = 2 * i, 2 * i + 1
+            columns.append(sig[i] * (G[:, :, a] * X[:, None, a] + G[:, :, b] * X[:, None, b]))
+        for i in range(n_pairs):
+            a, b = 2 * i, 2 * i + 1
+            columns.append(G[:, :, a] * X[:, None, b] - G[:, :, b] * X[:, None, a])
+        for o in range(n_out):  # d/dC[o, c]: output o only
+            for c in range(X.shape[1]):
+                d = np.zeros(G.shape[:2], dtype=complex)
+                d[:, o] = X[:, c]
+                columns.append(d)
+        dy = np.stack([col / sigma for col in columns], axis=-1)  # d(model)/dθ, weighted, (M, l, p)
+        dy = np.vstack([dy.real.reshape(-1, dy.shape[-1]), dy.imag.reshape(-1, dy.shape[-1])])
+        q = fit["basis"]
+        return -(dy - q @ (q.T @ dy))
+
+    start = np.concatenate([np.log(-blocks[:, 0]), blocks[:, 1], (C @ T).ravel()])
     cost0 = np.sum(residual(start) ** 2)
-    fit = least_squares(residual, start, method="lm", x_scale="jac", max_nfev=max_nfev, ftol=1e-7, xtol=1e-7)
+    fit = least_squares(residual, start, jac=jacobian, method="lm", x_scale="jac", max_nfev=max_nfev,
+                        ftol=1e-7, xtol=1e-7)
     if not np.isfinite(fit.cost) or 2 * fit.cost >= cost0:
         return Ac, C
     return unpack(fit.x)

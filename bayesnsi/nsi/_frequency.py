@@ -69,7 +69,7 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
         )
     z_model = np.exp(2j * np.pi * data.freqs_hz * dt_model)
     # the stored discrete model: closest on the lines to the continuous one (not to the data again)
-    continuous = dataclasses.replace(data, outputs=data.outputs - residual * _fnsi.noise_std(data))
+    continuous = dataclasses.replace(data, outputs=data.outputs - residual * data.output_std)
     B, D, _ = _fnsi.input_matrices(continuous, A, C, False, z_model)
     model = StateSpaceModel(A=A, B=B, C=C, D=D, dt=dt_model)
     modes, spurious = split_poles(model.poles, dt_model)

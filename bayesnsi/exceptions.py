@@ -21,6 +21,8 @@ __all__ = [
     "SpuriousPoleWarning",
     "ConvergenceWarning",
     "CacheWarning",
+    "IntervalWarning",
+    "AdequacyWarning",
 ]
 
 
@@ -82,3 +84,11 @@ class ConvergenceWarning(BayesNSIWarning):
 
 class CacheWarning(BayesNSIWarning):
     """A cached candidate result is unreadable or not trusted; the candidate is recomputed."""
+
+
+class IntervalWarning(BayesNSIWarning):
+    """Intervals could not include the uncertainty of the identified linear part (too narrow)."""
+
+
+class AdequacyWarning(BayesNSIWarning):
+    """The selected model fails a check of adequacy (quality index, validation, residual vs noise, orders)."""

@@ -202,6 +202,13 @@ class EvidenceOptions(_Options):
         kind="float", low=0.0, none=True)
     seed: int = _option(0, "root seed of every random draw (emcee walkers, Monte-Carlo errors)", kind="int",
                         low=0, high=2**63 - 1)
+    interval: str = _option(
+        "segments", "intervals of coefficients and modes: the posterior given the linear part, or widened by the "
+        "scatter of the identification over sub-records (segments)", kind="choice", choices=("posterior", "segments"))
+    n_segments: int = _option(8, "sub-records re-identified for the segments interval", kind="int", low=2, high=1000)
+    segment_fraction: float = _option(
+        0.7, "length of a sub-record as a fraction of the record (segments interval)", kind="float", low=0.05,
+        high=0.95)
     noise_floor: float | None = _option(
         None, "lower end of the noise prior as a multiple of std(y) (default: the smaller of 1e-4 and a tenth of "
         "the output's white-noise level, so that precise data are not refused)", kind="float", low=0.0, none=True)

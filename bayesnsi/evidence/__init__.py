@@ -19,6 +19,7 @@ from .analytic import closed_form_log_evidence, laplace_log_evidence
 from .bridge import BridgeEstimate, bridge_sampling
 from .candidate import RESIDUALS, candidate_affine, candidate_evidence, candidate_priors
 from .convergence import ConvergenceReport, convergence_report, posterior_summary, warn_if_unconverged
+from .intervals import INTERVAL_METHODS, Intervals, ParameterInterval, candidate_intervals, segment_estimates
 from .likelihood import (
     SufficientStatistics,
     log_likelihood_ar,
@@ -69,6 +70,12 @@ __all__ = [
     "plain_ranking",
     "ranking_table",
     "compare_evidence",
+    # intervals
+    "INTERVAL_METHODS",
+    "Intervals",
+    "ParameterInterval",
+    "candidate_intervals",
+    "segment_estimates",
     # convergence
     "ConvergenceReport",
     "posterior_summary",

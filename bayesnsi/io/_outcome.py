@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ..evidence import BridgeEstimate, ConvergenceReport, EvidenceResult, PosteriorSamples
+from ..evidence import BridgeEstimate, ConvergenceReport, EvidenceResult, Intervals, ParameterInterval, PosteriorSamples
 from ..exceptions import BayesNSIError
 from ..models import CandidateModel, Term
 from ..nsi import CoefficientEstimate, Mode, NSIResult, StateSpaceModel
@@ -281,6 +281,16 @@ EVIDENCE_RESULT = _Struct(EvidenceResult, {
     "warnings": STRS,
 }, check=_check_evidence)
 
+_PARAMETER_INTERVALS = _Sequence(_Struct(ParameterInterval, {
+    "name": STR, "estimate": FLOAT, "sd": FLOAT, "posterior_sd": FLOAT, "segment_sd": FLOAT, "ci50": FLOATS,
+    "ci95": FLOATS,
+}))
+
+INTERVALS = _Struct(Intervals, {
+    "method": STR, "coefficients": _PARAMETER_INTERVALS, "frequencies": _PARAMETER_INTERVALS,
+    "damping_ratios": _PARAMETER_INTERVALS, "n_segments": INT, "segment_samples": INT, "notes": STRS,
+}, none=True)
+
 OUTCOME = _Struct(CandidateOutcome, {
     "candidate": CANDIDATE,
     "result": NSI_RESULT,
@@ -291,6 +301,7 @@ OUTCOME = _Struct(CandidateOutcome, {
     "failed_stage": _Choice(FAILED_STAGES),
     "traceback": OPTIONAL_STR,
     "warnings": STRS,
+    "intervals": INTERVALS,
     "seconds": FLOAT,
 }, fixed={"cached": True}, check=_check_outcome)
 

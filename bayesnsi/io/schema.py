@@ -125,10 +125,31 @@ def _evidence(outcome, row, likelihood) -> dict[str, Any]:
         },
     )
     if outcome.result is not None:
-        out["coefficients"] = [
-            {**coefficient, "ci95": [float(ci[0]), float(ci[1])]}
-            for coefficient, ci in zip(_identification(outcome.result)["coefficients"], primary.ci95)
+        out.update(_intervals(outcome, primary))
+    return out
+
+
+def _intervals(outcome, primary) -> dict[str, Any]:
+    """Coefficients and modes with their intervals: ``ci95``/``ci50`` the honest ones
+    (:attr:`CandidateOutcome.intervals`), ``ci95_posterior`` the posterior's given the linear part."""
+    identified = _identification(outcome.result)
+    intervals = outcome.intervals
+    coefficients = []
+    for k, (coefficient, ci) in enumerate(zip(identified["coefficients"], primary.ci95)):
+        record = {**coefficient, "ci95": [float(ci[0]), float(ci[1])], "ci95_posterior": [float(ci[0]), float(ci[1])]}
+        if intervals is not None and k < len(intervals.coefficients):
+            iv = intervals.coefficients[k]
+            record.update(ci95=list(iv.ci95), ci50=list(iv.ci50), sd=iv.sd, interval=intervals.method)
+        coefficients.append(record)
+    out: dict[str, Any] = {"coefficients": coefficients}
+    if intervals is not None and intervals.frequencies:
+        out["modes"] = [
+            {**mode, "frequency_ci95": list(f.ci95), "frequency_ci50": list(f.ci50), "frequency_sd": f.sd,
+             "damping_ci95": list(z.ci95), "damping_ci50": list(z.ci50), "damping_sd": z.sd}
+            for mode, f, z in zip(identified["modes"], intervals.frequencies, intervals.damping_ratios)
         ]
+    if intervals is not None:
+        out["intervals"] = intervals.to_dict()
     return out
 
 

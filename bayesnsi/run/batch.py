@@ -64,6 +64,10 @@ class CandidateOutcome:
         Traceback of an internal error.
     warnings : tuple of str
         Messages of the warnings raised while the candidate ran.
+    intervals : Intervals or None
+        50 % and 95 % intervals of the coefficients and modes under the primary likelihood
+        (:func:`bayesnsi.evidence.candidate_intervals`, ``EvidenceOptions.interval``); None without
+        evidence.
     seconds : float
         Wall time of the computation (of the original run for a cached outcome).
     cached : bool
@@ -79,6 +83,7 @@ class CandidateOutcome:
     failed_stage: str | None = None
     traceback: str | None = None
     warnings: tuple[str, ...] = ()
+    intervals: Any = None
     seconds: float = 0.0
     cached: bool = False
 
@@ -141,6 +146,11 @@ def candidate_task(
                 from ..evidence import candidate_evidence
 
                 found["evidences"] = candidate_evidence(result, signals, evidence, seed_sequence, candidate)
+                from ..evidence import candidate_intervals
+
+                found["intervals"] = candidate_intervals(
+                    result, signals, found["evidences"][evidence.likelihood], evidence, nsi
+                )
         except (BayesNSIError, np.linalg.LinAlgError) as err:
             found.update(error=f"{type(err).__name__}: {err}", failed_stage=stage)
         except Exception as err:  # noqa: BLE001 - a bug in one candidate must not lose the others
@@ -148,6 +158,7 @@ def candidate_task(
                 error=f"{type(err).__name__}: {err}", failed_stage="internal", traceback=traceback.format_exc()
             )
             found.pop("evidences", None)
+            found.pop("intervals", None)
     return CandidateOutcome(
         **found,
         warnings=tuple(str(w.message) for w in caught),

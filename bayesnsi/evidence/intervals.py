@@ -1,0 +1,296 @@
+"""Intervals that carry the uncertainty of the identified linear part (issue 15, SPEC 11).
+
+The coefficient posterior of :func:`~bayesnsi.evidence.marginal_evidence` conditions on the
+identified underlying linear model (A, C and, with them, B, D) as if it were exact; on the
+two-DOF case its sd of α is about 10× smaller than the seed-to-seed scatter of the estimate.
+:func:`candidate_intervals` widens it with the scatter of the whole identification over
+sub-records (moving-block subsampling, a delete-a-block jackknife):
+
+* ``n_segments`` windows of ``b = segment_fraction · N`` contiguous samples, at evenly spaced
+  offsets (non-overlapping when ``segment_fraction · n_segments <= 1``), are re-identified with
+  the same settings, the full record's order and band;
+* for an estimator whose error variance is ``σ²/b`` on ``b`` samples, a window's deviation from
+  the full-record estimate has variance ``σ²/b - σ²/N``, so the variance of the full-record
+  estimate is ``σ²/N = b/(N - b) · mean_w (θ_w - θ_N)²`` (the delete-d jackknife factor);
+* coefficients: total variance = posterior variance + that variance, interval centred on the
+  posterior mean; natural frequencies and damping ratios: that variance, centred on the
+  full-record mode (each full-record mode is matched to the window mode nearest in frequency).
+
+Normal quantiles give the 50 % and 95 % intervals. Measured coverage and widths are in
+``benchmarks/calibration_intervals.py`` and the README. What this does not carry: a bias shared
+by every window (e.g. errors-in-variables bias or discretisation error of the simulation) is not
+scatter and stays outside the interval.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..exceptions import BayesNSIError, IntervalWarning, SpuriousPoleWarning
+
+__all__ = ["INTERVAL_METHODS", "ParameterInterval", "Intervals", "segment_estimates", "candidate_intervals"]
+
+INTERVAL_METHODS = ("posterior", "segments")
+"""``"posterior"``: the coefficient posterior alone (conditional on the linear part);
+``"segments"``: widened by the sub-record scatter of the identification (module notes)."""
+
+_Z95 = 1.959963984540054
+_Z50 = 0.6744897501960817
+_MODE_MATCH = 0.1  # a window mode farther than 10 % in frequency from every full-record mode is not matched
+
+
+@dataclass(frozen=True)
+class ParameterInterval:
+    """Estimate, standard deviation and 50 % / 95 % intervals of one parameter.
+
+    Attributes
+    ----------
+    name : str
+        Coefficient name, ``f<k>`` (natural frequency of mode k [Hz]) or ``zeta<k>`` (damping ratio).
+    estimate : float
+        Centre of the intervals: posterior mean (coefficients) or full-record estimate (modes).
+    sd : float
+        Total standard deviation.
+    posterior_sd : float
+        Posterior standard deviation given the linear part (NaN for modal parameters).
+    segment_sd : float
+        Standard deviation from the sub-record scatter (NaN with ``method = "posterior"``).
+    ci50, ci95 : tuple of float
+        Central 50 % and 95 % intervals.
+    """
+
+    name: str
+    estimate: float
+    sd: float
+    posterior_sd: float
+    segment_sd: float
+    ci50: tuple[float, float]
+    ci95: tuple[float, float]
+
+    def to_dict(self) -> dict:
+        """JSON-ready record.
+
+        Returns
+        -------
+        dict
+            The fields, intervals as two-element lists.
+        """
+        return {
+            "name": self.name, "estimate": self.estimate, "sd": self.sd, "posterior_sd": self.posterior_sd,
+            "segment_sd": self.segment_sd, "ci50": list(self.ci50), "ci95": list(self.ci95),
+        }
+
+
+@dataclass(frozen=True)
+class Intervals:
+    """Intervals of a candidate's coefficients and modal parameters.
+
+    Attributes
+    ----------
+    method : str
+        ``"segments"`` or ``"posterior"`` (see :data:`INTERVAL_METHODS`); ``"posterior"`` also when
+        the sub-records could not be identified (see ``notes``).
+    coefficients : tuple of ParameterInterval
+        One per term, in the candidate's order.
+    frequencies, damping_ratios : tuple of ParameterInterval
+        One per full-record mode (empty with ``method = "posterior"``).
+    n_segments : int
+        Sub-records identified successfully.
+    segment_samples : int
+        Samples per sub-record (0 when none was used).
+    notes : tuple of str
+        Why the method fell back, which sub-records failed.
+    """
+
+    method: str
+    coefficients: tuple[ParameterInterval, ...]
+    frequencies: tuple[ParameterInterval, ...] = ()
+    damping_ratios: tuple[ParameterInterval, ...] = ()
+    n_segments: int = 0
+    segment_samples: int = 0
+    notes: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict:
+        """JSON-ready record.
+
+        Returns
+        -------
+        dict
+            Method, per-parameter records, segments used and notes.
+        """
+        return {
+            "method": self.method,
+            "coefficients": [p.to_dict() for p in self.coefficients],
+            "frequencies": [p.to_dict() for p in self.frequencies],
+            "damping_ratios": [p.to_dict() for p in self.damping_ratios],
+            "n_segments": self.n_segments,
+            "segment_samples": self.segment_samples,
+            "notes": list(self.notes),
+        }
+
+
+def segment_estimates(result, signals, options=None, n_segments: int = 8, fraction: float = 0.7):
+    """Re-identify a candidate on ``n_segments`` sub-records of ``fraction`` of the record.
+
+    Parameters
+    ----------
+    result : NSIResult
+        The full-record identification (its order and band are kept for the sub-records).
+    signals : Signals
+        The estimation data it came from.
+    options : NSIOptions, optional
+        Its identification settings (default ``NSIOptions()``).
+    n_segments : int
+        Number of sub-records, at evenly spaced offsets.
+    fraction : float
+        Length of a sub-record as a fraction of the record, in (0, 1).
+
+    Returns
+    -------
+    samples : int
+        Samples per sub-record.
+    coefficients : ndarray, shape (n_ok, q)
+        Coefficients of each sub-record identified successfully.
+    frequencies, damping_ratios : ndarray, shape (n_ok, n_modes)
+        Its modes matched to the full-record modes (NaN where none is within 10 % in frequency).
+    failures : list of str
+        One message per sub-record that failed.
+    """
+    from ..nsi import identify
+    from ..options import NSIOptions
+
+    if not 0.0 < fraction < 1.0:
+        raise ValueError(f"fraction must lie in (0, 1), got {fraction!r}")
+    options = (options or NSIOptions()).replace(order=result.order, band_hz=tuple(result.band_hz))
+    n = signals.n_samples
+    b = int(round(fraction * n))
+    offsets = np.unique(np.linspace(0, n - b, n_segments).round().astype(int))
+    f_full = np.array([m.frequency_hz for m in result.modes])
+    coefficients, freqs, zetas, failures = [], [], [], []
+    for offset in offsets:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SpuriousPoleWarning)
+            try:
+                window = identify(signals.segment(int(offset), int(offset) + b), result.candidate, options)
+            except (BayesNSIError, np.linalg.LinAlgError) as err:
+                failures.append(f"samples {offset}..{offset + b}: {type(err).__name__}: {err}")
+                continue
+        coefficients.append(window.coefficient_values)
+        f_win = np.array([m.frequency_hz for m in window.modes])
+        z_win = np.array([m.damping_ratio for m in window.modes])
+        f_row, z_row = np.full(len(f_full), np.nan), np.full(len(f_full), np.nan)
+        for k, f in enumerate(f_full):
+            if len(f_win):
+                j = int(np.argmin(np.abs(f_win - f)))
+                if abs(f_win[j] - f) <= _MODE_MATCH * f:
+                    f_row[k], z_row[k] = f_win[j], z_win[j]
+        freqs.append(f_row)
+        zetas.append(z_row)
+    q, m = len(result.coefficients), len(f_full)
+    return (
+        b,
+        np.array(coefficients, dtype=float).reshape(-1, q),
+        np.array(freqs, dtype=float).reshape(-1, m),
+        np.array(zetas, dtype=float).reshape(-1, m),
+        failures,
+    )
+
+
+def _interval(name: str, centre: float, posterior_sd: float, segment_sd: float) -> ParameterInterval:
+    centre, posterior_sd, segment_sd = float(centre), float(posterior_sd), float(segment_sd)
+    parts = [s for s in (posterior_sd, segment_sd) if math.isfinite(s)]
+    sd = math.sqrt(sum(s * s for s in parts)) if parts else math.nan
+    return ParameterInterval(
+        name=name, estimate=float(centre), sd=sd, posterior_sd=float(posterior_sd), segment_sd=float(segment_sd),
+        ci50=(centre - _Z50 * sd, centre + _Z50 * sd), ci95=(centre - _Z95 * sd, centre + _Z95 * sd),
+    )
+
+
+def _scatter_sd(windows: np.ndarray, full: np.ndarray, samples: int, n: int) -> np.ndarray:
+    """``sqrt(b/(N-b) · mean_w (θ_w - θ_N)²)`` per column (NaN where fewer than 2 windows)."""
+    dev2 = (windows - full[None, :]) ** 2
+    count = np.sum(np.isfinite(dev2), axis=0)
+    with np.errstate(invalid="ignore"):
+        mean = np.nansum(dev2, axis=0) / np.maximum(count, 1)
+    return np.where(count >= 2, np.sqrt(samples / (n - samples) * mean), np.nan)
+
+
+def candidate_intervals(result, signals, evidence_result, options=None, nsi_options=None) -> Intervals:
+    """50 % and 95 % intervals of a candidate's coefficients and modes (module notes).
+
+    Parameters
+    ----------
+    result : NSIResult
+        The identified candidate.
+    signals : Signals
+        The estimation data.
+    evidence_result : EvidenceResult
+        Its evidence under the primary likelihood (posterior draws of the coefficients).
+    options : EvidenceOptions, optional
+        ``interval``, ``n_segments`` and ``segment_fraction`` (default ``EvidenceOptions()``).
+    nsi_options : NSIOptions, optional
+        The settings ``result`` was identified with (default ``NSIOptions()``).
+
+    Returns
+    -------
+    Intervals
+
+    Warns
+    -----
+    IntervalWarning
+        When fewer than two sub-records could be identified: the intervals are the posterior's
+        alone and too narrow.
+    """
+    from ..options import EvidenceOptions
+
+    options = options or EvidenceOptions()
+    draws = np.asarray(evidence_result.posterior.coefficients, dtype=float)
+    draws = draws.reshape(-1, draws.shape[-1])
+    post_mean, post_sd = draws.mean(axis=0), draws.std(axis=0)
+    names = tuple(evidence_result.coefficient_names)
+    if options.interval == "posterior":
+        return _posterior_only(names, draws, ())
+    n = signals.n_samples
+    samples, coefs, freqs, zetas, failures = segment_estimates(
+        result, signals, nsi_options, options.n_segments, options.segment_fraction
+    )
+    if len(coefs) < 2:
+        note = (
+            f"only {len(coefs)} of {options.n_segments} sub-records of {samples} samples could be identified "
+            f"({failures[0] if failures else 'none tried'}); the intervals are the posterior's alone, conditional on "
+            "the identified linear part, and too narrow: use a longer record or a larger segment_fraction"
+        )
+        warnings.warn(note, IntervalWarning, stacklevel=2)
+        return _posterior_only(names, draws, (note, *failures))
+    coef_sd = _scatter_sd(coefs, result.coefficient_values, samples, n)
+    f_full = np.array([m.frequency_hz for m in result.modes])
+    z_full = np.array([m.damping_ratio for m in result.modes])
+    f_sd = _scatter_sd(freqs, f_full, samples, n)
+    z_sd = _scatter_sd(zetas, z_full, samples, n)
+    return Intervals(
+        method="segments",
+        coefficients=tuple(_interval(nm, c, s, g) for nm, c, s, g in zip(names, post_mean, post_sd, coef_sd)),
+        frequencies=tuple(_interval(f"f{k + 1}", f, math.nan, s) for k, (f, s) in enumerate(zip(f_full, f_sd))),
+        damping_ratios=tuple(
+            _interval(f"zeta{k + 1}", z, math.nan, s) for k, (z, s) in enumerate(zip(z_full, z_sd))
+        ),
+        n_segments=len(coefs),
+        segment_samples=samples,
+        notes=tuple(failures),
+    )
+
+
+def _posterior_only(names, draws: np.ndarray, notes) -> Intervals:
+    coefficients = []
+    for k, name in enumerate(names):
+        column = draws[:, k]
+        q = np.quantile(column, [0.025, 0.25, 0.75, 0.975])
+        coefficients.append(ParameterInterval(
+            name=name, estimate=float(column.mean()), sd=float(column.std()), posterior_sd=float(column.std()),
+            segment_sd=math.nan, ci50=(float(q[1]), float(q[2])), ci95=(float(q[0]), float(q[3])),
+        ))
+    return Intervals(method="posterior", coefficients=tuple(coefficients), notes=tuple(notes))

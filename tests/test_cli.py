@@ -37,16 +37,27 @@ def test_select_writes_spec9_results_and_report(two_dof_config, tmp_path):
     assert results["candidates"][0]["posterior"] > 0.95
     assert results["versions"]["numpy"]
     html = (out / "report.html").read_text()
-    # every table and figure of the report: modes, coefficients, NRMSE, ranking, adequacy and
-    # one arviz summary per candidate; FRF, stabilisation, probabilities, errors, and per
-    # candidate singular values + λ(ω) + corner + trace
+    # the answer first (selected model, how sure, against which candidates), the versions last
+    headings = [h.split(">", 1)[1].split("<", 1)[0] for h in html.split("<h2")[1:]]
+    assert headings[0] == "Answer" and headings[-1] == "Versions", headings
+    assert [h.split(" (")[0] for h in headings[:3]] == ["Answer", "Evidence and adequacy of every candidate",
+                                                        "Identified models"]
+    answer = html.split("<h2")[1]
+    assert "Selected: model 1, posterior probability" in answer and "log Bayes factor" in answer
+    assert all(c["name"] in answer for c in results["candidates"])  # against every other candidate
+    # readable headers: no raw field names of the ranking table or the arviz summary
+    for raw in ("p_ar1", "log_evidence_", "p_plain", "hdi95_lb", "ess_bulk", "nrmse_before"):
+        assert raw not in html, raw
+    # every table and figure: answer, ranking, adequacy, modes, coefficients, NRMSE, one arviz summary per
+    # candidate; Bayes factors, FRF, λ(ω) per nonlinear candidate, singular values per candidate,
+    # stabilisation, a measured-vs-model overlay per output, and per candidate a pair plot + trace
     n_cand = len(results["candidates"])
-    assert html.count("<table") == 3 + 2 + n_cand
+    assert html.count("<table") == 6 + n_cand
+    assert html.count("class='scroll'") == html.count("<table")  # wide tables scroll, the page does not widen
     assert "Ljung-Box" in html and all(c["adequacy"]["p_value"] for c in results["candidates"])
-    assert html.count("<img") == 4 + 4 * n_cand
-    for heading in ("Data and settings", "Identified modes", "Model selection", "Coefficient posteriors"):
-        assert heading in html
-    assert "versions:" in html and "numpy" in html and "data:image/png;base64," in html
+    assert html.count("<img") == 1 + 1 + n_cand + n_cand + 1 + 2 + 2 * n_cand
+    assert "units from the data file: force in N, displacement in m" in html  # simulate writes a units row
+    assert html.index("numpy") > html.index("Coefficient posteriors") and "data:image/png;base64," in html
 
 
 def test_identify_and_existing_output(two_dof_config, tmp_path, capsys):

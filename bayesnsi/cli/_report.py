@@ -1,4 +1,10 @@
-"""Report content shared by the commands (figures and tables of an identification)."""
+"""Report content shared by the commands: the answer first, then the evidence, models, figures, settings.
+
+Sections are placed by ``order`` (:class:`bayesnsi.io.report.Report`): the answer (0), the loop of
+``diagnose`` (10), the evidence of every candidate (20), the identified models (30), figures (40),
+posteriors (50), data and settings (80), versions (90). Numbers come from the library; this module
+arranges and words them.
+"""
 
 from __future__ import annotations
 
@@ -6,10 +12,44 @@ import numpy as np
 
 from ..io import versions
 from ..io.report import Report
+from ..io.units import ChannelUnits
 from ..nsi import stabilization
 from ..tables import coefficients_table, modes_table
+from ._report_tables import adequacy_frame, decision_frame, probability_text, ranking_frame, summary_frame
 
-__all__ = ["identification_report"]
+__all__ = [
+    "ANSWER", "LOOP", "EVIDENCE", "MODELS", "FIGURES", "POSTERIOR", "SETTINGS", "VERSIONS",
+    "identification_answer", "identification_report", "selection_sections", "report_units",
+]
+
+ANSWER, LOOP, EVIDENCE, MODELS, FIGURES, POSTERIOR, SETTINGS, VERSIONS = 0, 10, 20, 30, 40, 50, 80, 90
+
+_RESIDUAL_TEXT = {
+    "reconstruction": "open-loop reconstruction residual",
+    "innovations": "one-step-ahead innovations of the Kalman predictor that carries the input noise",
+}
+_LIKELIHOOD_TEXT = {"white": "white Gaussian", "ar1": "AR(1) Gaussian", "arP": "AR(P) Gaussian"}
+_RECONSTRUCTION_SAMPLES = 400  # samples shown in the measured-vs-model overlays
+
+
+def report_units(config) -> ChannelUnits:
+    """Units the config's data file states (empty where it states none or cannot be read again).
+
+    Parameters
+    ----------
+    config : ExperimentConfig
+
+    Returns
+    -------
+    ChannelUnits
+    """
+    from ..exceptions import BayesNSIError
+    from ..io.units import data_units
+
+    try:
+        return data_units(config)
+    except (BayesNSIError, OSError, KeyError):
+        return ChannelUnits()
 
 
 def _exact(config):
@@ -24,65 +64,77 @@ def _exact(config):
     return meta["exact_frequencies_hz"], meta.get("exact_damping_ratios"), coefs
 
 
-def first_result(results):
-    """The first successful result."""
-    return next(iter(results.values()))
-
-
 def _exact_frf(config, result, freqs):
-    """Exact H[out0, in0] of the simulated case's underlying linear structure, if its matrices are known."""
+    """Exact underlying FRF (n_freq, l, m) of a simulated case whose matrices are in the config's [meta]."""
     from ..simulate import underlying_frf
 
     meta = config.meta or {}
-    dofs = (result.output_dofs[0], result.input_dofs[0])
+    dofs = tuple(result.output_dofs) + tuple(result.input_dofs)
     if not all(k in meta for k in ("M", "C", "K")) or len(meta["M"]) < max(dofs):
         return None
-    frf = underlying_frf(meta["M"], meta["C"], meta["K"], freqs, result.output_dofs[:1], result.input_dofs[:1])
-    return frf[:, 0, 0]
+    return underlying_frf(meta["M"], meta["C"], meta["K"], freqs, result.output_dofs, result.input_dofs)
 
 
-def identification_report(config, signals, results, records, title, report=None) -> Report:
-    """Sections: settings, modes and coefficients tables, FRFs, λ(ω), singular values, stabilisation."""
+def identification_report(config, signals, results, records, title, report=None, units=None) -> Report:
+    """Sections of an identification: models, figures (FRF, λ(ω), singular values, stabilisation), settings.
+
+    Parameters
+    ----------
+    config : ExperimentConfig
+    signals : Signals
+    results : mapping of str to NSIResult
+    records : list of dict
+        The candidates' results.json records (for NRMSE and failures).
+    title : str
+    report : Report, optional
+    units : ChannelUnits, optional
+
+    Returns
+    -------
+    Report
+    """
     from ..plots import plot_coefficient_spectrum, plot_frf, plot_singular_values, plot_stabilization
 
+    units = units or report_units(config)
     report = report or Report(title)
-    intro = report.section("Data and settings")
-    intro.append(
-        f"{signals.n_samples} samples at {signals.fs:g} Hz; forces at DOFs {list(signals.input_dofs)}, "
-        f"displacements at DOFs {list(signals.output_dofs)}; config {config.path}."
-    )
-    intro.append(("pre", "\n".join(f"{k} = {v!r}" for k, v in vars(config.nsi).items())))
-    listed = "\n".join(f"  {k} {v}" for k, v in versions().items())
-    intro.append(("pre", f"seed = {config.seed}\nversions:\n{listed}"))
-    failed = [r for r in records if r.get("status") == "failed"]
-    if failed:
-        intro.append("Failed candidates: " + "; ".join(f"{r['name']}: {r['error']}" for r in failed))
+    _settings_sections(report, config, signals, records, units)
     if not results:
+        report.section("Answer", ANSWER).append(
+            ("warning", "No candidate could be identified (see Data and settings).")
+        )
         return report
     exact_f, exact_z, exact_coefs = _exact(config)
-    tables = report.section("Identified modes and coefficients (paper Tables 3-4, 6-7, 9-10)")
+    tables = report.section("Identified models (paper Tables 3-4, 6-7, 9-10)", MODELS)
+    tables.append("Natural frequencies and damping ratios of each candidate's underlying linear model.")
     tables.append(modes_table(results, exact_f, exact_z))
     if any(r.terms for r in results.values()):
+        tables.append(
+            "Nonlinear coefficients: the NSI estimate (mean real part of λ(ω) over the band of the modes) and its "
+            "quality index |Im|/|Re| (small is good)."
+        )
         tables.append(coefficients_table({k: r for k, r in results.items() if r.terms}, exact_coefs))
-    nrmse = {r["name"]: r.get("nrmse") for r in records}
     import pandas as pd
 
-    tables.append(pd.DataFrame({"open-loop NRMSE": nrmse}))
-    figs = report.section("Figures")
-    fmax = 1.3 * max(m.frequency_hz for r in results.values() for m in r.modes)
+    nrmse = {r["name"]: r.get("nrmse") for r in records}
+    tables.append(pd.DataFrame({"open-loop reconstruction error (NRMSE)": nrmse}).rename_axis("candidate"))
+    figs = report.section("Figures", FIGURES)
+    # free bodies may have no oscillatory mode: the band of the identification then sets the axis
+    fmax = 1.3 * max(f for r in results.values() for f in [m.frequency_hz for m in r.modes] or [r.band_hz[1]])
     freqs = np.linspace(fmax / 400, fmax, 800)
-    fig = plot_frf(list(results.values()), freqs, exact=_exact_frf(config, first_result(results), freqs))
-    fig.set_label("Underlying linear FRF of each candidate (paper Figs. 4, 8, 12)")
+    first_name, first = next(iter(results.items()))
+    fig = plot_frf(list(results.values()), freqs, exact=_exact_frf(config, first, freqs), units=units)
+    fig.set_label("Underlying linear FRF of each candidate, magnitude and phase, every force/response pair "
+                  "(paper Figs. 4, 8, 12)")
     figs.append(fig)
+    for name, res in results.items():
+        if res.terms:
+            fig = plot_coefficient_spectrum(res, units=units)
+            fig.set_label(f"Re and Im of λ(ω), {name}: the estimate averages Re λ over the grey band (paper Fig. 5)")
+            figs.append(fig)
     for name, res in results.items():
         fig = plot_singular_values(res)
         fig.set_label(f"Singular values, {name} (paper Figs. 3, 7, 11)")
         figs.append(fig)
-        if res.terms:
-            fig = plot_coefficient_spectrum(res)
-            fig.set_label(f"Re and Im of λ(ω), {name} (paper Fig. 5)")
-            figs.append(fig)
-    first_name, first = next(iter(results.items()))
     sv, diagram = stabilization(
         signals, first.candidate, block_rows=first.block_rows, velocity_method=first.settings["velocity_method"]
     )
@@ -92,68 +144,185 @@ def identification_report(config, signals, results, records, title, report=None)
     return report
 
 
-_RESIDUAL_TEXT = {
-    "reconstruction": "open-loop reconstruction residual",
-    "innovations": "one-step-ahead innovations of the Kalman predictor that carries the input noise",
-}
+def identification_answer(report, signals, results, records, units) -> None:
+    """The answer of ``identify``: what was identified (it ranks nothing), and the reconstructions.
 
-
-def selection_sections(report, signals, selection, selected):
-    """Sections of a selection: probabilities side by side, adequacy, posteriors, reconstruction errors."""
+    Parameters
+    ----------
+    report : Report
+    signals : Signals
+    results : mapping of str to NSIResult
+    records : list of dict
+        The candidates' results.json records.
+    units : ChannelUnits
+    """
     import pandas as pd
 
-    from ..plots import plot_model_probabilities, plot_posterior_pairs, plot_reconstruction_errors, plot_traces
+    answer = report.section("Answer", ANSWER)
+    answer.append((
+        "lead",
+        f"Identified {len(results)} of {len(records)} candidates by nonlinear subspace identification. "
+        "`bayesnsi identify` does not compare them; `bayesnsi select` ranks them by Bayesian evidence.",
+    ))
+    rows = {
+        name: {
+            "model order": res.order,
+            "natural frequencies [Hz]": ", ".join(f"{m.frequency_hz:.4g}" for m in res.modes),
+            "coefficients": "; ".join(f"{c.term.name} = {c.value:.4g}" for c in res.coefficients) or "—",
+        }
+        for name, res in results.items()
+    }
+    if rows:
+        answer.append(pd.DataFrame(rows).T.rename_axis("candidate"))
+    _reconstruction_figures(report, signals, results, units)
 
-    results, evidences, table, opts = selection.results, selection.evidences, selection.table, selection.evidence
-    head = report.section("Model selection (paper Eqs. 1-4 and marginal evidence)")
-    head.append(
-        f"Selected: {selected} (posterior under the marginal evidence with an {opts.likelihood} model of the "
-        f"{_RESIDUAL_TEXT.get(opts.residual, opts.residual)}). "
-        "The plain ranking is the paper's Gaussian likelihood of the open-loop reconstruction residual with "
-        "σ̂² = mean squared residual; the evidence integrates the coefficients and the noise scale over stated "
-        "proper priors (emcee + bridge sampling)."
+
+def _settings_sections(report, config, signals, records, units) -> None:
+    intro = report.section("Data and settings", SETTINGS)
+    stated = ", ".join(f"{q} in {getattr(units, q)}" for q in ("force", "displacement") if getattr(units, q))
+    intro.append(
+        f"{signals.n_samples} samples at {signals.fs:g} Hz; forces at DOFs {list(signals.input_dofs)}, "
+        f"displacements at DOFs {list(signals.output_dofs)}; "
+        + (f"units from the data file: {stated}; " if stated else "the data file states no units; ")
+        + f"config {config.path.name}; seed {config.seed}."
     )
-    head.append(table)
+    intro.append(("pre", "[nsi]\n" + "\n".join(f"{k} = {v!r}" for k, v in vars(config.nsi).items())))
+    failed = [r for r in records if r.get("status") == "failed"]
+    if failed:
+        intro.append(("warning", "Failed candidates: " + "; ".join(f"{r['name']}: {r['error']}" for r in failed)))
+    listed = "\n".join(f"{k} {v}" for k, v in versions().items())
+    report.section("Versions", VERSIONS).append(("pre", listed))
+
+
+def selection_sections(report, signals, selection, selected, units=None, role: str = "Selected"):
+    """Sections of a selection: the answer with Bayes factors, the evidence table, adequacy, posteriors.
+
+    Parameters
+    ----------
+    report : Report
+    signals : Signals
+    selection : Selection
+    selected : str or None
+        The candidate to present as the answer.
+    units : ChannelUnits, optional
+    role : str
+        How the answer names ``selected`` (``diagnose``: the starting model).
+
+    Returns
+    -------
+    Report
+    """
+    units = units or ChannelUnits()
+    results, evidences, table, opts = selection.results, selection.evidences, selection.table, selection.evidence
+    answer = report.section("Answer", ANSWER)
+    residual = _RESIDUAL_TEXT.get(opts.residual, opts.residual)
+    decision = None
+    if table is not None and selected is not None and f"log_evidence_{opts.likelihood}" in table:
+        from ..evidence.decision import decision_table
+
+        decision = decision_table(table, opts.likelihood, selected)
+        answer.append(("lead", _answer_text(decision, selected, opts, role)))
+        answer.append(decision_frame(decision, selected))
+        answer.append(
+            f"Evidence: marginal likelihood of each candidate, the {residual} modelled as "
+            f"{_LIKELIHOOD_TEXT.get(opts.likelihood, opts.likelihood)} noise (coefficients and noise level integrated "
+            "over proper priors; emcee + bridge sampling). The log Bayes factor is the difference of log evidences "
+            "[nat]; the words are Kass and "
+            "Raftery's (1 nat: barely worth mentioning, 3: strong, 5: very strong). ± are Monte-Carlo errors."
+        )
+    else:
+        answer.append(("warning", "No candidate has an evidence: there is no selection to report."))
+    for message in _warnings(selection, selected, evidences, opts):
+        answer.append(("warning", message))
+    if decision is not None and len(decision) > 1:
+        from ..plots import plot_bayes_factors
+
+        fig = plot_bayes_factors(decision, selected)
+        fig.set_label("Log Bayes factor of the selected model against each other candidate (±2 Monte-Carlo "
+                      "standard errors; symmetric-log axis beyond 10 nat)")
+        answer.append(fig)
+    evidence = report.section("Evidence and adequacy of every candidate (paper Eqs. 1-4)", EVIDENCE)
+    if table is not None:
+        evidence.append(
+            "The paper's plain ranking uses a Gaussian likelihood of the open-loop reconstruction residual with "
+            "σ̂² set to each model's own mean squared residual; with thousands of samples it gives 0 or 1 and "
+            "favours the largest model. The evidence columns integrate over the coefficients instead."
+        )
+        evidence.append(ranking_frame(table))
     if selection.adequacy:
-        head.append(
-            "Adequacy: the probabilities compare the candidates with each other; the Ljung-Box test of each "
-            f"candidate's {_RESIDUAL_TEXT.get(opts.residual, opts.residual)} asks whether it explains the data "
-            "(a white residual). A selected model that is not adequate lacks an effect no candidate declares: "
-            "`bayesnsi diagnose` searches for it."
+        evidence.append(
+            f"Adequacy: a Ljung-Box test of each candidate's {residual} asks whether the model explains the data "
+            "(a white residual). The probabilities only compare the candidates with each other."
         )
-        head.append(
-            pd.DataFrame(
-                {
-                    name: {
-                        "Ljung-Box p (worst channel)": min(w.p_value),
-                        "lags outside ±1.96/√N (worst channel)": max(w.fraction_outside),
-                        "white residual": w.adequate,
-                    }
-                    for name, w in selection.adequacy.items()
-                }
-            ).T
-        )
-    fig = plot_model_probabilities(table)
-    fig.set_label("Posterior model probabilities under each ranking (error bars: Monte-Carlo sd)")
-    head.append(fig)
-    if not results:
-        return report
-    recs = {name: res.reconstruct(signals) for name, res in results.items()}
-    fig = plot_reconstruction_errors(recs, signals.fs)
-    fig.set_label("Open-loop reconstruction error of each candidate, first output (paper Figs. 9, 13)")
-    head.append(fig)
-    post = report.section("Coefficient posteriors (arviz summaries)")
+        evidence.append(adequacy_frame(selection.adequacy))
+    _reconstruction_figures(report, signals, results, units)
+    post = report.section("Coefficient posteriors", POSTERIOR)
+    post.append("arviz summaries of the emcee draws (one chain per walker); the draws are in posterior/<name>.nc.")
     for name, by_lik in evidences.items():
         ev = by_lik[opts.likelihood]
         post.append(f"{name} - priors: {ev.priors_text.replace(chr(10), '; ')}")
-        post.append(ev.summary)
+        post.append(summary_frame(ev.summary))
         for message in ev.warnings:
-            post.append(f"warning: {message}")
+            post.append(("warning", message))
         if ev.posterior.coefficients.shape[-1]:
+            from ..plots import plot_posterior_pairs, plot_traces
+
             fig = plot_posterior_pairs(ev.posterior)
-            fig.set_label(f"Posterior of the coefficients, {name}")
+            fig.set_label(f"Posterior of the coefficients, {name} (arviz-plots)")
             post.append(fig)
             fig = plot_traces(ev.posterior)
-            fig.set_label(f"Traces of six walkers, {name}")
+            fig.set_label(f"Traces of six walkers, {name} (arviz-plots)")
             post.append(fig)
     return report
+
+
+def _answer_text(decision, selected, opts, role) -> str:
+    row = decision.loc[selected]
+    text = (
+        f"{role}: {selected}, posterior probability {probability_text(row['probability'])} "
+        f"(evidence with {_LIKELIHOOD_TEXT.get(opts.likelihood, opts.likelihood)} residuals)."
+    )
+    others = decision.drop(index=selected)
+    if len(others):
+        runner, bf = others.index[0], others.iloc[0]
+        if np.isfinite(bf["log_bayes_factor"]):
+            text += (
+                f" Against the next best, {runner}: log Bayes factor {bf['log_bayes_factor']:.1f} "
+                f"± {bf['log_bayes_factor_se']:.1f} nat ({bf['strength']})."
+            )
+        else:
+            text += f" Every other candidate failed ({runner} first)."
+    return text
+
+
+def _warnings(selection, selected, evidences, opts):
+    whiteness = selection.adequacy.get(selected) if selected else None
+    if whiteness is not None and not whiteness.adequate:
+        yield (
+            f"The selected model's {whiteness.residual} residual is not white (Ljung-Box p = "
+            f"{min(whiteness.p_value):.2g}): an effect may be missing from every candidate; "
+            "`bayesnsi diagnose` searches for it."
+        )
+    for message in getattr(selection, "warnings", ()) or ():  # adequacy warnings of the selection, if any
+        yield str(message)
+    ev = evidences.get(selected, {}).get(opts.likelihood) if selected else None
+    for message in getattr(ev, "warnings", ()) or ():
+        yield f"{selected}: {message}"
+
+
+def _reconstruction_figures(report, signals, results, units) -> None:
+    if not results:
+        return
+    from ..plots import plot_reconstruction
+
+    figs = report.section("Figures", FIGURES)
+    recs = {name: res.reconstruct(signals) for name, res in results.items()}
+    names = list(signals.output_names) if getattr(signals, "output_names", None) else None
+    for channel in range(min(4, len(signals.output_dofs))):
+        label = names[channel] if names else f"x{signals.output_dofs[channel]}"
+        fig = plot_reconstruction(
+            recs, signals.fs, channel, units=units, channel_name=label, max_samples=_RECONSTRUCTION_SAMPLES
+        )
+        fig.set_label(f"Measured {label} and each candidate's open-loop reconstruction, with the errors, over the "
+                      f"first {_RECONSTRUCTION_SAMPLES} samples (paper Figs. 9, 13)")
+        figs.append(fig)

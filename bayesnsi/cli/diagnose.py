@@ -33,9 +33,13 @@ def run(args) -> int:
     from ..io import RESULTS_FILENAME, atomic_write_json, load_validation, selection_payload, term_record, to_jsonable
     from ..options import ExecutionOptions
     from ..validation import validate
-    from ._report import identification_report, selection_sections
+    from ._loop_report import loop_sections
+    from ._report import identification_report, report_units, selection_sections
 
     config, out, signals = start_run(args)
+    names = [c.name for c in config.candidates]
+    if args.start is not None and args.start not in names:  # before any work
+        raise ConfigError(f"--start {args.start!r} is not a candidate of the config; choose one of {names}")
     selection = run_selection(config, signals, args, out)
     results = selection.results
     if not results:
@@ -89,11 +93,13 @@ def run(args) -> int:
     payload["settings"]["loop"] = to_jsonable(loop.settings)
     payload["loop_scores"] = [[_score_record(row) for row in search] for search in loop.scores]
     if not args.no_figures:
+        units = report_units(config)
         report = identification_report(
-            config, signals, results, payload["candidates"], f"bayesnsi diagnose - {config.path.name}"
+            config, signals, results, payload["candidates"], f"bayesnsi diagnose - {config.path.name}", units=units
         )
-        selection_sections(report, signals, selection, start)
-        _loop_section(report, signals, loop, payload)
+        loop_sections(report, signals, loop, payload, units, has_validation=bool(validation))
+        role = "Starting model" if start != selection.selected else "Starting model, the one selected"
+        selection_sections(report, signals, selection, start, units, role)
         progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
     path = atomic_write_json(out / RESULTS_FILENAME, payload)  # last: a complete folder, or a rerun resumes
     progress(f"wrote {path}", args.quiet)
@@ -109,50 +115,3 @@ def _score_record(row) -> dict:
     """One effect of a loop search with its Laplace log-evidence (NaN: screened out)."""
     return {**_effect_record(row.effect), "term": row.term.name, "log_evidence_laplace": row.log_evidence,
             "nrmse": row.nrmse}
-
-
-def _loop_section(report, signals, loop, payload):
-    import pandas as pd
-
-    from ..plots import plot_effect_force
-
-    blocks = report.section("Closing the loop (docs/method.md §7)")
-    blocks.append(
-        "Each row is the best effect of a step; it is added only if the log Bayes factor (Laplace, on the "
-        "residual named in the loop settings) exceeds the threshold, its quality index |Im|/|Re| is small and its "
-        "coefficient keeps sign and size on both record halves. The credible interval ci95 is sampled (emcee) "
-        "for the effects that pass; rejected ones show none. nrmse_before/after: open-loop reconstruction of the "
-        "estimation data; closed_loop_nrmse_before/after: closed-loop simulation of it (NaN where the simulation "
-        "diverges, e.g. chaotic responses, docs/method.md §10)."
-    )
-    rows = payload["loop"] + payload["loop_rejected"]
-    if rows:
-        labels = [r["added"]["expr"] + f" @ {r['added']['at']}" for r in rows]
-        blocks.append(pd.DataFrame(rows).drop(columns=["added"]).assign(effect=labels))
-    blocks.append(
-        pd.DataFrame(
-            {
-                "before (closed-loop rmse)": {v["name"]: v["rmse"] for v in payload["validation_before"]},
-                "after (closed-loop rmse)": {v["name"]: v["rmse"] for v in payload["validation"]},
-            }
-        )
-    )
-    if payload["final_coefficients"]:
-        final_nsi = loop.settings.get("final_nsi", {})
-        note = (
-            f" It was re-identified with upsample = {final_nsi['upsample']} because it holds a term that switches "
-            "with velocity (coefficients at the data rate are biased by the switching between samples)."
-            if final_nsi.get("upsample", 1) > 1 and loop.settings.get("nsi", {}).get("upsample", 1) == 1
-            else ""
-        )
-        blocks.append("Coefficients of the final model (NSI estimate; quality index |Im|/|Re|)." + note)
-        blocks.append(pd.DataFrame(payload["final_coefficients"]).set_index("term"))
-    for step in loop.steps:
-        if step.accepted:
-            fig = plot_effect_force(step, signals)
-            fig.set_label(
-                f"Restoring-force view at the location of {step.term.name}: the residual of the model before the "
-                "step as a force (top), and after it the residual (blue), the effect's force (black) and their sum "
-                "(red), against displacement and velocity"
-            )
-            blocks.append(fig)

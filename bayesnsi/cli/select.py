@@ -24,16 +24,18 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     """Execute the command."""
     from ..io import RESULTS_FILENAME, atomic_write_json, selection_payload
-    from ._report import identification_report, selection_sections
+    from ._report import identification_report, report_units, selection_sections
 
     config, out, signals = start_run(args)
     selection = run_selection(config, signals, args, out)
     payload = selection_payload(selection, "select", config)
     if not args.no_figures:
+        units = report_units(config)
         report = identification_report(
-            config, signals, selection.results, payload["candidates"], f"bayesnsi select - {config.path.name}"
+            config, signals, selection.results, payload["candidates"], f"bayesnsi select - {config.path.name}",
+            units=units,
         )
-        selection_sections(report, signals, selection, selection.selected)
+        selection_sections(report, signals, selection, selection.selected, units)
         progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
     path = atomic_write_json(out / RESULTS_FILENAME, payload)  # last: a complete folder, or a rerun resumes
     progress(f"wrote {path}", args.quiet)

@@ -1,6 +1,11 @@
-"""Figures (matplotlib only). Functions return Figures; they never save or show."""
+"""Figures (matplotlib only). Functions return Figures; they never save or show.
+
+Axes carry units: pass ``units`` (:func:`bayesnsi.io.units.data_units` of a config, or a
+:class:`bayesnsi.io.units.ChannelUnits`); without them the axes say "data units".
+"""
 
 from .nsi import plot_coefficient_spectrum, plot_frf, plot_singular_values, plot_stabilization
+from .report import plot_bayes_factors, plot_reconstruction
 from .selection import (
     plot_effect_force,
     plot_model_probabilities,
@@ -15,6 +20,8 @@ __all__ = [
     "plot_frf",
     "plot_coefficient_spectrum",
     "plot_model_probabilities",
+    "plot_bayes_factors",
+    "plot_reconstruction",
     "plot_reconstruction_errors",
     "plot_posterior_pairs",
     "plot_traces",

@@ -9,6 +9,9 @@ from __future__ import annotations
 
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.ticker import MultipleLocator
+
+from ..io.units import ChannelUnits, term_unit
 
 __all__ = ["plot_singular_values", "plot_stabilization", "plot_frf", "plot_coefficient_spectrum"]
 
@@ -36,12 +39,12 @@ def plot_singular_values(result, ax=None, max_shown: int = 60):
     -------
     matplotlib.figure.Figure
     """
-    fig, ax = _axes(ax)
+    fig, ax = _axes(ax, (6.0, 3.2))
     s = result.singular_values[:max_shown]
     ax.semilogy(np.arange(1, len(s) + 1), s, "o-", ms=3)
     ax.axvline(result.order + 0.5, color="C3", ls="--", label=f"order n = {result.order}")
     ax.set_xlabel("index")
-    ax.set_ylabel("singular value")
+    ax.set_ylabel("singular value (scaled data, unitless)")
     ax.set_title(f"Singular values - {result.candidate.name}")
     ax.legend()
     return fig
@@ -91,44 +94,67 @@ def plot_stabilization(singular_values, diagram, ax=None, fmax_hz: float | None 
     return fig
 
 
-def plot_frf(results, freqs_hz, output_index: int = 0, input_index: int = 0, exact=None, ax=None, labels=None):
-    """Underlying linear FRF of one or more candidates against the exact one (paper Figs. 4, 8, 12).
+def plot_frf(results, freqs_hz, output_index=None, input_index=None, exact=None, labels=None, units=None):
+    """Underlying linear FRF, magnitude and phase, of one or more candidates (paper Figs. 4, 8, 12).
+
+    One magnitude panel (log scale) and one phase panel per input/output pair: every pair by
+    default, or the one named by ``output_index`` and ``input_index``.
 
     Parameters
     ----------
     results : NSIResult or sequence of NSIResult
     freqs_hz : ndarray
-    output_index, input_index : int
-        Which output channel and which force column.
-    exact : ndarray of complex, shape (n_freq,), optional
+    output_index, input_index : int, optional
+        Show only this output channel and force column.
+    exact : ndarray of complex, shape (n_freq, l, m), or (n_freq,) with one pair, optional
         Reference FRF on ``freqs_hz`` (e.g. :func:`bayesnsi.simulate.underlying_frf`).
-    ax : matplotlib.axes.Axes, optional
-        Axes to draw on; a new figure when None.
     labels : sequence of str, optional
         Legend label of each result.
+    units : ChannelUnits, optional
+        Units of the data (:func:`bayesnsi.io.units.data_units`); "data units" when not given.
 
     Returns
     -------
     matplotlib.figure.Figure
     """
+    units = units or ChannelUnits()
     results = results if isinstance(results, (list, tuple)) else [results]
-    fig, ax = _axes(ax)
+    first = results[0]
+    single = output_index is not None or input_index is not None
+    outputs = [output_index or 0] if single else range(len(first.output_dofs))
+    inputs = [input_index or 0] if single else range(len(first.input_dofs))
+    pairs = [(o, i) for o in outputs for i in inputs]
     if exact is not None:
-        ax.semilogy(freqs_hz, np.abs(exact), "k-", lw=2.5, alpha=0.5, label="exact")
-    for k, res in enumerate(results):
-        h = res.underlying_frf(freqs_hz)[:, output_index, input_index]
-        label = labels[k] if labels else res.candidate.name
-        ax.semilogy(freqs_hz, np.abs(h), lw=1.2, label=label)
-    out_dof = results[0].output_dofs[output_index]
-    in_dof = results[0].input_dofs[input_index]
-    ax.set_xlabel("frequency [Hz]")
-    ax.set_ylabel(f"|H{out_dof},{in_dof}| [m/N]")
-    ax.set_title("Underlying linear FRF")
-    ax.legend()
+        exact = np.asarray(exact)
+        exact = exact.reshape(len(exact), 1, 1) if exact.ndim == 1 else exact
+    frfs = [res.underlying_frf(freqs_hz) for res in results]
+    fig, axes = plt.subplots(
+        2 * len(pairs), 1, figsize=(6.5, 3.3 * len(pairs) + 0.4), sharex=True, squeeze=False, layout="constrained",
+        gridspec_kw={"height_ratios": [2, 1] * len(pairs)},
+    )
+    for p, (o, i) in enumerate(pairs):
+        mag, phase = axes[2 * p, 0], axes[2 * p + 1, 0]
+        if exact is not None:
+            ref = exact[:, 0, 0] if single else exact[:, o, i]
+            mag.semilogy(freqs_hz, np.abs(ref), "k-", lw=2.5, alpha=0.45, label="exact")
+            phase.plot(freqs_hz, np.degrees(np.unwrap(np.angle(ref))), "k-", lw=2.5, alpha=0.45)
+        for k, (res, h) in enumerate(zip(results, frfs)):
+            label = labels[k] if labels else res.candidate.name
+            mag.semilogy(freqs_hz, np.abs(h[:, o, i]), lw=1.2, label=label)
+            phase.plot(freqs_hz, np.degrees(np.unwrap(np.angle(h[:, o, i]))), lw=1.0)
+        pair = f"H{first.output_dofs[o]},{first.input_dofs[i]}"
+        mag.set_ylabel(f"|{pair}| {units.label('frf')}")
+        mag.set_title(f"output x{first.output_dofs[o]}, force at DOF {first.input_dofs[i]}", fontsize=9)
+        phase.set_ylabel(f"∠{pair} [deg]")
+        phase.yaxis.set_major_locator(MultipleLocator(90))
+        phase.set_xlabel("frequency [Hz]")
+        phase.xaxis.set_tick_params(labelbottom=True)
+    axes[0, 0].legend(fontsize=8)
+    fig.suptitle("Underlying linear FRF", fontsize=11)
     return fig
 
 
-def plot_coefficient_spectrum(result, freqs_hz=None, axes=None):
+def plot_coefficient_spectrum(result, freqs_hz=None, axes=None, units=None):
     """Real and imaginary parts of λ_i(ω) with the averaging band (paper Fig. 5).
 
     Parameters
@@ -139,6 +165,8 @@ def plot_coefficient_spectrum(result, freqs_hz=None, axes=None):
         Frequencies [Hz]; by default around the averaging band.
     axes : sequence of matplotlib.axes.Axes, optional
         One per term; a new figure when None.
+    units : ChannelUnits, optional
+        Units of the data, for the unit of each λ (:func:`bayesnsi.io.units.term_unit`).
 
     Returns
     -------
@@ -167,7 +195,9 @@ def plot_coefficient_spectrum(result, freqs_hz=None, axes=None):
         ax.plot(freqs_hz, spectrum[:, k].imag, label="Im λ(ω)")
         ax.axvspan(*result.band_hz, color="0.9", zorder=0, label="averaging band")
         ax.axhline(coef.value, color="C3", ls="--", lw=1, label=f"estimate {coef.value:.4g}")
-        ax.set_title(f"{coef.term.name}  (|Im|/|Re| = {coef.imag_ratio:.3f})")
+        ax.set_title(f"{coef.term.name}  (|Im|/|Re| = {coef.imag_ratio:.3f})", fontsize=9)
         ax.set_xlabel("frequency [Hz]")
+        unit = term_unit(coef.term.expr.text, units or ChannelUnits())
+        ax.set_ylabel(f"λ(ω) [{unit or 'force per unit of n(x, v)'}]")
         ax.legend(fontsize=7)
     return fig

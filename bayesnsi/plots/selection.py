@@ -7,6 +7,7 @@ import numpy as np
 
 from ..curves import effect_curve
 from ..exceptions import InputDataError
+from ..io.units import ChannelUnits
 
 __all__ = [
     "plot_model_probabilities",
@@ -44,6 +45,7 @@ def plot_model_probabilities(table, ax=None):
         label = "plain (paper Eq. 4)" if col == "p_plain" else f"evidence, {col[2:]} residuals"
         ax.bar(x + k * width, table[col], width, yerr=sd, label=label, capsize=3)
     ax.set_xticks(x + width * (len(columns) - 1) / 2, table.index, rotation=15)
+    ax.set_xlabel("candidate")
     ax.set_ylabel("P(model | data)")
     ax.set_ylim(0, 1.05)
     ax.legend(fontsize=8)
@@ -151,7 +153,11 @@ def plot_traces(posterior, max_params: int = 4, max_chains: int = 6):
         backend="matplotlib",
         figure_kwargs=_figure_kwargs(8.0, 1.9 * len(terms) + 0.6),
     )
-    return plot.viz["figure"].item()
+    fig = plot.viz["figure"].item()
+    for ax in fig.axes:  # arviz leaves the density panels' y axis unnamed
+        if ax.has_data() and not ax.get_ylabel():
+            ax.set_ylabel("density")
+    return fig
 
 
 def _coefficient_terms(posterior, max_params: int) -> list:
@@ -164,7 +170,7 @@ def _figure_kwargs(width: float, height: float) -> dict:
     return {"figsize": (width, height), "layout": "constrained"}
 
 
-def plot_effect_force(step, signals, max_points: int = 4000):
+def plot_effect_force(step, signals, max_points: int = 4000, units=None):
     """Restoring-force view of an added effect at its location, before and after (docs/method.md §7).
 
     With the step's :class:`~bayesnsi.diagnose.forces.ResidualForce` (accepted steps of
@@ -182,17 +188,22 @@ def plot_effect_force(step, signals, max_points: int = 4000):
         The measured signals.
     max_points : int
         At most this many points per scatter.
+    units : ChannelUnits, optional
+        Units of the data (:func:`bayesnsi.io.units.data_units`); "data units" when not given.
 
     Returns
     -------
     matplotlib.figure.Figure
     """
+    units = units or ChannelUnits()
     rf = getattr(step, "residual_force", None)
     if rf is None:
-        return _plot_effect_curve(step, signals, max_points)
+        return _plot_effect_curve(step, signals, max_points, units)
     pick = np.linspace(0, len(rf.after) - 1, min(max_points, len(rf.after))).astype(int)
     pair = len(rf.location) == 2
-    labels = ("relative displacement", "relative velocity") if pair else (f"x{rf.location[0]}", f"v{rf.location[0]}")
+    j = rf.location[0]
+    names = (f"x{j} - x{rf.location[1]}", f"v{j} - v{rf.location[1]}") if pair else (f"x{j}", f"v{j}")
+    labels = (f"{names[0]} {units.label('displacement')}", f"{names[1]} {units.label('velocity')}")
     fig, axes = plt.subplots(2, 2, figsize=(8.0, 6.0), layout="constrained", sharey="row")
     for col, abscissa in enumerate((rf.displacement, rf.velocity)):
         top, bottom = axes[0, col], axes[1, col]
@@ -202,22 +213,22 @@ def plot_effect_force(step, signals, max_points: int = 4000):
         bottom.plot(abscissa[pick], rf.effect[pick], ".", ms=1.5, color="k", label="effect λ·n (filtered)")
         bottom.plot(abscissa[pick], rf.after[pick], ".", ms=2, color="C0", alpha=0.6, label="residual after")
         bottom.set_xlabel(labels[col])
-    axes[0, 0].set_ylabel("residual force before")
-    axes[1, 0].set_ylabel("force after")
+    axes[0, 0].set_ylabel(f"residual force before {units.label('force')}")
+    axes[1, 0].set_ylabel(f"force after {units.label('force')}")
     axes[1, 0].legend(fontsize=7, markerscale=4, loc="best")
     fig.suptitle(f"{step.term.name}: λ = {step.coefficient:.4g}; residual as a force at the location", fontsize=10)
     return fig
 
 
-def _plot_effect_curve(step, signals, max_points):
+def _plot_effect_curve(step, signals, max_points, units):
     """λ·n(x, v) of an effect against x and v at its location (:func:`bayesnsi.curves.effect_curve`)."""
     curve = effect_curve(step, signals, max_points)
     fig, axes = plt.subplots(1, 2, figsize=(8.0, 3.4), layout="constrained")
     axes[0].plot(curve.displacement, curve.force, ".", ms=2)
-    axes[0].set_xlabel(curve.displacement_label)
+    axes[0].set_xlabel(f"{curve.displacement_label} {units.label('displacement')}")
     axes[1].plot(curve.velocity, curve.force, ".", ms=2, color="C1")
-    axes[1].set_xlabel(curve.velocity_label)
+    axes[1].set_xlabel(f"{curve.velocity_label} {units.label('velocity')}")
     for ax in axes:
-        ax.set_ylabel("effect force")
+        ax.set_ylabel(f"effect force λ·n {units.label('force')}")
     fig.suptitle(curve.title, fontsize=10)
     return fig

@@ -1,0 +1,134 @@
+"""The report of ``bayesnsi diagnose``: what the model lacks first, then the loop step by step."""
+
+from __future__ import annotations
+
+from ._report import ANSWER, LOOP
+
+__all__ = ["loop_sections", "step_number"]
+
+
+def step_number(step, start) -> int:
+    """The step of the loop at which ``step``'s effect was examined (1 = the first search).
+
+    The enlarged candidate holds the starting model's terms, the effects accepted before and this
+    one, so its size counts the step.
+
+    Parameters
+    ----------
+    step : LoopStep
+    start : NSIResult
+        The loop's starting model.
+
+    Returns
+    -------
+    int
+    """
+    return max(1, len(step.candidate.terms) - len(start.terms))
+
+
+def _where(effect) -> str:
+    location = tuple(effect.location)
+    return f"DOF {location[0]}" if len(location) == 1 else f"between DOFs {location[0]} and {location[1]}"
+
+
+def loop_sections(report, signals, loop, payload, units, has_validation: bool) -> None:
+    """The answer of the loop (what was added) and its section: steps in order, errors, final model, forces.
+
+    Parameters
+    ----------
+    report : Report
+    signals : Signals
+    loop : LoopResult
+    payload : dict
+        The results.json payload (validation errors before/after, final coefficients).
+    units : ChannelUnits
+    has_validation : bool
+        Whether the config has ``[[validation]]`` segments.
+    """
+    import pandas as pd
+
+    from ..plots import plot_effect_force
+    from ._report_tables import loop_frame
+
+    added = [s for s in loop.steps if s.accepted]
+    start_name = loop.start.candidate.name
+    answer = report.section("Answer", ANSWER)
+    if added:
+        found = "; ".join(
+            f"{s.effect.name} at {_where(s.effect)} (λ = {s.coefficient:.4g}, "
+            f"log Bayes factor {s.log_bayes_factor:.1f})"
+            for s in added
+        )
+        final = ", ".join(t.name for t in loop.final.terms) or "linear"
+        answer.append(("lead", f"Closing the loop from {start_name}: added {found}. Final model: {final}."))
+    else:
+        tried = len(loop.steps)
+        answer.append((
+            "lead",
+            f"Closing the loop from {start_name}: nothing added - no effect of the dictionary passed the checks "
+            f"({tried} examined in detail; see the loop table for why each was rejected).",
+        ))
+    section = report.section("Closing the loop (docs/method.md §7)", LOOP)
+    section.append(
+        "Each row is an effect examined at a step, in the order of the steps (accepted first within a step). An "
+        "effect is added only if its log Bayes factor (Laplace, on the residual named in the loop settings) passes "
+        "the threshold, its quality index |Im|/|Re| is small and its coefficient keeps sign and size on both record "
+        "halves. The 95 % interval is sampled (emcee) for the effects that pass. NRMSE: open-loop reconstruction of "
+        "the estimation data; closed-loop NRMSE: simulation of it, computed for accepted effects ('—' where the "
+        "simulation diverges, e.g. chaotic responses, or was not run)."
+    )
+    ordered = sorted(loop.steps, key=lambda s: (step_number(s, loop.start), not s.accepted))
+    if ordered:
+        rows = [
+            {
+                "step": step_number(s, loop.start),
+                "effect": s.effect.name,
+                "where": _where(s.effect),
+                "decision": "added" if s.accepted else "rejected",
+                "bayes_factor_log": s.log_bayes_factor,
+                "coefficient": s.coefficient,
+                "ci95": "—" if s.ci95[0] != s.ci95[0] else f"[{s.ci95[0]:.4g}, {s.ci95[1]:.4g}]",
+                "imag_ratio": s.imag_ratio,
+                "halves": "—" if s.half_coefficients[0] != s.half_coefficients[0]
+                else f"{s.half_coefficients[0]:.4g} / {s.half_coefficients[1]:.4g}",
+                "nrmse_before": s.nrmse_before,
+                "nrmse_after": s.nrmse_after,
+                "closed_loop_nrmse_before": s.closed_loop_nrmse_before,
+                "closed_loop_nrmse_after": s.closed_loop_nrmse_after,
+                "reason": s.reason,
+            }
+            for s in ordered
+        ]
+        section.append(loop_frame(rows))
+    if has_validation:
+        section.append(
+            pd.DataFrame(
+                {
+                    "closed-loop RMSE, starting model": {v["name"]: v["rmse"] for v in payload["validation_before"]},
+                    "closed-loop RMSE, final model": {v["name"]: v["rmse"] for v in payload["validation"]},
+                }
+            ).rename_axis("validation segment")
+        )
+    else:
+        section.append(
+            "The config has no [[validation]] segments, so there are no errors on held-out data before and after."
+        )
+    if payload["final_coefficients"]:
+        final_nsi = loop.settings.get("final_nsi", {})
+        note = (
+            f" It was re-identified with upsample = {final_nsi['upsample']} because it holds a term that switches "
+            "with velocity (coefficients at the data rate are biased by the switching between samples)."
+            if final_nsi.get("upsample", 1) > 1 and loop.settings.get("nsi", {}).get("upsample", 1) == 1
+            else ""
+        )
+        section.append("Coefficients of the final model (NSI estimate; quality index |Im|/|Re|)." + note)
+        frame = pd.DataFrame(payload["final_coefficients"]).set_index("term")
+        section.append(frame.rename(columns={"value": "coefficient λ", "imag_ratio": "|Im|/|Re|"}))
+    for step in added:
+        fig = plot_effect_force(step, signals, units=units)
+        fig.set_label(
+            f"Restoring-force view of {step.effect.name} at {_where(step.effect)}: the residual of the model before "
+            "the step as a force (top), and after it the residual (blue), the effect's force (black) and their sum "
+            "(red), against displacement and velocity"
+        )
+        section.append(fig)

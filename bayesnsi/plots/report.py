@@ -1,0 +1,113 @@
+"""Figures that answer "which model, how sure, how well": Bayes factors and measured-vs-model overlays.
+
+They draw what the library returns (:func:`bayesnsi.evidence.decision_table`,
+:class:`bayesnsi.nsi.Reconstruction`) and compute nothing numerical.
+"""
+
+from __future__ import annotations
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from ..io.units import ChannelUnits
+
+__all__ = ["plot_bayes_factors", "plot_reconstruction"]
+
+
+def plot_bayes_factors(decision, selected: str, ax=None):
+    """Log Bayes factor of the selected model against each other candidate, with Kass-Raftery bands.
+
+    Parameters
+    ----------
+    decision : pandas.DataFrame
+        From :func:`bayesnsi.evidence.decision_table` (columns ``log_bayes_factor``,
+        ``log_bayes_factor_se``, ``strength``).
+    selected : str
+        The selected candidate (left out: its factor against itself is 0).
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw on; a new figure when None.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Horizontal bars [nat] with ±2 standard errors; the bands 1, 3, 5 nat separate "barely
+        worth mentioning", "positive", "strong" and "very strong". A candidate that failed
+        (factor ∞) is marked as such at the right edge.
+    """
+    others = decision.drop(index=selected, errors="ignore")
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(6.5, 0.55 * len(others) + 1.6), layout="constrained")
+    else:
+        fig = ax.figure
+    values = others["log_bayes_factor"].to_numpy(dtype=float)
+    finite = np.isfinite(values)
+    top = max(6.0, float(np.max(values[finite], initial=0.0)) * 1.15)
+    y = np.arange(len(others))
+    ax.barh(y[finite], values[finite], xerr=2 * others["log_bayes_factor_se"].to_numpy(dtype=float)[finite],
+            color="C0", capsize=3)
+    for k in np.flatnonzero(~finite):
+        ax.annotate("∞ (failed)", (top, y[k]), ha="right", va="center", fontsize=8)
+    for bound, word in ((1.0, "positive"), (3.0, "strong"), (5.0, "very strong")):
+        ax.axvline(bound, color="0.6", ls=":", lw=1)
+        ax.annotate(f"{word} >", (bound, 1.0), xycoords=("data", "axes fraction"), fontsize=7, color="0.4",
+                    rotation=90, ha="right", va="top")
+    ax.set_yticks(y, [str(name) for name in others.index])
+    ax.set_ylabel("candidate")
+    ax.invert_yaxis()
+    ax.set_xscale("symlog", linthresh=10.0)
+    ax.set_xlim(min(0.0, float(np.min(values[finite], initial=0.0)) * 1.15), top)
+    ax.set_xlabel(f"log Bayes factor of {selected} against each candidate [nat]")
+    ax.set_title("How sure: evidence for the selected model", fontsize=10)
+    return fig
+
+
+def plot_reconstruction(reconstructions, fs: float, channel: int = 0, units=None, max_samples: int = 400,
+                        channel_name: str | None = None):
+    """Measured response against each candidate's open-loop reconstruction, and the errors.
+
+    Parameters
+    ----------
+    reconstructions : mapping of str to Reconstruction
+        :meth:`bayesnsi.nsi.NSIResult.reconstruct` of each candidate on the same data.
+    fs : float
+        Sampling frequency [Hz].
+    channel : int
+        Output channel shown.
+    units : ChannelUnits, optional
+        Units of the data; "data units" when not given.
+    max_samples : int
+        Show the first ``max_samples`` samples (the whole record when shorter).
+    channel_name : str, optional
+        Name of the channel (e.g. ``"x1"``).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Top: the measured response (black) and each candidate's reconstruction; below, one
+        panel per candidate with its error ``y - ŷ`` on a common scale, titled with its NRMSE.
+    """
+    units = units or ChannelUnits()
+    n = len(reconstructions)
+    fig, axes = plt.subplots(
+        n + 1, 1, figsize=(7.0, 2.2 + 1.3 * n), sharex=True, squeeze=False, layout="constrained",
+        gridspec_kw={"height_ratios": [2.2] + [1.0] * n},
+    )
+    first = next(iter(reconstructions.values()))
+    shown = slice(0, min(int(max_samples), len(first.measured)))
+    t = np.arange(len(first.measured))[shown] / fs
+    top = axes[0, 0]
+    name = channel_name or f"output {channel + 1}"
+    top.plot(t, first.measured[shown, channel], color="0.55", lw=3.0, label="measured")
+    for k, (label, rec) in enumerate(reconstructions.items()):
+        top.plot(t, rec.predicted[shown, channel], lw=1.0, ls=("-", "--", "-.", ":")[k % 4], color=f"C{k}", label=label)
+        ax = axes[k + 1, 0]
+        ax.plot(t, rec.residual[shown, channel], lw=0.6, color=f"C{k}")
+        ax.set_ylabel(f"error {units.label('displacement')}", fontsize=8)
+        ax.set_title(f"{label}: NRMSE {rec.nrmse_per_channel[channel]:.4f}", fontsize=8)
+    for ax in axes[2:, 0]:
+        ax.sharey(axes[1, 0])
+    top.set_ylabel(f"{name} {units.label('displacement')}")
+    top.legend(fontsize=7, ncols=min(4, n + 1), loc="upper right")
+    top.set_title("Measured and reconstructed (open loop)", fontsize=10)
+    axes[-1, 0].set_xlabel("time [s]")
+    return fig

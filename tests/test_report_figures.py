@@ -1,0 +1,185 @@
+"""Every figure function labels its axes, with the units of the data (issue 16); figures go out at 150 dpi."""
+
+from __future__ import annotations
+
+import io
+
+import matplotlib
+import numpy as np
+import pytest
+
+matplotlib.use("Agg")  # before pyplot; figures are drawn off screen
+
+import matplotlib.pyplot as plt
+
+from bayesnsi import NSIOptions, identify, simulate_case
+from bayesnsi.evidence import ranking_table
+from bayesnsi.evidence.decision import decision_table
+from bayesnsi.io.report import FIGURE_DPI, figure_png
+from bayesnsi.io.units import ChannelUnits, data_units, term_unit
+from bayesnsi.nsi import stabilization
+from bayesnsi.plots import (
+    plot_bayes_factors,
+    plot_coefficient_spectrum,
+    plot_effect_force,
+    plot_frf,
+    plot_model_probabilities,
+    plot_posterior_pairs,
+    plot_reconstruction,
+    plot_reconstruction_errors,
+    plot_singular_values,
+    plot_stabilization,
+    plot_traces,
+)
+
+from .test_plots import _posterior, _Step
+
+SI = ChannelUnits(force="N", displacement="m", velocity="m/s")
+VOLTS = ChannelUnits(force="V", displacement="V", velocity="V/s")
+
+
+@pytest.fixture(scope="module")
+def case():
+    return simulate_case("two-dof", seed=0)
+
+
+@pytest.fixture(scope="module")
+def results(case):
+    options = NSIOptions(block_rows=60, order=4)
+    return {c.name: identify(case.signals, c, options) for c in case.candidates}
+
+
+@pytest.fixture(autouse=True)
+def _close_figures():
+    yield
+    plt.close("all")
+
+
+def _labelled(fig):
+    """(xlabels, ylabels) of the axes that show data; every such axes has a y label, the figure an x label."""
+    axes = [ax for ax in fig.axes if ax.has_data()]
+    assert axes, "the figure draws nothing"
+    ylabels = [ax.get_ylabel() or _shared_ylabel(ax) for ax in axes]
+    xlabels = [ax.get_xlabel() for ax in axes if ax.get_xlabel()]
+    assert all(ylabels), f"axes without a y label: {ylabels}"
+    assert xlabels, "no x label"
+    return xlabels, ylabels
+
+
+def _shared_ylabel(ax):
+    """The y label of an axes that shares its y axis with this one (a row with one label)."""
+    return next((other.get_ylabel() for other in ax.get_shared_y_axes().get_siblings(ax) if other.get_ylabel()), "")
+
+
+def test_frf_has_magnitude_and_phase_for_every_pair_with_data_units(results):
+    freqs = np.linspace(0.1, 10.0, 200)
+    fig = plot_frf(list(results.values()), freqs, units=SI)
+    xlabels, ylabels = _labelled(fig)
+    first = next(iter(results.values()))
+    n_pairs = len(first.output_dofs) * len(first.input_dofs)
+    assert sum("[m/N]" in y for y in ylabels) == n_pairs  # one magnitude panel per output/force pair
+    assert sum("[deg]" in y for y in ylabels) == n_pairs  # and one phase panel
+    assert {"|H1,2| [m/N]", "|H2,2| [m/N]"} <= set(ylabels)
+    assert set(xlabels) == {"frequency [Hz]"}
+    volts = plot_frf(first, freqs, output_index=0, input_index=0, units=VOLTS)
+    assert "|H1,2| [V/V]" in _labelled(volts)[1]
+    unknown = plot_frf(first, freqs, output_index=1, input_index=0)
+    assert "|H2,2| [data units]" in _labelled(unknown)[1]
+
+
+def test_coefficient_spectrum_labels_lambda_with_its_unit(results):
+    fig = plot_coefficient_spectrum(results["model 1"], units=SI)
+    xlabels, ylabels = _labelled(fig)
+    assert ylabels == ["λ(ω) [N/(m/s)^2]"] and xlabels == ["frequency [Hz]"]
+    assert _labelled(plot_coefficient_spectrum(results["model 2"], units=SI))[1] == ["λ(ω) [N]"]  # sign(v1)
+
+
+def test_singular_values_and_stabilisation_are_labelled(results, case):
+    res = results["model 1"]
+    xlabels, ylabels = _labelled(plot_singular_values(res))
+    assert xlabels == ["index"] and "singular value" in ylabels[0]
+    sv, diagram = stabilization(case.signals, res.candidate, block_rows=res.block_rows, orders=range(2, 9, 2))
+    xlabels, ylabels = _labelled(plot_stabilization(sv, diagram, fmax_hz=10.0))
+    assert xlabels == ["frequency [Hz]"] and ylabels == ["model order"]
+
+
+def test_reconstruction_overlays_measured_and_model_with_units(results, case):
+    recs = {name: res.reconstruct(case.signals) for name, res in results.items()}
+    fig = plot_reconstruction(recs, case.signals.fs, 1, units=SI, channel_name="x2", max_samples=300)
+    xlabels, ylabels = _labelled(fig)
+    assert ylabels[0] == "x2 [m]" and ylabels[1:] == ["error [m]"] * len(recs) and xlabels == ["time [s]"]
+    top = fig.axes[0]
+    assert [line.get_label() for line in top.get_lines()] == ["measured", *recs]
+    np.testing.assert_array_equal(top.get_lines()[0].get_ydata(), case.signals.displacement[:300, 1])
+    np.testing.assert_array_equal(top.get_lines()[1].get_ydata(), recs["model 1"].predicted[:300, 1])
+    assert _labelled(plot_reconstruction_errors(recs, case.signals.fs))[0] == ["time [s]"]
+
+
+def test_bayes_factors_and_probabilities_are_labelled():
+    table = ranking_table(
+        ["a", "b", "c"], plain_log_likelihoods=[10.0, 12.0, 9.0],
+        evidence={"ar1": ([100.0, 96.5, float("-inf")], [0.01, 0.02, 0.0])}, rng=0,
+    )
+    fig = plot_bayes_factors(decision_table(table, "ar1"), "a")
+    xlabels, _ = _labelled(fig)
+    assert xlabels == ["log Bayes factor of a against each candidate [nat]"]
+    bars = [p.get_width() for p in fig.axes[0].patches]
+    assert bars == pytest.approx([3.5])  # b; c failed and is marked, not drawn
+    assert _labelled(plot_model_probabilities(table))[1] == ["P(model | data)"]
+
+
+def test_restoring_force_axes_carry_units(case):
+    fig = plot_effect_force(_Step("v1*abs(v1)", 1, 20.0), case.signals, max_points=200, units=SI)
+    xlabels, ylabels = _labelled(fig)
+    assert xlabels == ["x1 [m]", "v1 [m/s]"] and ylabels == ["effect force λ·n [N]"] * 2
+
+
+def test_restoring_force_view_of_a_loop_step_carries_units():
+    from bayesnsi.diagnose.forces import ResidualForce
+
+    rng = np.random.default_rng(0)
+    x, v = rng.normal(size=(2, 300))
+    rf = ResidualForce(location=(1, 2), displacement=x, velocity=v, before=x**3, after=0.1 * x, effect=x**3)
+
+    class Step(_Step):
+        residual_force = rf
+
+    fig = plot_effect_force(Step("(x1-x2)**3", [1, 2], 2.0), None, units=SI)
+    xlabels, ylabels = _labelled(fig)
+    assert set(xlabels) == {"x1 - x2 [m]", "v1 - v2 [m/s]"}
+    assert {"residual force before [N]", "force after [N]"} <= set(ylabels)
+
+
+def test_posterior_figures_name_their_parameters():
+    xlabels, _ = _labelled(plot_traces(_posterior(2)))
+    assert any("term 0" in x for x in xlabels) and "Draw" in xlabels
+    fig = plot_posterior_pairs(_posterior(2))
+    texts = [ax.get_xlabel() + ax.get_ylabel() + ax.get_title() for ax in fig.axes]
+    assert any("term 0" in t for t in texts) and any("term 1" in t for t in texts)
+
+
+def test_report_figures_are_written_at_150_dpi():
+    from PIL import Image
+
+    assert FIGURE_DPI >= 150
+    fig = plt.figure(figsize=(4.0, 3.0))
+    fig.add_subplot().plot([0, 1])
+    image = Image.open(io.BytesIO(figure_png(fig)))
+    assert image.size == (4 * FIGURE_DPI, 3 * FIGURE_DPI)
+
+
+def test_data_units_from_the_csv_units_row(tmp_path):
+    from bayesnsi.io import load_config, write_signals_csv
+
+    case = simulate_case("two-dof", seed=0, duration=2.0)
+    table = write_signals_csv(tmp_path / "d.csv", case.signals, units={"f2": "N", "x1": "mm", "x2": "mm"})
+    config = tmp_path / "d.toml"
+    config.write_text(
+        f'[data]\nfile = "d.csv"\nfs = {table["fs"]}\ninputs = {{ f2 = 2 }}\noutputs = {{ x1 = 1, x2 = 2 }}\n'
+        '[nsi]\nblock_rows = 20\norder = 4\n[[candidates]]\nname = "linear"\nterms = []\n'
+    )
+    units = data_units(load_config(config))
+    assert (units.force, units.displacement, units.velocity) == ("N", "mm", "mm/s")
+    assert units.label("frf") == "[mm/N]" and term_unit("x1**3", units) == "N/mm^3"
+    write_signals_csv(tmp_path / "d.csv", case.signals)  # no units row: nothing claimed
+    assert data_units(load_config(config)) == ChannelUnits()

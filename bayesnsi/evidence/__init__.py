@@ -19,6 +19,7 @@ from .analytic import closed_form_log_evidence, laplace_log_evidence
 from .bridge import BridgeEstimate, bridge_sampling
 from .candidate import RESIDUALS, candidate_affine, candidate_evidence, candidate_priors
 from .convergence import ConvergenceReport, convergence_report, posterior_summary, warn_if_unconverged
+from .decision import decision_table, evidence_strength
 from .intervals import INTERVAL_METHODS, Intervals, ParameterInterval, candidate_intervals, segment_estimates
 from .likelihood import (
     SufficientStatistics,
@@ -76,6 +77,8 @@ __all__ = [
     "ParameterInterval",
     "candidate_intervals",
     "segment_estimates",
+    "decision_table",
+    "evidence_strength",
     # convergence
     "ConvergenceReport",
     "posterior_summary",

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import warnings
 
 import numpy as np
@@ -121,3 +122,27 @@ def test_config_data_period_and_nsi_domain_load_a_periodic_record(tmp_path, reco
     (tmp_path / "bad.toml").write_text(text.replace("period = 1000", "period = 1000\ndecimate = 3"))
     with pytest.raises(_ConfigError, match="period"):
         load_config(tmp_path / "bad.toml")
+
+
+def test_unstable_poles_are_reflected_with_a_named_warning_not_a_failure(record):
+    from bayesnsi.exceptions import SpuriousPoleWarning
+
+    # an over-parametrised linear model of the nonlinear data: the subspace step gives an unstable pair
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = identify(record, None, NSIOptions(domain="frequency", order=8))
+    messages = [str(w.message) for w in caught if issubclass(w.category, SpuriousPoleWarning)]
+    assert any(re.search(r"unstable pole\(s\) at [0-9.]+ Hz .* reflected", m) for m in messages), messages
+    assert result.model.is_stable and len(result.settings["reflected_poles_hz"]) == 1
+    assert np.all(np.real(result.model.poles) < 0)
+
+
+def test_line_misfit_says_how_much_of_the_residual_is_noise(record):
+    from bayesnsi.io.schema import _identification
+
+    true = identify(record, CUBIC, NSIOptions(domain="frequency", order=4))
+    linear = identify(record, None, NSIOptions(domain="frequency", order=4))
+    assert 0.8 < true.settings["line_misfit"] < 1.3  # the true model leaves the noise (weighted rms ≈ 1)
+    assert linear.settings["line_misfit"] > 10.0
+    periodic = _identification(true)["periodic"]
+    assert periodic["domain"] == "frequency" and periodic["n_periods"] == N_PERIODS and periodic["line_misfit"] > 0

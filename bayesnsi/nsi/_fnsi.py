@@ -25,6 +25,7 @@ from ..signals import Signals
 from .feedback import extended_input
 from .periodic import excited_lines, period_dft
 
+_MIN_DAMPING = 1e-5  # a refined pole with a smaller damping ratio is refused (marginally stable)
 _SMOOTH_LINES = 9  # running median of the noise variance over this many lines (weights)
 
 
@@ -313,6 +314,9 @@ def refine(data: LineData, Ac: np.ndarray, C: np.ndarray, zero_feedthrough: bool
                         ftol=1e-7, xtol=1e-7)
     if not np.isfinite(fit.cost) or 2 * fit.cost >= cost0:
         return Ac, C
+    sigma, omega = np.exp(fit.x[:n_pairs]), np.abs(fit.x[n_pairs : 2 * n_pairs])
+    if np.any(sigma < _MIN_DAMPING * np.hypot(sigma, omega)):
+        return Ac, C  # a pole pushed onto the imaginary axis: keep the subspace model (stable) instead
     return unpack(fit.x)
 
 

@@ -52,6 +52,7 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
     order = _order(options, singular_values, n_out)
     Ac, C = _fnsi.continuous_ac(*_fnsi.system_ac(left, order, n_out, y_scale), omega0)
     Ac, reflected = _fnsi.stabilise_continuous(Ac)
+    reflected = reflected[reflected.imag >= 0]  # one of each conjugate pair
     Ac, C = _fnsi.refine(data, Ac, C, options.zero_feedthrough)
     dt = 1.0 / signals.fs
     jw = 2j * np.pi * data.freqs_hz
@@ -62,8 +63,9 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
     if len(reflected):
         named = ", ".join(f"{abs(p.imag) / (2 * np.pi):.3g} Hz (Re s = {p.real:.3g})" for p in reflected)
         warnings.warn(
-            f"candidate {cand.name!r}: {len(reflected)} unstable pole(s) at {named} reflected inside the unit "
-            "circle before B, D were fitted (the lines cannot inform them)",
+            f"candidate {cand.name!r}: unstable pole(s) at {named} reflected into the left half-plane "
+            f"(fitted lines {data.freqs_hz[0]:.3g}-{data.freqs_hz[-1]:.3g} Hz) before B, D were fitted; the "
+            "candidate is kept - check the order if such a pole lies inside the band",
             SpuriousPoleWarning,
             stacklevel=3,
         )

@@ -86,3 +86,34 @@ def test_free_body_evidence_scores_the_force_and_prefers_friction(carriage):
         z_linear = candidate_evidence(linear, carriage, options)["ar1"].log_evidence
         z_coulomb = candidate_evidence(coulomb, carriage, options)["ar1"].log_evidence
     assert np.isfinite(z_linear) and z_coulomb > z_linear + 10
+
+
+def test_force_screen_ranks_coulomb_first_on_a_free_body(carriage):
+    from bayesnsi.diagnose.screen_force import screen_effects_force
+    from bayesnsi.models import CandidateModel, default_gaps, effect_dictionary
+
+    effects = effect_dictionary([1], gaps={(1,): default_gaps(float(carriage.displacement.std()))})
+    ranked = screen_effects_force(carriage, CandidateModel(name="linear", terms=()), effects)
+    assert ranked[0][0].name == "sign(v)"
+    # the look-alikes follow well behind (measured: v|v| and v^3 below half the score)
+    scores = dict((e.name, s) for e, s in ranked)
+    assert scores["v|v|"] < 0.7 * scores["sign(v)"] and scores["v^3"] < 0.7 * scores["sign(v)"]
+
+
+def test_loop_on_a_free_body_adds_coulomb_and_nothing_else(carriage):
+    from bayesnsi.diagnose import close_the_loop
+    from bayesnsi.models import CandidateModel
+    from bayesnsi.options import LoopOptions
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        loop = close_the_loop(
+            carriage, CandidateModel(name="linear", terms=()), LoopOptions(refine_final=None),
+            nsi=NSIOptions(block_rows=20, order=2),
+            evidence=EvidenceOptions(n_walkers=16, n_steps=300, n_burn=100, compare=()),
+        )
+    added = [step.effect.name for step in loop.steps if step.accepted]
+    assert added == ["sign(v)"]
+    (phys,) = loop.final.physical_parameters
+    assert phys.mass == pytest.approx(95.0, rel=0.02) and phys.damping == pytest.approx(200.0, rel=0.05)
+    assert loop.final.coefficient_values[0] == pytest.approx(FC, rel=0.05)

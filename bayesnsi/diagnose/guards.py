@@ -23,7 +23,7 @@ import numpy as np
 from ..evidence import candidate_evidence
 from ..exceptions import BayesNSIError, BayesNSIWarning, BlockRowsError
 from ..models import CandidateModel, Term
-from ..nsi import identify
+from ..nsi import identify, is_free_body
 from .forces import residual_force
 from .results import EffectScore, LoopStep
 from .scoring import shared_correlations
@@ -156,6 +156,9 @@ def check_effect(context: LoopContext, entry: EffectScore, baseline: Baseline, s
         reason = f"{TOO_SHORT} ({signals.n_samples // 2} samples each for {context.nsi.block_rows} block rows)"
     elif not stable:
         reason = f"coefficient unstable across record halves: {halves[0]:.4g} vs {halves[1]:.4g}"
+    elif is_free_body(trial) and np.isfinite(entry.nrmse) and entry.nrmse > baseline.nrmse:
+        # the field's error for a free body: the identified model's own force prediction must improve
+        reason = f"force-prediction NRMSE rises from {baseline.nrmse:.4g} to {entry.nrmse:.4g} (free body, IDIM view)"
     else:
         reason = "accepted"
     quality_only = log_bf > threshold and stable and coef.imag_ratio >= max_imag_ratio

@@ -20,10 +20,11 @@ from ..evidence import candidate_affine, candidate_priors, laplace_log_evidence,
 from ..exceptions import BayesNSIError, BayesNSIWarning
 from ..models import Effect
 from ..models.dictionary import clearance_effect
-from ..nsi import hankel_correlations, identify, nrmse
+from ..nsi import force_affine, hankel_correlations, identify, is_free_body, nrmse
 from ..options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions, parse_likelihood
 from .results import EffectScore
 from .screen import screen_effects
+from .screen_force import screen_effects_force
 from .state import LoopContext
 
 __all__ = ["laplace_score", "rank_effects", "refine_gap", "score_effects"]
@@ -44,13 +45,16 @@ def laplace_score(result, signals, evidence: EvidenceOptions) -> tuple[float, fl
     (float, float)
         The log-evidence (primary likelihood) and the NRMSE, NaN unless the evidence scores the
         open-loop reconstruction residual (then the affine model at the NSI estimate is that
-        reconstruction, docs/method.md §5).
+        reconstruction, docs/method.md §5); for a free body the NRMSE of the force it predicts
+        from the measured motion at the NSI estimate (:func:`bayesnsi.nsi.force_affine`).
     """
     affine = candidate_affine(result, signals, evidence.residual)
     priors = candidate_priors(result, signals, affine, evidence)
     stats = sufficient_statistics(affine, ar_order=parse_likelihood(evidence.likelihood)[0])
     score = laplace_log_evidence(stats, priors, evidence.likelihood)
-    if evidence.residual != "reconstruction":
+    if is_free_body(result):  # the error of the model's own force prediction (IDIM view)
+        affine = force_affine(result, signals)
+    elif evidence.residual != "reconstruction":
         return score, np.nan
     return score, nrmse(affine.measured, affine.predict(affine.estimate))[1]
 
@@ -202,10 +206,13 @@ def _screened(context: LoopContext, candidate, effects, exclude):
     if len(effects) <= count:
         return effects, []
     try:
-        ranked = screen_effects(
-            context.signals, candidate, effects, max_frequency_hz=context.screen_hz,
-            velocity_method=context.nsi.velocity_method,
-        )
+        if context.nsi.virtual_stiffness not in ("auto", 0.0, 0):  # a free body: screen in the force view
+            ranked = screen_effects_force(context.signals, candidate, effects)
+        else:
+            ranked = screen_effects(
+                context.signals, candidate, effects, max_frequency_hz=context.screen_hz,
+                velocity_method=context.nsi.velocity_method,
+            )
     except BayesNSIError:
         return effects, []  # too short a record to screen: score them all
     return [e for e, _ in ranked[:count]], [EffectScore(e, math.nan) for e, _ in ranked[count:]]

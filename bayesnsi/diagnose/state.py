@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ..nsi import is_free_body, nrmse
 from ..options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions
 from .results import EffectScore, LoopStep
 
@@ -109,4 +110,9 @@ class LoopState:
 
     def baseline(self, signals) -> Baseline:
         """The current model, on ``signals``, as the baseline of the next check."""
+        if is_free_body(self.current):  # the force-prediction error (IDIM view), as the effects report
+            from ..nsi import force_affine
+
+            affine = force_affine(self.current, signals)
+            return Baseline(self.log_z, float(nrmse(affine.measured, affine.predict(affine.estimate))[1]))
         return Baseline(self.log_z, self.current.reconstruct(signals).nrmse)

@@ -109,15 +109,15 @@ def candidate_affine(result, signals, residual: str = "innovations"):
         When ``residual`` is unknown.
     """
     from ..exceptions import ConfigError
-    from ..nsi import affine_reconstruction, predictor_reconstruction
+    from ..nsi import affine_reconstruction, is_free_body, predictor_reconstruction
 
     if residual not in RESIDUALS:
         raise ConfigError(f"[evidence] residual {residual!r} unknown; use one of {list(RESIDUALS)}")
-    if residual == "force" or (result.virtual_stiffness and result.physical_parameters):
+    if residual == "force" or is_free_body(result):
         # a free body (rigid-body pole): scored on the force it predicts from the measured motion
         from ..nsi import force_affine
 
-        return force_affine(result, signals)
+        return force_affine(result, signals, profile=True)
     if residual == "reconstruction":
         return affine_reconstruction(result, signals)
     if residual == "innovations":

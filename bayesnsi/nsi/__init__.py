@@ -2,7 +2,7 @@
 
 from ._noise import white_noise_std
 from .feedback import extended_input
-from .free_body import PhysicalParameters, physical_parameters
+from .free_body import PhysicalParameters, is_free_body, physical_parameters
 from .identify import hankel_correlations, identify
 from .inverse import ForcePrediction, force_affine, force_prediction, short_horizon_nrmse
 from .order import select_order, stabilization
@@ -30,6 +30,7 @@ from .statespace import StateSpaceModel
 __all__ = [
     "identify",
     "PhysicalParameters",
+    "is_free_body",
     "physical_parameters",
     "ForcePrediction",
     "force_prediction",

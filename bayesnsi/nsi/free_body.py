@@ -38,6 +38,7 @@ __all__ = [
     "free_frf",
     "free_model",
     "has_rigid_body_pole",
+    "is_free_body",
     "physical_parameters",
     "rigid_body_poles",
     "stabilise",
@@ -246,6 +247,20 @@ def free_frf(extended_frf: np.ndarray, stiffness: float, input_dofs, output_dofs
         feedback[j, i] = stiffness
     loop = np.eye(n_out)[None] - extended_frf[:, :, :m] @ feedback[None]
     return np.linalg.solve(loop, extended_frf)
+
+
+def is_free_body(result) -> bool:
+    """Whether ``result`` is a one-DOF free body (identified with a virtual spring; scored on its force).
+
+    Parameters
+    ----------
+    result : NSIResult
+
+    Returns
+    -------
+    bool
+    """
+    return bool(result.virtual_stiffness) and bool(result.physical_parameters)
 
 
 def physical_parameters(result) -> tuple[PhysicalParameters, ...]:

@@ -163,7 +163,9 @@ def force_prediction(
     return ForcePrediction(f, predicted, rmse, rmse / float(np.sqrt(np.mean(f[keep] ** 2))), cutoff)
 
 
-def force_affine(result, signals: Signals, cutoff_hz: float | None = None) -> AffineReconstruction:
+def force_affine(
+    result, signals: Signals, cutoff_hz: float | None = None, profile: bool = False
+) -> AffineReconstruction:
     """The force residual of a one-DOF model as an affine function of its coefficients (IDIM view).
 
     ``f̂(λ) = M a + C v + K x + c + Σ_i λ_i n_i(x, v)`` on the low-pass filtered record, with M, C,
@@ -173,6 +175,11 @@ def force_affine(result, signals: Signals, cutoff_hz: float | None = None) -> Af
     free body scores this residual (:func:`bayesnsi.evidence.candidate_affine`): its displacement
     residual is dominated by the drift of the rigid-body mode.
 
+    With ``profile=True`` the linear part is not taken from NSI: the force and the basis functions
+    are projected on the complement of ``[a, v, x, 1]`` (the inverse model's linear parameters
+    profiled out, as in least-squares IDIM), so that the evidence of an effect does not inherit
+    the error of each candidate's identified mass, damping and stiffness.
+
     Parameters
     ----------
     result : NSIResult
@@ -181,12 +188,15 @@ def force_affine(result, signals: Signals, cutoff_hz: float | None = None) -> Af
         The estimation data.
     cutoff_hz : float, optional
         Low-pass cutoff (default fs/20).
+    profile : bool
+        Profile the linear part out instead of taking it from NSI (see above).
 
     Returns
     -------
     AffineReconstruction
-        ``measured`` the filtered force, ``signatures`` the basis functions ``n_i`` (units of force
-        per unit coefficient), shape (n, 1, q).
+        ``measured`` the filtered force (its part outside ``[a, v, x, 1]`` with ``profile``),
+        ``signatures`` the basis functions ``n_i`` (units of force per unit coefficient), shape
+        (n, 1, q).
 
     Raises
     ------
@@ -209,6 +219,17 @@ def force_affine(result, signals: Signals, cutoff_hz: float | None = None) -> Af
     signatures = np.stack(columns, axis=-1)[keep] if columns else np.zeros((len(f), 0))[keep]
     estimate = np.asarray(result.coefficient_values, dtype=float)
     offset = float(np.mean((f - linear)[keep] - signatures @ estimate))
+    if profile:
+        q, _ = np.linalg.qr(np.column_stack([a[keep], v[keep], x[keep], np.ones_like(x[keep])]))
+        measured = f[keep] - q @ (q.T @ f[keep])
+        signatures = signatures - q @ (q.T @ signatures)
+        return AffineReconstruction(
+            measured=measured[:, None],
+            baseline=np.zeros((len(measured), 1)),
+            signatures=signatures[:, None, :],
+            estimate=estimate,
+            names=tuple(t.name for t in result.terms),
+        )
     return AffineReconstruction(
         measured=f[keep][:, None],
         baseline=(linear[keep] + offset)[:, None],

@@ -31,6 +31,7 @@ def run(args) -> int:
     from ..diagnose import close_the_loop
     from ..exceptions import ConfigError
     from ..io import RESULTS_FILENAME, atomic_write_json, load_validation, selection_payload, term_record, to_jsonable
+    from ..io.posterior import write_posteriors
     from ..options import ExecutionOptions
     from ..validation import validate
     from ._loop_report import loop_sections
@@ -91,6 +92,7 @@ def run(args) -> int:
         validation=[e.to_dict() for e in validate(loop.final, validation)],
     )
     payload["settings"]["loop"] = to_jsonable(loop.settings)
+    payload["posterior_files"] = write_posteriors(out, selection.evidences, selection.likelihood)
     payload["loop_scores"] = [[_score_record(row) for row in search] for search in loop.scores]
     if not args.no_figures:
         units = report_units(config)

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import sys
+import warnings
+
+from ..exceptions import AdequacyWarning
 from ._common import add_run_arguments, execution, progress, refuse_if_nothing_identified, start_run
 
 __all__ = ["add_parser", "run", "run_selection"]
@@ -24,11 +28,13 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     """Execute the command."""
     from ..io import RESULTS_FILENAME, atomic_write_json, selection_payload
+    from ..io.posterior import write_posteriors
     from ._report import identification_report, report_units, selection_sections
 
     config, out, signals = start_run(args)
     selection = run_selection(config, signals, args, out)
     payload = selection_payload(selection, "select", config)
+    payload["posterior_files"] = write_posteriors(out, selection.evidences, selection.likelihood)
     if not args.no_figures:
         units = report_units(config)
         report = identification_report(
@@ -41,6 +47,8 @@ def run(args) -> int:
     progress(f"wrote {path}", args.quiet)
     refuse_if_nothing_identified(selection.outcomes, path)
     progress(f"selected: {selection.selected}{_adequacy_text(selection)}", args.quiet)
+    for message in selection.warnings:  # adequacy (issue 15): shown even with --quiet
+        print(f"warning: {message}", file=sys.stderr)
     return 0
 
 
@@ -62,7 +70,8 @@ def run_selection(config, signals, args, out):
     from ..io import load_validation
     from ..selection import select
 
-    with execution(args, out, config) as options:
+    with execution(args, out, config) as options, warnings.catch_warnings():
+        warnings.simplefilter("ignore", AdequacyWarning)  # printed once, plainly, by run()
         return select(
             signals, config.candidates, config.nsi, config.evidence, execution=options,
             validation=load_validation(config),

@@ -108,3 +108,20 @@ def test_periodic_input_errors():
         best_linear_approximation([signals], period=5, drop=1)
     with pytest.raises(InputDataError, match="period must be"):
         period_dft(np.ones(8), 1.5)
+
+
+def test_periodic_integration_recovers_the_displacement_of_a_steady_state_response():
+    from bayesnsi.nsi import periodic_integration
+
+    rng = np.random.default_rng(5)
+    force = multisine(P, FS, (1.0, 20.0), 5.0, rng, n_periods=10)
+    response = simulate_response(*MCK, [2], force.fine, FS * 8, 8)  # linear: response band-limited to 1-20 Hz
+    acc, x, v = (arr[8 * P :] for arr in (response.acceleration, response.displacement, response.velocity))
+    vel, disp = periodic_integration(acc, FS, P, (0.5, 30.0))
+    x = x - x.mean(axis=0)
+    v = v - v.mean(axis=0)
+    # the start transient decays as e^{-0.28 t}: 1e-5 of it is left after eight 5.12 s periods
+    assert np.max(np.abs(disp - x)) < 1e-4 * np.max(np.abs(x))
+    assert np.max(np.abs(vel - v)) < 1e-4 * np.max(np.abs(v))
+    with pytest.raises(InputDataError, match="whole periods"):
+        periodic_integration(acc[:-1], FS, P, (0.5, 30.0))

@@ -10,6 +10,7 @@ import numpy as np
 
 from .. import preprocess
 from ..exceptions import ConfigError, InputDataError
+from ..nsi.periodic import periodic_integration
 from ..signals import Signals
 from ._columns import MeasurementColumns, file_format
 from ._csv import read_csv_any
@@ -112,7 +113,11 @@ class Record:
         velocity: np.ndarray | None
         spec = self.integrate
         try:
-            if spec is not None:
+            if spec is not None and self.data.period is not None:  # whole periods: exact line by line, in band
+                velocity, displacement = periodic_integration(
+                    self.response[start:stop], self.fs, self.data.period, spec.band_hz
+                )
+            elif spec is not None:
                 velocity, displacement = preprocess.integrate_acceleration(
                     self.response[start:stop], self.fs, spec.band_hz, spec.method,
                     detrend_order=spec.detrend_order, taper=spec.taper, filter_order=spec.filter_order,

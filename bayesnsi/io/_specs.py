@@ -103,7 +103,9 @@ class DataSpec:
         Samples per period of a periodic test, counted at the file's rate (``[data] period``; a
         multiple of ``decimate``); the signals then carry ``period / decimate``. Give the
         estimation and validation windows in whole periods; leave a leading transient period out
-        of them (start at ``period``).
+        of them (start at ``period``). With ``integrate``, accelerations are then integrated line
+        by line on the lines inside ``integrate.band_hz`` (exact for a steady state; the other
+        lines are zeroed, the forces are not filtered; :func:`bayesnsi.nsi.periodic_integration`).
     decimate : int
         Anti-aliased down-sampling factor q >= 1 (:func:`bayesnsi.preprocess.decimate`, zero-phase
         FIR): the signals have ``fs / q``. Keep the modes below ~0.75 of the new Nyquist frequency.

@@ -13,6 +13,7 @@ from .periodic import (
     excited_lines,
     period_dft,
     period_spectra,
+    periodic_integration,
 )
 from .physics import CoefficientEstimate, Mode, coefficient_spectrum, split_poles
 from .reconstruct import (
@@ -61,4 +62,5 @@ __all__ = [
     "period_dft",
     "excited_lines",
     "best_linear_approximation",
+    "periodic_integration",
 ]

@@ -34,6 +34,7 @@ __all__ = [
     "excited_lines",
     "period_dft",
     "period_spectra",
+    "periodic_integration",
 ]
 
 EXCITED_DB = 40.0
@@ -360,6 +361,55 @@ def best_linear_approximation(
         n_realisations=n_real,
         n_periods=first.n_periods,
     )
+
+
+def periodic_integration(acceleration, fs: float, period: int, band_hz) -> tuple[np.ndarray, np.ndarray]:
+    """Velocity and displacement of a periodic record from its acceleration, line by line.
+
+    Over whole periods the DFT lines of a steady-state response are exact, so ``V = A/(jω)`` and
+    ``X = A/(jω)²`` on every line inside ``band_hz`` hold without a filter transient, a window or
+    drift; the lines outside the band (the DC line always) are set to zero: below the band the
+    division amplifies noise and drift, and the frequency route fits nothing there.
+
+    Parameters
+    ----------
+    acceleration : array_like, shape (n_samples,) or (n_samples, n_channels)
+        Whole periods of a periodic acceleration [m/s²].
+    fs : float
+        Sampling frequency [Hz].
+    period : int
+        Samples per period.
+    band_hz : (float, float)
+        Lines kept [Hz], ends included.
+
+    Returns
+    -------
+    velocity, displacement : ndarray, shape (n_samples, n_channels)
+        [m/s] and [m] (for accelerations in m/s²).
+
+    Raises
+    ------
+    InputDataError
+        When the record does not hold whole periods or the band holds no line.
+    """
+    a = np.asarray(acceleration, dtype=float)
+    squeeze = a.ndim == 1
+    a = a.reshape(len(a), -1)
+    period = _check_period(period, 0)[0]
+    if len(a) % period or not len(a):
+        raise InputDataError(
+            f"periodic integration needs whole periods: {len(a)} samples are not a multiple of the period {period}; "
+            "give the estimation and validation windows in whole periods"
+        )
+    spectrum = np.fft.rfft(a, axis=0)
+    freqs = np.fft.rfftfreq(len(a), 1.0 / fs)
+    keep = (freqs >= band_hz[0]) & (freqs <= band_hz[1]) & (freqs > 0) & (freqs < fs / 2)
+    if not keep.any():
+        raise InputDataError(f"band {tuple(band_hz)} Hz holds no DFT line of the record; widen the band")
+    jw = np.where(keep, 2j * np.pi * freqs, 1.0)[:, None]
+    velocity = np.fft.irfft(np.where(keep[:, None], spectrum / jw, 0.0), len(a), axis=0)
+    displacement = np.fft.irfft(np.where(keep[:, None], spectrum / jw**2, 0.0), len(a), axis=0)
+    return (velocity[:, 0], displacement[:, 0]) if squeeze else (velocity, displacement)
 
 
 def _period_of(signals: Signals, period) -> int:

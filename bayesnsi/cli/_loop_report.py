@@ -62,11 +62,13 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool) -
         final = ", ".join(t.name for t in loop.final.terms) or "linear"
         answer.append(("lead", f"Closing the loop from {start_name}: added {found}. Final model: {final}."))
     else:
-        tried = len(loop.steps)
+        why = (
+            f"{len(loop.steps)} examined in detail; the loop table says why each was rejected" if loop.steps
+            else "none came through the screen to be examined in detail; results.json loop_scores has every score"
+        )
         answer.append((
-            "lead",
-            f"Closing the loop from {start_name}: nothing added - no effect of the dictionary passed the checks "
-            f"({tried} examined in detail; see the loop table for why each was rejected).",
+            "lead", f"Closing the loop from {start_name}: nothing added - no effect of the dictionary passed the "
+            f"checks ({why}).",
         ))
     section = report.section("Closing the loop (docs/method.md §7)", LOOP)
     section.append(

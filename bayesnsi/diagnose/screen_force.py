@@ -11,7 +11,7 @@ the Gaussian log-likelihood ratio of adding its basis function ``n_e(x, v)``::
 
     score_e = N log(RSS_without / RSS_with)
 
-with N the samples kept (one every ``fs/(4·cutoff)``, so that the filter does not multiply
+with N the samples kept (one every ``fs/cutoff``, so that the filter does not multiply
 correlated samples). As for the frequency-domain screen, the score only orders the effects; the
 evidence decides.
 """
@@ -54,7 +54,7 @@ def screen_effects_force(signals, candidate, effects, *, cutoff_hz: float | None
         raise NotIdentifiableError("the force-view screen needs one force and one displacement at the same DOF")
     dof = signals.input_dofs[0]
     x, v, a, f, cutoff = filtered_kinematics(signals, cutoff_hz)
-    step = max(1, int(signals.fs / (4.0 * cutoff)))
+    step = max(1, int(signals.fs / cutoff))  # about one sample per correlation time of the filter
     trim = int(np.ceil(signals.fs / cutoff))
     keep = slice(trim, len(f) - trim, step)
     rows_x, rows_v = np.tile(x, (dof, 1)), np.tile(v, (dof, 1))  # row dof-1 is the measured DOF

@@ -193,9 +193,9 @@ def segment_estimates(result, signals, options=None, n_segments: int = 8, fracti
     q, m = len(result.coefficients), len(f_full)
     return (
         b,
-        np.array(coefficients, dtype=float).reshape(-1, q),
-        np.array(freqs, dtype=float).reshape(-1, m),
-        np.array(zetas, dtype=float).reshape(-1, m),
+        np.array(coefficients, dtype=float).reshape(len(coefficients), q),  # q or m may be 0 (linear, free body)
+        np.array(freqs, dtype=float).reshape(len(freqs), m),
+        np.array(zetas, dtype=float).reshape(len(zetas), m),
         failures,
     )
 
@@ -249,7 +249,7 @@ def candidate_intervals(result, signals, evidence_result, options=None, nsi_opti
 
     options = options or EvidenceOptions()
     draws = np.asarray(evidence_result.posterior.coefficients, dtype=float)
-    draws = draws.reshape(-1, draws.shape[-1])
+    draws = draws.reshape(int(np.prod(draws.shape[:-1])), draws.shape[-1])  # also with no coefficient
     post_mean, post_sd = draws.mean(axis=0), draws.std(axis=0)
     names = tuple(evidence_result.coefficient_names)
     if options.interval == "posterior":

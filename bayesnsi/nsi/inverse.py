@@ -170,7 +170,7 @@ def force_affine(
 
     ``f̂(λ) = M a + C v + K x + c + Σ_i λ_i n_i(x, v)`` on the low-pass filtered record, with M, C,
     K from :attr:`NSIResult.physical_parameters` and the constant ``c`` (the force offset, which
-    the data's mean removal may have left) fitted at ``λ̂``; sampled every ``fs/(4·cutoff)``
+    the data's mean removal may have left) fitted at ``λ̂``; sampled every ``fs/cutoff``
     samples so that the filter does not multiply correlated residual samples. The evidence of a
     free body scores this residual (:func:`bayesnsi.evidence.candidate_affine`): its displacement
     residual is dominated by the drift of the rigid-body mode.
@@ -211,7 +211,7 @@ def force_affine(
         )
     (phys,) = params
     x, v, a, f, cutoff = filtered_kinematics(signals, cutoff_hz)
-    step = max(1, int(signals.fs / (4.0 * cutoff)))
+    step = max(1, int(signals.fs / cutoff))  # about one sample per correlation time of the filter
     trim = int(np.ceil(signals.fs / cutoff))
     keep = slice(trim, len(f) - trim, step)
     linear = inverse_force(phys.mass, phys.damping, phys.stiffness, (), (), x, v, a)

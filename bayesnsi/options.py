@@ -209,6 +209,11 @@ class EvidenceOptions(_Options):
     segment_fraction: float = _option(
         0.7, "length of a sub-record as a fraction of the record (segments interval)", kind="float", low=0.05,
         high=0.95)
+    max_noise_ratio: float = _option(
+        1.3, "adequacy: largest ratio of a candidate's open-loop residual rms to the sensor noise std", kind="float",
+        low=1.0)
+    max_imag_ratio: float = _option(
+        0.3, "adequacy: largest quality index |Im λ|/|Re λ| of the selected model", kind="float", low=0.0)
     noise_floor: float | None = _option(
         None, "lower end of the noise prior as a multiple of std(y) (default: the smaller of 1e-4 and a tenth of "
         "the output's white-noise level, so that precise data are not refused)", kind="float", low=0.0, none=True)

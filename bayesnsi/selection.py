@@ -10,14 +10,16 @@ results.json record (:func:`bayesnsi.io.selection_payload`) are built from the
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
-from .exceptions import BayesNSIError
+from .exceptions import AdequacyWarning, BayesNSIError
 from .options import EvidenceOptions, ExecutionOptions, NSIOptions
+from .run.adequacy import ModelCheck, adequacy_warnings, model_checks
 from .run.batch import CandidateOutcome, run_candidates
 from .validation import SegmentError, Whiteness, residual_whiteness, validate
 
@@ -47,6 +49,12 @@ class Selection:
         Whiteness test of each identified candidate's residual (the evidence's residual) on the
         estimation data (:func:`bayesnsi.validation.residual_whiteness`): the probabilities
         rank the candidates against each other, this says whether the best one explains the data.
+    checks : mapping of str to ModelCheck
+        Residual against the sensor noise, quality index, validation error and log predictive
+        density of each identified candidate (:func:`bayesnsi.run.adequacy.model_checks`).
+    warnings : tuple of str
+        What the selection should not be trusted for (:func:`bayesnsi.run.adequacy.adequacy_warnings`),
+        each also issued as an :class:`~bayesnsi.exceptions.AdequacyWarning`.
     """
 
     outcomes: tuple[CandidateOutcome, ...]
@@ -55,6 +63,8 @@ class Selection:
     evidence: EvidenceOptions | None
     validation: Mapping[str, tuple[SegmentError, ...]] = field(default_factory=dict)
     adequacy: Mapping[str, Whiteness] = field(default_factory=dict)
+    checks: Mapping[str, ModelCheck] = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
 
     def __repr__(self) -> str:
         from ._repr import compact_repr
@@ -190,4 +200,10 @@ def select(
             adequacy[o.name] = residual_whiteness(o.result, signals, evidence.residual)
         except (BayesNSIError, np.linalg.LinAlgError):
             continue  # the outcome already says why this candidate has no evidence
-    return Selection(outcomes, table, nsi or NSIOptions(), evidence, checks, adequacy)
+    limits = {"max_noise_ratio": evidence.max_noise_ratio, "max_imag_ratio": evidence.max_imag_ratio}
+    fits = model_checks(outcomes, signals, checks, **limits)
+    selection = Selection(outcomes, table, nsi or NSIOptions(), evidence, checks, adequacy, fits)
+    messages = adequacy_warnings(fits, selection.selected, **limits)
+    for message in messages:
+        warnings.warn(message, AdequacyWarning, stacklevel=2)
+    return replace(selection, warnings=messages)

@@ -214,6 +214,8 @@ def selection_payload(selection, command: str, config, **extra) -> dict[str, Any
             record["validation"] = [e.to_dict() for e in selection.validation[outcome.name]]
         if outcome.name in selection.adequacy:
             record["adequacy"] = selection.adequacy[outcome.name].to_dict()
+        if outcome.name in selection.checks:
+            record["model_check"] = selection.checks[outcome.name].to_dict()
         records.append(record)
     selected = selection.selected
     payload = {
@@ -225,6 +227,7 @@ def selection_payload(selection, command: str, config, **extra) -> dict[str, Any
         "candidates": records,
         "validation": [e.to_dict() for e in selection.validation.get(selected, ())] if selected else [],
         "ranking": [] if selection.table is None else selection.table.reset_index().to_dict(orient="records"),
+        "warnings": list(selection.warnings),
         "settings": _settings(config, selection.evidence),
         "versions": versions(),
         **extra,

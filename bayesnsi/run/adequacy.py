@@ -1,0 +1,206 @@
+"""Model adequacy beside the evidence (issue 15): does the selected model explain the data?
+
+The posterior probabilities compare the candidates with each other; they say nothing when every
+candidate is wrong, and the evidence of one candidate can win while it predicts worse. For every
+identified candidate :func:`model_checks` reports
+
+* the open-loop reconstruction residual against the sensor noise, per output channel (noise from
+  high-order differences of the record, :func:`bayesnsi.nsi.white_noise_std`): a model that
+  explains the data leaves a residual near the noise (ratio ≈ 1; measured 1.0-1.1 for the true
+  model of the two- and three-DOF cases, 1.5-3.7 for the wrong ones);
+* the quality index, the largest |Im λ|/|Re λ| of its coefficients (small is good);
+* with ``[[validation]]`` segments, the mean closed-loop NRMSE over them and the mean log
+  predictive density per sample of the validation data under the plug-in Gaussian predictive
+  ``N(ŷ, σ̂_c²)``, ``σ̂_c`` the estimation residual rms of channel c (parameter uncertainty
+  left out).
+
+:func:`adequacy_warnings` turns them into the messages of :class:`~bayesnsi.exceptions.AdequacyWarning`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..exceptions import BayesNSIError
+
+__all__ = ["ModelCheck", "model_checks", "adequacy_warnings", "VALIDATION_TOLERANCE"]
+
+VALIDATION_TOLERANCE = 0.1
+"""The selected model "validates worse" when its validation NRMSE exceeds the best candidate's by more than this."""
+
+
+@dataclass(frozen=True)
+class ModelCheck:
+    """Adequacy figures of one identified candidate.
+
+    Attributes
+    ----------
+    name : str
+        Candidate name.
+    order : int
+        Order of its underlying linear model.
+    residual_rms, noise_std : tuple of float
+        Open-loop reconstruction residual rms and estimated sensor noise std per output channel.
+    noise_ratio : float
+        Largest ``residual_rms / noise_std`` over the channels.
+    adequate : bool
+        ``noise_ratio <= max_noise_ratio``: the residual is near the noise level.
+    quality_index : float or None
+        Largest |Im λ|/|Re λ| of its coefficients; None for a linear candidate.
+    quality_ok : bool
+        ``quality_index <= max_imag_ratio`` (True for a linear candidate).
+    validation_nrmse : float or None
+        Mean closed-loop NRMSE over the validation segments (inf when a simulation failed; None
+        without validation data).
+    validation_log_predictive : float or None
+        Mean log predictive density per sample of the validation data [nat] (module notes).
+    """
+
+    name: str
+    order: int
+    residual_rms: tuple[float, ...]
+    noise_std: tuple[float, ...]
+    noise_ratio: float
+    adequate: bool
+    quality_index: float | None
+    quality_ok: bool
+    validation_nrmse: float | None = None
+    validation_log_predictive: float | None = None
+
+    def to_dict(self) -> dict:
+        """JSON-ready record.
+
+        Returns
+        -------
+        dict
+            The fields.
+        """
+        return {
+            "order": self.order, "residual_rms": list(self.residual_rms), "noise_std": list(self.noise_std),
+            "noise_ratio": self.noise_ratio, "adequate": self.adequate, "quality_index": self.quality_index,
+            "quality_ok": self.quality_ok, "validation_nrmse": self.validation_nrmse,
+            "validation_log_predictive": self.validation_log_predictive,
+        }
+
+
+def _log_predictive(segments, sigma: np.ndarray) -> float | None:
+    """Mean over segments of ``Σ_c [-½ log 2πσ_c² - ½ rmse_c²/σ_c²]`` (nat per sample)."""
+    values = []
+    for seg in segments:
+        if seg.error is not None or not seg.rmse_per_channel:
+            return -math.inf
+        rmse = np.asarray(seg.rmse_per_channel, dtype=float)
+        values.append(float(np.sum(-0.5 * np.log(2 * np.pi * sigma**2) - 0.5 * rmse**2 / sigma**2)))
+    return float(np.mean(values)) if values else None
+
+
+def model_checks(
+    outcomes: Sequence, signals, validation: Mapping | None = None, *, max_noise_ratio: float = 1.3,
+    max_imag_ratio: float = 0.3,
+) -> dict[str, ModelCheck]:
+    """Adequacy figures of every identified candidate (module notes).
+
+    Parameters
+    ----------
+    outcomes : sequence of CandidateOutcome
+        What :func:`bayesnsi.run.run_candidates` gave; candidates without a model are left out.
+    signals : Signals
+        The estimation data.
+    validation : mapping of str to tuple of SegmentError, optional
+        Closed-loop errors of each candidate on the validation segments.
+    max_noise_ratio : float
+        Largest residual-to-noise ratio of an adequate model.
+    max_imag_ratio : float
+        Largest quality index |Im λ|/|Re λ| accepted.
+
+    Returns
+    -------
+    dict of str to ModelCheck
+    """
+    from ..nsi import white_noise_std
+
+    validation = validation or {}
+    noise = white_noise_std(np.asarray(signals.displacement, dtype=float))
+    noise = np.where(noise > 0, noise, np.finfo(float).tiny)
+    checks = {}
+    for outcome in outcomes:
+        result = outcome.result
+        if result is None:
+            continue
+        try:
+            residual = np.asarray(result.reconstruct(signals).residual, dtype=float)
+        except (BayesNSIError, np.linalg.LinAlgError):
+            continue
+        rms = np.sqrt(np.mean(residual**2, axis=0))
+        ratio = float(np.max(rms / noise))
+        quality = max((c.imag_ratio for c in result.coefficients), default=None)
+        segments = validation.get(outcome.name, ())
+        nrmse = None
+        if segments:
+            nrmse = float(np.mean([s.nrmse if s.nrmse is not None else math.inf for s in segments]))
+        checks[outcome.name] = ModelCheck(
+            name=outcome.name, order=int(result.order), residual_rms=tuple(float(v) for v in rms),
+            noise_std=tuple(float(v) for v in noise), noise_ratio=ratio, adequate=ratio <= max_noise_ratio,
+            quality_index=None if quality is None else float(quality),
+            quality_ok=quality is None or quality <= max_imag_ratio, validation_nrmse=nrmse,
+            validation_log_predictive=_log_predictive(segments, np.where(rms > 0, rms, noise)) if segments else None,
+        )
+    return checks
+
+
+def adequacy_warnings(
+    checks: Mapping[str, ModelCheck], selected: str | None, *, max_noise_ratio: float = 1.3,
+    max_imag_ratio: float = 0.3,
+) -> tuple[str, ...]:
+    """Messages of what the selection should not be trusted for (empty when nothing is wrong).
+
+    Parameters
+    ----------
+    checks : mapping of str to ModelCheck
+        From :func:`model_checks`.
+    selected : str or None
+        The selected candidate.
+    max_noise_ratio, max_imag_ratio : float
+        The thresholds the checks used (quoted in the messages).
+
+    Returns
+    -------
+    tuple of str
+        One message per failed check: the selected model fails the quality index; it validates
+        more than :data:`VALIDATION_TOLERANCE` worse than another candidate; no candidate's
+        residual is near the noise level; the candidates have linear parts of different orders.
+    """
+    out = []
+    chosen = checks.get(selected) if selected is not None else None
+    if chosen is not None and not chosen.quality_ok:
+        out.append(
+            f"the selected model {selected!r} fails the quality index: |Im|/|Re| = {chosen.quality_index:.3g} > "
+            f"{max_imag_ratio:g} (its coefficients are not constant over the band)"
+        )
+    if chosen is not None and chosen.validation_nrmse is not None:
+        others = {n: c.validation_nrmse for n, c in checks.items() if n != selected and c.validation_nrmse is not None}
+        if others:
+            best = min(others, key=lambda n: others[n])
+            if chosen.validation_nrmse > (1 + VALIDATION_TOLERANCE) * others[best]:
+                out.append(
+                    f"the selected model {selected!r} validates worse than {best!r}: closed-loop NRMSE "
+                    f"{chosen.validation_nrmse:.3g} against {others[best]:.3g} on the validation data"
+                )
+    if checks and not any(c.adequate for c in checks.values()):
+        best = min(checks, key=lambda n: checks[n].noise_ratio)
+        out.append(
+            f"no candidate is adequate: every residual is more than {max_noise_ratio:g}x the sensor noise "
+            f"(best {best!r}: {checks[best].noise_ratio:.2f}x); the probabilities only rank wrong models"
+        )
+    orders = sorted({c.order for c in checks.values()})
+    if len(orders) > 1:
+        detail = ", ".join(f"{n}: {c.order}" for n, c in checks.items())
+        out.append(
+            f"the candidates were compared on linear parts of different orders ({detail}); set [nsi] order to "
+            "one value to compare the nonlinear parts alone"
+        )
+    return tuple(out)

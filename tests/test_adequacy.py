@@ -1,0 +1,92 @@
+"""Model adequacy beside the evidence (issue 15): residual vs noise, quality index, validation, orders.
+
+References: the simulated two-DOF case (SPEC 8.1) whose true model is 20 v1|v1| at DOF 1 and
+whose output noise is 2 % of each channel's std: the true model's open-loop residual is at the
+noise level (measured ratio 1.0-1.1), a Coulomb-only or linear model's is not (1.5-2.4).
+"""
+
+import math
+import warnings
+
+import pytest
+
+from bayesnsi.exceptions import AdequacyWarning
+from bayesnsi.models import CandidateModel
+from bayesnsi.options import EvidenceOptions
+from bayesnsi.run.adequacy import ModelCheck, adequacy_warnings
+from bayesnsi.selection import select
+from bayesnsi.simulate import simulate_case
+
+FAST = EvidenceOptions(n_steps=200, n_burn=50, likelihood="white", compare=(), interval="posterior")
+
+
+def _check(name, ratio=1.0, quality=0.01, order=4, nrmse=None):
+    return ModelCheck(
+        name=name, order=order, residual_rms=(ratio,), noise_std=(1.0,), noise_ratio=ratio, adequate=ratio <= 1.3,
+        quality_index=quality, quality_ok=quality is None or quality <= 0.3, validation_nrmse=nrmse,
+    )
+
+
+def test_nothing_to_say_about_a_good_selection():
+    checks = {"a": _check("a", nrmse=0.10), "b": _check("b", ratio=2.0, nrmse=0.105)}
+    assert adequacy_warnings(checks, "a") == ()
+
+
+def test_each_warning_is_raised_by_its_own_failure():
+    quality = adequacy_warnings({"a": _check("a", quality=0.8)}, "a")
+    assert len(quality) == 1 and "quality index" in quality[0]
+    worse = adequacy_warnings({"a": _check("a", nrmse=0.2), "b": _check("b", nrmse=0.1)}, "a")
+    assert len(worse) == 1 and "validates worse than 'b'" in worse[0]
+    assert adequacy_warnings({"a": _check("a", nrmse=0.105), "b": _check("b", nrmse=0.1)}, "a") == ()  # within 10 %
+    nothing = adequacy_warnings({"a": _check("a", ratio=1.6), "b": _check("b", ratio=2.5)}, "a")
+    assert len(nothing) == 1 and "no candidate is adequate" in nothing[0] and "'a': 1.60x" in nothing[0]
+    orders = adequacy_warnings({"a": _check("a", order=10), "b": _check("b", order=12)}, "a")
+    assert len(orders) == 1 and "different orders" in orders[0] and "a: 10, b: 12" in orders[0]
+
+
+@pytest.fixture(scope="module")
+def two_dof():
+    case = simulate_case("two-dof", seed=0)
+    held_out = simulate_case("two-dof", seed=101)
+    return case, held_out
+
+
+def test_true_model_is_adequate_and_predicts_best(two_dof):
+    case, held_out = two_dof
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", AdequacyWarning)  # nothing to warn about
+        selection = select(case.signals, case.candidates[:2], case.recommended, FAST,
+                           validation=[("seed 101", held_out.signals)])
+    assert selection.selected == "model 1" and selection.warnings == ()
+    true, coulomb = selection.checks["model 1"], selection.checks["model 2"]
+    assert true.adequate and 0.8 < true.noise_ratio < 1.3
+    assert not coulomb.adequate
+    assert true.quality_ok and true.order == coulomb.order == 4
+    assert true.validation_nrmse < coulomb.validation_nrmse
+    assert true.validation_log_predictive > coulomb.validation_log_predictive
+    assert math.isfinite(true.validation_log_predictive)
+
+
+def test_no_candidate_fits_is_reported_inadequate(two_dof):
+    """Linear and Coulomb-only candidates for quadratic damping: neither reaches the noise level."""
+    case, _ = two_dof
+    candidates = [CandidateModel.from_terms("linear", []), case.candidates[1]]
+    with pytest.warns(AdequacyWarning, match="no candidate is adequate"):
+        selection = select(case.signals, candidates, case.recommended, FAST)
+    assert not any(c.adequate for c in selection.checks.values())
+    assert any("no candidate is adequate" in w for w in selection.warnings)
+
+
+def test_results_json_lists_the_warnings(two_dof, tmp_path):
+    from types import SimpleNamespace
+
+    from bayesnsi.io import selection_payload
+
+    case, _ = two_dof
+    candidates = [CandidateModel.from_terms("linear", []), case.candidates[1]]
+    with pytest.warns(AdequacyWarning):
+        selection = select(case.signals, candidates, case.recommended, FAST)
+    config = SimpleNamespace(path=tmp_path / "c.toml", raw={}, seed=0, nsi=case.recommended)
+    payload = selection_payload(selection, "select", config)
+    assert payload["warnings"] == list(selection.warnings) and payload["warnings"]
+    assert payload["candidates"][0]["model_check"]["adequate"] is False

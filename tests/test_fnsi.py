@@ -8,7 +8,7 @@ import warnings
 import numpy as np
 import pytest
 
-from bayesnsi.exceptions import BlockRowsError, ConfigError, InputDataError
+from bayesnsi.exceptions import ConfigError, InputDataError, OrderError
 from bayesnsi.models import Term
 from bayesnsi.nsi import identify
 from bayesnsi.options import NSIOptions
@@ -29,14 +29,14 @@ def _exact_frequencies() -> np.ndarray:
     return np.sort(np.abs(s[s.imag > 0]) / (2 * np.pi))
 
 
-def _record(seed: int = 0, rms: float = 5.0, noise: float = 2.0, k3: float = K3) -> Signals:
+def _record(seed: int = 0, rms: float = 5.0, noise: float = 2.0, k3: float = K3, kind: str = "full") -> Signals:
     """10 periods of a random-phase multisine (0.5-20 Hz) in steady state; 2 % output noise.
 
     The slowest mode decays as e^{-0.28 t}: one 10 s period leaves 6 % of the start transient, so
     four leading periods are simulated and dropped.
     """
     rng = np.random.default_rng(seed)
-    force = multisine(P, FS, (0.5, 20.0), rms, rng, n_periods=N_PERIODS + TRANSIENT)
+    force = multisine(P, FS, (0.5, 20.0), rms, rng, n_periods=N_PERIODS + TRANSIENT, kind=kind)
     response = simulate_response(*MCK, [2], force.fine, FS * force.oversample, force.oversample,
                                  CUBIC if k3 else [], [k3] if k3 else [])
     signals = Signals(force=response.force, displacement=add_output_noise(response.displacement, noise, rng),
@@ -84,8 +84,10 @@ def test_frequency_route_refuses_what_it_cannot_use(record):
                         output_dofs=(1, 2))
     with pytest.raises(InputDataError, match="period"):
         identify(aperiodic, CUBIC, NSIOptions(domain="frequency"))
-    with pytest.raises(BlockRowsError, match="block rows"):
-        identify(record, CUBIC, NSIOptions(domain="frequency", block_rows=200))
+    capped = identify(record, CUBIC, NSIOptions(domain="frequency", block_rows=200, order=4))
+    assert capped.settings["block_rows"] == capped.settings["n_lines"] // 4  # m + q + l = 4
+    with pytest.raises(OrderError, match="impossible"):
+        identify(record, CUBIC, NSIOptions(domain="frequency", band_hz=(0.5, 1.0), order=40))
     with pytest.raises(InputDataError, match="excited line"):
         identify(record, CUBIC, NSIOptions(domain="frequency", band_hz=(30.0, 40.0)))
     one_period = record.segment(0, P)
@@ -172,3 +174,16 @@ def test_accelerations_as_measured_periodic_config(tmp_path):
     assert abs(result.coefficient_values[0] / K3 - 1) < 0.005  # measured -0.30 %
     freqs = np.array([mode.frequency_hz for mode in result.modes])
     assert np.all(np.abs(freqs / _exact_frequencies() - 1) < 2e-4)  # measured 0.012 %, 0.013 %
+
+
+def test_random_odd_record_reports_power_at_unexcited_lines():
+    cubic = identify(_record(seed=2, rms=10.0, kind="random-odd"), CUBIC, NSIOptions(domain="frequency", order=4))
+    ratio = cubic.settings["unexcited_ratio"]
+    assert ratio["odd"][0] > 5.0  # odd nonlinearity at DOF 1: power at the unexcited odd lines
+    assert ratio["even"][0] < 2.0  # nothing even
+    assert abs(cubic.coefficient_values[0] / K3 - 1) < 0.01  # the excited (odd) lines suffice
+    linear_data = _record(seed=2, rms=10.0, k3=0.0, kind="random-odd")
+    ratio = identify(linear_data, None, NSIOptions(domain="frequency", order=4)).settings["unexcited_ratio"]
+    assert max(ratio["odd"] + ratio["even"]) < 2.0
+    full = identify(_record(seed=2), CUBIC, NSIOptions(domain="frequency", order=4))
+    assert full.settings["unexcited_ratio"] is None  # a full multisine leaves no line out

@@ -126,7 +126,7 @@ def subspace(data: LineData, block_rows: int, points=None):
     n_lines, n_in = U.shape
     n_out = Y.shape[1]
     r = int(block_rows)
-    if r * (n_in + n_out) > 2 * n_lines:
+    if r < 1 or r * (n_in + n_out) > 2 * n_lines:
         raise BlockRowsError(
             f"{r} block rows need at least {r * (n_in + n_out) // 2} lines, the band holds {n_lines} excited "
             f"lines; lower [nsi] block_rows to at most {max(1, 2 * n_lines // (n_in + n_out))} or widen the band"
@@ -271,7 +271,8 @@ def refine(data: LineData, Ac: np.ndarray, C: np.ndarray, zero_feedthrough: bool
 
     def unpack(theta):
         A = np.zeros_like(Ac)
-        for i, (sig, om) in enumerate(zip(-np.exp(theta[:n_pairs]), theta[n_pairs : 2 * n_pairs])):
+        damping = -np.exp(np.clip(theta[:n_pairs], -60.0, 20.0))
+        for i, (sig, om) in enumerate(zip(damping, theta[n_pairs : 2 * n_pairs])):
             A[2 * i : 2 * i + 2, 2 * i : 2 * i + 2] = [[sig, om], [-om, sig]]
         return A, theta[2 * n_pairs :].reshape(n_out, -1)
 
@@ -290,7 +291,7 @@ def refine(data: LineData, Ac: np.ndarray, C: np.ndarray, zero_feedthrough: bool
         fit = fitted(theta)
         sigma, G = fit["sigma"], fit["G"]
         X = np.einsum("kab,bj,kj->ka", fit["resolvent"], fit["B"], U)  # (zI-A)^-1 B U per line
-        sig = -np.exp(theta[:n_pairs])
+        sig = -np.exp(np.clip(theta[:n_pairs], -60.0, 20.0))
         columns = []
         for i in range(n_pairs):  # d/d log(-σ_i): σ_i ∂A/∂σ_i; d/dω_i: the rotation part
             a, b = 2 * i, 2 * i + 1
@@ -314,9 +315,9 @@ def refine(data: LineData, Ac: np.ndarray, C: np.ndarray, zero_feedthrough: bool
                         ftol=1e-7, xtol=1e-7)
     if not np.isfinite(fit.cost) or 2 * fit.cost >= cost0:
         return Ac, C
-    sigma, omega = np.exp(fit.x[:n_pairs]), np.abs(fit.x[n_pairs : 2 * n_pairs])
-    if np.any(sigma < _MIN_DAMPING * np.hypot(sigma, omega)):
-        return Ac, C  # a pole pushed onto the imaginary axis: keep the subspace model (stable) instead
+    sigma, omega = np.exp(np.clip(fit.x[:n_pairs], -60.0, 20.0)), np.abs(fit.x[n_pairs : 2 * n_pairs])
+    if np.any(sigma < _MIN_DAMPING * np.hypot(sigma, omega)) or np.any(sigma > 100 * np.abs(jw).max()):
+        return Ac, C  # a pole pushed onto the imaginary axis or far past the lines: keep the subspace model
     return unpack(fit.x)
 
 

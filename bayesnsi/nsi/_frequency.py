@@ -20,6 +20,7 @@ from ..options import NSIOptions
 from ..signals import Signals
 from . import _fnsi
 from .order import select_order
+from .periodic import best_linear_approximation
 from .physics import CoefficientEstimate, coefficient_spectrum, default_band, split_poles
 from .result import NSIResult
 from .statespace import StateSpaceModel
@@ -36,7 +37,8 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
         With ``period`` set; every whole period is used (drop a transient with ``segment``).
     cand : CandidateModel
     options : NSIOptions
-        ``block_rows`` (r, block rows of the frequency-domain data matrices), ``order``,
+        ``block_rows`` (r, block rows of the frequency-domain data matrices; lowered to
+        ``M/(m+q+l)`` for M lines), ``order``,
         ``max_order``, ``band_hz`` (fitted lines and λ band), ``zero_feedthrough``,
         ``velocity_method`` (only when the basis needs velocities and none are measured:
         spectral differentiation is used instead, exact for periodic data).
@@ -48,8 +50,11 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
     data = _fnsi.line_data(signals, cand.terms, options.velocity_method, options.band_hz)
     n_out = signals.displacement.shape[1]
     points, omega0 = _fnsi.bilinear_points(data.freqs_hz)
-    left, singular_values, (_, y_scale) = _fnsi.subspace(data, options.block_rows, points)
-    order = _order(options, singular_values, n_out)
+    # r(m+q+l) real rows against 2M columns: at most half of them, so that the projection off the
+    # inputs keeps room for the outputs (at the bound the fit fails: k3 24x off on 74 lines)
+    block_rows = min(int(options.block_rows), len(data.lines) // (data.inputs.shape[1] + n_out))
+    left, singular_values, (_, y_scale) = _fnsi.subspace(data, block_rows, points)
+    order = _order(options, singular_values, n_out, block_rows)
     Ac, C = _fnsi.continuous_ac(*_fnsi.system_ac(left, order, n_out, y_scale), omega0)
     Ac, reflected = _fnsi.stabilise_continuous(Ac)
     reflected = reflected[reflected.imag >= 0]  # one of each conjugate pair
@@ -91,7 +96,7 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
     band = tuple(float(b) for b in (options.band_hz or default_band(modes, signals.fs)))
     settings = dict(
         domain="frequency",
-        block_rows=int(options.block_rows),
+        block_rows=block_rows,
         order=order,
         band_hz=list(band),
         fit_band_hz=list(fit_band),
@@ -104,6 +109,7 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
         n_lines=int(len(data.lines)),
         reflected_poles_hz=[float(abs(p.imag) / (2 * np.pi)) for p in reflected],
         line_misfit=float(np.sqrt(np.mean(np.abs(residual) ** 2))),
+        unexcited_ratio=_unexcited_ratio(signals),
         n_samples=int(signals.n_samples),
         fs=signals.fs,
     )
@@ -112,7 +118,7 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
         model=model,
         singular_values=singular_values,
         order=order,
-        block_rows=int(options.block_rows),
+        block_rows=block_rows,
         input_dofs=tuple(signals.input_dofs),
         output_dofs=tuple(signals.output_dofs),
         band_hz=(float(band[0]), float(band[1])),
@@ -123,14 +129,27 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
     )
 
 
-def _order(options: NSIOptions, singular_values: np.ndarray, n_out: int) -> int:
-    limit = options.block_rows * n_out - 1
+def _unexcited_ratio(signals: Signals) -> dict | None:
+    """Median output power over its noise level at the unexcited odd / even lines (≈ 1: no distortion).
+
+    None with several forces or no unexcited line between the excited ones (a full multisine).
+    """
+    if signals.force.shape[1] != 1:
+        return None
+    ratios = best_linear_approximation([signals]).unexcited_ratio()
+    out = {k: [float(x) for x in v] for k, v in ratios.items() if np.all(np.isfinite(v))}
+    return out or None
+
+
+def _order(options: NSIOptions, singular_values: np.ndarray, n_out: int, block_rows: int) -> int:
+    limit = block_rows * n_out - 1
     if options.order == "auto":
         return select_order(singular_values, min(limit, options.max_order))
     if not 1 <= int(options.order) <= limit:
         raise OrderError(
-            f"order {options.order!r} is impossible with {options.block_rows} block rows and {n_out} outputs "
-            f"(1 ≤ n ≤ {limit}); lower the order or raise block_rows"
+            f"order {options.order!r} is impossible with {block_rows} block rows (at most {options.block_rows}; "
+            f"fewer when the band holds few lines) and {n_out} outputs (1 ≤ n ≤ {limit}); lower the order, "
+            "or widen the band"
         )
     return int(options.order)
 

@@ -123,7 +123,9 @@ def test_bayes_factors_and_probabilities_are_labelled():
     fig = plot_bayes_factors(decision_table(table, "ar1"), "a")
     xlabels, _ = _labelled(fig)
     assert xlabels == ["log Bayes factor of a against each candidate [nat]"]
-    bars = [p.get_width() for p in fig.axes[0].patches]
+    from matplotlib.container import BarContainer
+
+    bars = [p.get_width() for c in fig.axes[0].containers if isinstance(c, BarContainer) for p in c]
     assert bars == pytest.approx([3.5])  # b; c failed and is marked, not drawn
     assert _labelled(plot_model_probabilities(table))[1] == ["P(model | data)"]
 

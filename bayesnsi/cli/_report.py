@@ -288,7 +288,7 @@ def _answer_text(decision, selected, opts, role) -> str:
         if np.isfinite(bf["log_bayes_factor"]):
             text += (
                 f" Against the next best, {runner}: log Bayes factor {bf['log_bayes_factor']:.1f} "
-                f"± {bf['log_bayes_factor_se']:.1f} nat ({bf['strength']})."
+                f"± {bf['log_bayes_factor_se']:.2g} nat ({bf['strength']})."
             )
         else:
             text += f" Every other candidate failed ({runner} first)."
@@ -305,6 +305,9 @@ def _warnings(selection, selected, evidences, opts):
         )
     for message in getattr(selection, "warnings", ()) or ():  # adequacy warnings of the selection, if any
         yield str(message)
+    for outcome in selection.outcomes:
+        if outcome.error is not None:
+            yield f"{outcome.name}: {outcome.failed_stage or 'run'} failed - {outcome.error}"
     ev = evidences.get(selected, {}).get(opts.likelihood) if selected else None
     for message in getattr(ev, "warnings", ()) or ():
         yield f"{selected}: {message}"

@@ -61,8 +61,9 @@ def decision_table(table, likelihood: str, selected: str | None = None):
         Index: candidates, most probable first. Columns: ``probability``, ``probability_sd``,
         ``log_evidence``, ``log_evidence_se``, ``log_bayes_factor`` (selected against this
         candidate; 0 for the selected one, +inf against a failed one), ``log_bayes_factor_se``,
-        ``posterior_odds`` (``P(selected)/P(this)``), ``strength`` (:func:`evidence_strength`)
-        and, with the plain ranking, ``delta_log_likelihood_plain`` (selected minus this).
+        ``posterior_odds`` (``P(selected)/P(this)``), ``strength`` (:func:`evidence_strength`;
+        "failed (no evidence)" for a candidate without one) and, with the plain ranking,
+        ``delta_log_likelihood_plain`` (selected minus this).
 
     Raises
     ------
@@ -98,7 +99,10 @@ def decision_table(table, likelihood: str, selected: str | None = None):
             "log_bayes_factor": log_bf,
             "log_bayes_factor_se": bf_se,
             "posterior_odds": odds,
-            "strength": ["selected" if i == k else evidence_strength(v) for i, v in enumerate(log_bf)],
+            "strength": [
+                "selected" if i == k else evidence_strength(v) if np.isfinite(z) else "failed (no evidence)"
+                for i, (v, z) in enumerate(zip(log_bf, log_z))
+            ],
         },
         index=table.index,
     )

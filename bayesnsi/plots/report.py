@@ -46,11 +46,10 @@ def plot_bayes_factors(decision, selected: str, ax=None):
     ax.barh(y[finite], values[finite], xerr=2 * others["log_bayes_factor_se"].to_numpy(dtype=float)[finite],
             color="C0", capsize=3)
     for k in np.flatnonzero(~finite):
-        ax.annotate("∞ (failed)", (top, y[k]), ha="right", va="center", fontsize=8)
-    for bound, word in ((1.0, "positive"), (3.0, "strong"), (5.0, "very strong")):
-        ax.axvline(bound, color="0.6", ls=":", lw=1)
-        ax.annotate(f"{word} >", (bound, 1.0), xycoords=("data", "axes fraction"), fontsize=7, color="0.4",
-                    rotation=90, ha="right", va="top")
+        ax.annotate("  failed: no evidence (factor ∞)", (0.0, y[k]), ha="left", va="center", fontsize=8)
+    bands = ((1.0, 3.0, "positive", "#e8f0e8"), (3.0, 5.0, "strong", "#cfe3cf"), (5.0, top, "very strong", "#b3d4b3"))
+    for low, high, word, colour in bands:
+        ax.axvspan(low, high, color=colour, zorder=0, label=f"{word} (> {low:g} nat)")
     ax.set_yticks(y, [str(name) for name in others.index])
     ax.set_ylabel("candidate")
     ax.invert_yaxis()
@@ -58,6 +57,7 @@ def plot_bayes_factors(decision, selected: str, ax=None):
     ax.set_xlim(min(0.0, float(np.min(values[finite], initial=0.0)) * 1.15), top)
     ax.set_xlabel(f"log Bayes factor of {selected} against each candidate [nat]")
     ax.set_title("How sure: evidence for the selected model", fontsize=10)
+    ax.legend(fontsize=7, loc="lower right", framealpha=0.9, title="Kass and Raftery", title_fontsize=7)
     return fig
 
 

@@ -172,7 +172,7 @@ def identify(
     A, C_s = _subspace.system_matrices_ac(left, singular_values, order, stack.y.shape[1])
     eigenvalues = np.linalg.eigvals(A)
     radius = np.max(np.abs(eigenvalues))
-    if options.virtual_stiffness == "auto" and len(rigid_body_poles(eigenvalues, signals.dt, len(u))):
+    if options.virtual_stiffness == "auto" and _free_body_failure(eigenvalues, signals.dt, len(u)):
         # a free body: identify again with a known spring on the input (bayesnsi.nsi.free_body)
         fixed = options.replace(virtual_stiffness=auto_stiffness(measured))
         return identify(measured, cand, fixed, correlations=correlations)
@@ -240,6 +240,18 @@ def identify(
         settings=settings,
         rigid_body_poles=rigid,
     )
+
+
+def _free_body_failure(eigenvalues, dt: float, n_samples: int) -> bool:
+    """A rigid-body pole where the model would otherwise fail (unstable, or no physical mode).
+
+    Models that identify without it (an oscillatory structure with a slow real pole) are left alone.
+    """
+    if not len(rigid_body_poles(eigenvalues, dt, n_samples)):
+        return False
+    with np.errstate(divide="ignore", invalid="ignore"):
+        poles = np.log(np.asarray(eigenvalues, dtype=complex)) / dt
+    return bool(np.max(np.abs(eigenvalues)) >= 1.0 or not split_poles(poles, dt)[0])
 
 
 def _fixed_stiffness(options: NSIOptions) -> float:

@@ -17,6 +17,7 @@ __all__ = [
     "UnstableModelError",
     "OutputExistsError",
     "SchedulerError",
+    "LoopError",
     "BayesNSIWarning",
     "SpuriousPoleWarning",
     "ConvergenceWarning",
@@ -68,6 +69,10 @@ class OutputExistsError(BayesNSIError, FileExistsError):
 
 class SchedulerError(BayesNSIError, RuntimeError):
     """A Dask scheduler cannot be reached, or its workers cannot run this version of bayesnsi."""
+
+
+class LoopError(BayesNSIError, RuntimeError):
+    """Closing the loop cannot score its starting model or any effect (the reason is in the message)."""
 
 
 class BayesNSIWarning(UserWarning):

@@ -117,3 +117,37 @@ def test_loop_on_a_free_body_adds_coulomb_and_nothing_else(carriage):
     (phys,) = loop.final.physical_parameters
     assert phys.mass == pytest.approx(95.0, rel=0.02) and phys.damping == pytest.approx(200.0, rel=0.05)
     assert loop.final.coefficient_values[0] == pytest.approx(FC, rel=0.05)
+
+
+def test_loop_whose_scores_all_fail_stops_with_the_reason(carriage, monkeypatch):
+    from bayesnsi.diagnose import close_the_loop, scoring
+    from bayesnsi.exceptions import InputDataError, LoopError
+    from bayesnsi.models import CandidateModel
+    from bayesnsi.options import LoopOptions
+
+    def failing(result, signals, evidence):
+        if result.terms:
+            raise InputDataError("could not place the walkers (test)")
+        return real(result, signals, evidence)
+
+    real = scoring.laplace_score
+    monkeypatch.setattr(scoring, "laplace_score", failing)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(LoopError, match="could not place the walkers"):
+            close_the_loop(
+                carriage, CandidateModel(name="linear", terms=()), LoopOptions(refine_final=None, screen=2),
+                nsi=NSIOptions(block_rows=20, order=2),
+            )
+
+
+def test_loop_with_a_start_evidence_that_is_not_finite_says_so(carriage, monkeypatch):
+    from bayesnsi.diagnose import close_the_loop, search
+    from bayesnsi.exceptions import LoopError
+    from bayesnsi.models import CandidateModel
+
+    monkeypatch.setattr(search, "laplace_score", lambda *args: (float("nan"), float("nan")))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(LoopError, match="starting model 'linear' is nan"):
+            close_the_loop(carriage, CandidateModel(name="linear", terms=()), nsi=NSIOptions(block_rows=20, order=2))

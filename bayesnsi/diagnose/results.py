@@ -26,12 +26,15 @@ class EffectScore:
         Open-loop NRMSE of the enlarged model, NaN when not computed.
     result : NSIResult or None
         The enlarged model (None in :attr:`LoopResult.scores`, which keep the scores only).
+    error : str
+        Why the score is −inf (the identification or the evidence failed), else empty.
     """
 
     effect: Effect
     log_evidence: float
     nrmse: float = math.nan
     result: Any = field(default=None, repr=False, compare=False)
+    error: str = ""
 
     @property
     def term(self) -> Term:

@@ -78,9 +78,11 @@ def score_one(signals, candidate, effect: Effect, nsi: NSIOptions, evidence: Evi
             warnings.simplefilter("ignore", BayesNSIWarning)
             result = identify(signals, candidate.with_term(effect.term), nsi, correlations=correlations)
             score, error = laplace_score(result, signals, evidence)
-    except (BayesNSIError, np.linalg.LinAlgError):
-        return EffectScore(effect, -math.inf)
-    return EffectScore(effect, float(score) if np.isfinite(score) else -math.inf, float(error), result)
+    except (BayesNSIError, np.linalg.LinAlgError) as err:
+        return EffectScore(effect, -math.inf, error=f"{type(err).__name__}: {err}")
+    if not np.isfinite(score):
+        return EffectScore(effect, -math.inf, float(error), result, error=f"Laplace log-evidence is {score}")
+    return EffectScore(effect, float(score), float(error), result)
 
 
 def _score_task(context, effect):

@@ -21,12 +21,13 @@ The measurements behind the defaults of :class:`bayesnsi.options.LoopOptions` ar
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Sequence
 
 import numpy as np
 
-from ..exceptions import BayesNSIError, BayesNSIWarning, ConfigError
+from ..exceptions import BayesNSIError, BayesNSIWarning, ConfigError, LoopError
 from ..models import CandidateModel, default_gaps, effect_dictionary
 from ..models.dictionary import CLEARANCE, EFFECT_TYPES, Effect
 from ..nsi import identify
@@ -190,6 +191,10 @@ def close_the_loop_with(
     ------
     ConfigError
         When an options argument is not of its options class or an effect is not an Effect.
+    LoopError
+        When the starting model's evidence is not finite, or no effect scored against the current
+        model has a finite evidence (the message gives the first reason): the loop would otherwise
+        end silently with nothing added.
     """
     options = _checked(options, LoopOptions, "options")
     nsi = _checked(nsi, NSIOptions, "nsi")
@@ -206,7 +211,14 @@ def close_the_loop_with(
     top_hz = max([m.frequency_hz for m in start.modes] or [start.band_hz[1]])  # free bodies: no mode
     screen_hz = None if options.screen is None else SCREEN_BAND * top_hz
     context = LoopContext(signals, effects, nsi, evidence, options, execution, screen_hz)
-    state = LoopState(start, laplace_score(start, signals, evidence)[0], evidence.seed)
+    start_score = laplace_score(start, signals, evidence)[0]
+    if not np.isfinite(start_score):
+        raise LoopError(
+            f"the evidence of the starting model {start.candidate.name!r} is {start_score} "
+            f"(Laplace, {evidence.likelihood}); check the [evidence] priors (noise_floor, reference_force_rms) "
+            "against the residual"
+        )
+    state = LoopState(start, start_score, evidence.seed)
     while len(state.added) < options.max_steps and _step(context, state):
         pass
     final, final_nsi = _refined(context, state.current)
@@ -229,6 +241,14 @@ def _step(context: LoopContext, state: LoopState) -> bool:
     options = context.options
     scored = rank_effects(context, state.current.candidate, state.added)
     state.record_scores(scored)
+    tried = [s for s in scored if not math.isnan(s.log_evidence)]  # NaN: left out by the screen
+    if tried and not any(np.isfinite(s.log_evidence) for s in tried):
+        reasons = sorted({s.error for s in tried if s.error}) or ["no reason recorded"]
+        raise LoopError(
+            f"no effect of the {len(tried)} scored against {state.current.candidate.name!r} has a finite evidence, "
+            f"so the loop cannot decide anything: {reasons[0]}" + (f" (and {len(reasons) - 1} other reasons)"
+                                                                   if len(reasons) > 1 else "")
+        )
     if not scored or not np.isfinite(scored[0].log_evidence):
         return False
     baseline = state.baseline(context.signals)

@@ -16,6 +16,7 @@ from .cases import (
     two_dof,
 )
 from .excitation import Excitation, band_limited_gaussian, fft_interpolate, from_samples
+from .gvt import GVT_BAND_HZ, GVT_JOINT, GVT_SENSORS, GVT_SHAKER, GVTRecord, gvt_records, gvt_structure
 from .integrate import Response, add_output_noise, rk4_modal_error, simulate_response
 from .multisine import multisine, multisine_lines
 from .records import CaseSetup
@@ -38,6 +39,14 @@ __all__ = [
     "fft_interpolate",
     "multisine",
     "multisine_lines",
+    # simulated ground vibration test (periodic, issue 17)
+    "GVTRecord",
+    "gvt_records",
+    "gvt_structure",
+    "GVT_BAND_HZ",
+    "GVT_JOINT",
+    "GVT_SENSORS",
+    "GVT_SHAKER",
     # integration
     "Response",
     "simulate_response",

@@ -151,3 +151,18 @@ def test_loop_with_a_start_evidence_that_is_not_finite_says_so(carriage, monkeyp
         warnings.simplefilter("ignore")
         with pytest.raises(LoopError, match="starting model 'linear' is nan"):
             close_the_loop(carriage, CandidateModel(name="linear", terms=()), nsi=NSIOptions(block_rows=20, order=2))
+
+
+def test_asymmetric_friction_types_act_in_one_direction_and_are_not_default():
+    from bayesnsi.models.dictionary import DEFAULT_EFFECT_TYPES, effect_dictionary
+
+    effects = {e.name: e for e in effect_dictionary([1], types=["sign(v)", "sign(v)+", "v+"])}
+    v = np.array([[-0.2, -0.1, 0.1, 0.3]])
+    x = np.zeros_like(v)
+    np.testing.assert_allclose(effects["sign(v)+"].term.evaluate(x, v), [0.0, 0.0, 1.0, 1.0])
+    np.testing.assert_allclose(effects["v+"].term.evaluate(x, v), [0.0, 0.0, 0.1, 0.3])
+    # Fc+ = 25 N forwards, Fc- = 15 N backwards: λ_sign = 15, λ_sign+ = 10
+    force = 15.0 * effects["sign(v)"].term.evaluate(x, v) + 10.0 * effects["sign(v)+"].term.evaluate(x, v)
+    np.testing.assert_allclose(force, [-15.0, -15.0, 25.0, 25.0])
+    assert "sign(v)+" not in DEFAULT_EFFECT_TYPES and "v+" not in DEFAULT_EFFECT_TYPES
+    assert len(effect_dictionary([1])) == len(DEFAULT_EFFECT_TYPES)

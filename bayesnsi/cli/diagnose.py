@@ -74,6 +74,9 @@ def run(args) -> int:
                 "nrmse_after": step.nrmse_after,
                 "closed_loop_nrmse_before": step.closed_loop_nrmse_before,
                 "closed_loop_nrmse_after": step.closed_loop_nrmse_after,
+                "error_quantity": step.error_quantity,
+                "short_horizon_nrmse_before": step.short_horizon_nrmse_before,
+                "short_horizon_nrmse_after": step.short_horizon_nrmse_after,
             }
         )
         progress(f"{'added' if step.accepted else 'rejected'} {step.term.name}: {step.reason}", args.quiet)

@@ -23,7 +23,7 @@ import numpy as np
 from ..evidence import candidate_evidence
 from ..exceptions import BayesNSIError, BayesNSIWarning, BlockRowsError
 from ..models import CandidateModel, Term
-from ..nsi import identify, is_free_body
+from ..nsi import identify, is_free_body, short_horizon_nrmse
 from .forces import residual_force
 from .results import EffectScore, LoopStep
 from .scoring import shared_correlations
@@ -179,6 +179,7 @@ def check_effect(context: LoopContext, entry: EffectScore, baseline: Baseline, s
         nrmse_before=baseline.nrmse,
         nrmse_after=float(entry.nrmse) if np.isfinite(entry.nrmse) else trial.reconstruct(signals).nrmse,
         candidate=trial.candidate,
+        error_quantity="force" if is_free_body(trial) else "displacement",
     )
     return Verdict(step, float(entry.log_evidence), intervals, quality_only)
 
@@ -195,9 +196,25 @@ def _closed_loop_nrmse(result, signals) -> float:
 
 def documented(step: LoopStep, before, after, signals) -> LoopStep:
     """``step`` with its closed-loop errors and residual-force view (accepted steps, docs/method.md §7)."""
+    free = {}
+    if is_free_body(after):  # open-loop simulation drifts: windows of one second instead
+        horizon = max(4, int(round(signals.fs)))
+        free = dict(
+            short_horizon_nrmse_before=_short_horizon(before, signals, horizon),
+            short_horizon_nrmse_after=_short_horizon(after, signals, horizon),
+        )
     return replace(
         step,
         closed_loop_nrmse_before=_closed_loop_nrmse(before, signals),
         closed_loop_nrmse_after=_closed_loop_nrmse(after, signals),
         residual_force=residual_force(before, after, signals, step.term),
+        **free,
     )
+
+
+def _short_horizon(result, signals, horizon: int) -> float:
+    """Short-horizon simulation NRMSE, NaN when it cannot be computed."""
+    try:
+        return short_horizon_nrmse(result, signals, horizon)
+    except (BayesNSIError, np.linalg.LinAlgError):
+        return float("nan")

@@ -82,6 +82,12 @@ class LoopStep:
     residual_force : ResidualForce or None
         The residual of the models without and with the effect as a force at its location
         (:func:`bayesnsi.diagnose.forces.residual_force`); accepted steps only.
+    error_quantity : str
+        What ``nrmse_before``/``nrmse_after`` measure: "displacement" (open-loop reconstruction),
+        or "force" for a free body (the force predicted from the measured motion, IDIM view).
+    short_horizon_nrmse_before, short_horizon_nrmse_after : float
+        Free bodies, accepted steps: displacement NRMSE of simulations over windows of 1 s
+        (:func:`bayesnsi.nsi.short_horizon_nrmse`), which replace the long simulation that drifts.
     """
 
     effect: Effect
@@ -98,6 +104,9 @@ class LoopStep:
     closed_loop_nrmse_before: float = math.nan
     closed_loop_nrmse_after: float = math.nan
     residual_force: ResidualForce | None = None
+    error_quantity: str = "displacement"
+    short_horizon_nrmse_before: float = math.nan
+    short_horizon_nrmse_after: float = math.nan
 
     @property
     def term(self) -> Term:

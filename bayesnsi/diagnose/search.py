@@ -29,7 +29,7 @@ import numpy as np
 
 from ..exceptions import BayesNSIError, BayesNSIWarning, ConfigError, LoopError
 from ..models import CandidateModel, default_gaps, effect_dictionary
-from ..models.dictionary import CLEARANCE, EFFECT_TYPES, Effect
+from ..models.dictionary import CLEARANCE, DEFAULT_EFFECT_TYPES, EFFECT_TYPES, Effect
 from ..nsi import identify
 from ..options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions
 from .guards import check_effect, documented
@@ -53,7 +53,8 @@ def loop_effects(signals, names=None) -> list[Effect]:
         Estimation data (its output DOFs, and their displacement spread for the clearance gaps).
     names : sequence of str, optional
         Keys of :data:`bayesnsi.models.EFFECT_TYPES` and ``"clearance"`` (``LoopOptions.effects``);
-        default every type. Clearances are tried at each measured DOF with gaps of 0.5, 1 and 1.5
+        default :data:`bayesnsi.models.dictionary.DEFAULT_EFFECT_TYPES` and clearances. Clearances
+        are tried at each measured DOF with gaps of 0.5, 1 and 1.5
         displacement standard deviations (refined when one ranks among the best).
 
     Returns
@@ -65,7 +66,7 @@ def loop_effects(signals, names=None) -> list[Effect]:
     ConfigError
         For a name that is neither an effect type nor ``"clearance"``.
     """
-    names = (*EFFECT_TYPES, CLEARANCE) if names is None else tuple(names)
+    names = (*DEFAULT_EFFECT_TYPES, CLEARANCE) if names is None else tuple(names)
     unknown = [n for n in names if n != CLEARANCE and n not in EFFECT_TYPES]
     if unknown:
         raise ConfigError(f"[diagnose] effects: unknown type(s) {unknown}; choose from {[*EFFECT_TYPES, CLEARANCE]}")

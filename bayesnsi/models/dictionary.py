@@ -13,6 +13,7 @@ from .terms import Term
 __all__ = [
     "CLEARANCE",
     "EFFECT_TYPES",
+    "DEFAULT_EFFECT_TYPES",
     "Effect",
     "clearance_effect",
     "clearance_expression",
@@ -28,8 +29,19 @@ EFFECT_TYPES: dict[str, str] = {
     "v|v|": "{v}*abs({v})",
     "v^3": "{v}**3",
     "x^2 sign(v)": "{x}**2*sign({v})",
+    "sign(v)+": "(1+sign({v}))/2",
+    "v+": "{v}*(1+sign({v}))/2",
 }
-"""Effect types: name -> expression template in the displacement ``{x}`` and velocity ``{v}``."""
+"""Effect types: name -> expression template in the displacement ``{x}`` and velocity ``{v}``.
+
+``sign(v)+`` and ``v+`` act in the positive direction of motion only: beside ``sign(v)`` (or a
+viscous damper) they make friction asymmetric, ``F+`` moving forwards and ``F-`` backwards with
+``λ_sign = F-`` and ``λ_sign+ = F+ - F-``. Asymmetric Coulomb friction differs from a constant force
+(an offset) only while the body is at rest, so on records that seldom stop (or with the means
+removed) the two cannot be told apart. They are not in :data:`DEFAULT_EFFECT_TYPES`."""
+
+DEFAULT_EFFECT_TYPES: tuple[str, ...] = ("x^2", "x|x|", "x^3", "sign(v)", "v|v|", "v^3", "x^2 sign(v)")
+"""The types a dictionary holds unless others are asked for (``[diagnose] effects``)."""
 
 CLEARANCE = "clearance"
 """Type of a clearance (dead-zone) spring, whose gap is a parameter (:func:`clearance_effect`)."""
@@ -122,7 +134,7 @@ def clearance_effect(at, gap: float) -> Effect:
 
 def effect_dictionary(
     measured_dofs: Sequence[int],
-    types: Iterable[str] = tuple(EFFECT_TYPES),
+    types: Iterable[str] = DEFAULT_EFFECT_TYPES,
     gaps: dict[tuple[int, ...], Sequence[float]] | None = None,
     pairs: Sequence[tuple[int, int]] | None = None,
 ) -> list[Effect]:

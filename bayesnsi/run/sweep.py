@@ -14,7 +14,7 @@ from collections.abc import Iterable, Sequence
 
 from ..exceptions import ConfigError
 from ..models import CandidateModel, Term
-from ..models.dictionary import EFFECT_TYPES, effect_dictionary
+from ..models.dictionary import DEFAULT_EFFECT_TYPES, EFFECT_TYPES, effect_dictionary
 
 __all__ = ["MAX_CANDIDATES", "count_subsets", "dictionary_candidates", "subset_candidates"]
 
@@ -86,7 +86,7 @@ def subset_candidates(
 
 def dictionary_candidates(
     dofs: Sequence[int],
-    types: Iterable[str] = tuple(EFFECT_TYPES),
+    types: Iterable[str] = DEFAULT_EFFECT_TYPES,
     max_terms: int = 2,
     min_terms: int = 0,
     pairs: Sequence[tuple[int, int]] | None = None,

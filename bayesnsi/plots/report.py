@@ -63,7 +63,7 @@ def plot_bayes_factors(decision, selected: str, ax=None):
 
 def plot_reconstruction(reconstructions, fs: float, channel: int = 0, units=None, max_samples: int = 400,
                         channel_name: str | None = None):
-    """Measured response against each candidate's open-loop reconstruction, and the errors.
+    """Measured response against each candidate's open-loop reconstruction, and the errors (paper Figs. 9, 13).
 
     Parameters
     ----------
@@ -88,9 +88,11 @@ def plot_reconstruction(reconstructions, fs: float, channel: int = 0, units=None
     """
     units = units or ChannelUnits()
     n = len(reconstructions)
+    height = 2.4 + 1.35 * n  # fixed margins [in] (constrained layout costs more than the drawing)
     fig, axes = plt.subplots(
-        n + 1, 1, figsize=(7.0, 2.2 + 1.3 * n), sharex=True, squeeze=False, layout="constrained",
-        gridspec_kw={"height_ratios": [2.2] + [1.0] * n},
+        n + 1, 1, figsize=(7.0, height), sharex=True, squeeze=False,
+        gridspec_kw={"height_ratios": [2.2] + [1.0] * n, "left": 0.85 / 7.0, "right": 1 - 0.15 / 7.0,
+                     "top": 1 - 0.35 / height, "bottom": 0.5 / height, "hspace": 0.45},
     )
     first = next(iter(reconstructions.values()))
     shown = slice(0, min(int(max_samples), len(first.measured)))

@@ -128,3 +128,18 @@ def test_docstrings_and_help_cite_no_private_spec():
     cited = {int(s) for _, doc in _public_docstrings() for s in re.findall(r"docs/method\.md §(\d+)", doc)}
     method = (Path(__file__).resolve().parents[1] / "docs" / "method.md").read_text(encoding="utf-8")
     assert cited and all(f"## §{k} " in method for k in cited), sorted(cited)
+
+
+def test_loop_settings_are_command_line_flags():
+    from bayesnsi.cli import build_parser
+    from bayesnsi.cli._common import option_overrides
+    from bayesnsi.options import LoopOptions
+
+    args = build_parser().parse_args([
+        "diagnose", "c.toml", "--out", "o", "--stability-factor", "2.5", "--n-tries", "5", "--max-imag-ratio", "0.2",
+        "--residual", "innovations", "--refine-final", "none",
+    ])
+    options = option_overrides(LoopOptions(threshold=3.0), args)
+    assert (options.stability_factor, options.n_tries, options.max_imag_ratio) == (2.5, 5, 0.2)
+    assert options.residual == "innovations" and options.refine_final is None
+    assert options.threshold == 3.0  # a flag not given keeps the config's value

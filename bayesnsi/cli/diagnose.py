@@ -22,7 +22,11 @@ def add_parser(sub) -> None:
     )
     add_run_arguments(p)
     p.add_argument("--start", default=None, help="candidate to start from (default: the selected one)")
-    add_option_flags(p, LoopOptions, ("max_steps", "threshold", "screen"))
+    add_option_flags(
+        p, LoopOptions,
+        ("max_steps", "threshold", "screen", "residual", "max_imag_ratio", "stability_factor", "n_tries",
+         "refine_final"),
+    )
     p.set_defaults(run=run)
 
 

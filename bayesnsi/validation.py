@@ -40,6 +40,9 @@ class SegmentError:
         RMS error of each output channel.
     error : str or None
         Why the closed-loop simulation failed (diverged, unstable), else None.
+    quantity : str
+        What the errors measure: "displacement" (closed-loop simulation), or "force" for a free
+        body (the force predicted from the measured motion, whose open-loop simulation drifts).
     """
 
     name: str
@@ -47,10 +50,11 @@ class SegmentError:
     nrmse: float | None
     rmse_per_channel: tuple[float, ...] = ()
     error: str | None = None
+    quantity: str = "displacement"
 
     def to_dict(self) -> dict:
         """Plain-data form, as written to results.json."""
-        out: dict[str, object] = {"name": self.name, "rmse": self.rmse, "nrmse": self.nrmse}
+        out: dict[str, object] = {"name": self.name, "rmse": self.rmse, "nrmse": self.nrmse, "quantity": self.quantity}
         if self.error is None:
             out["rmse_per_channel"] = list(self.rmse_per_channel)
         else:
@@ -72,10 +76,22 @@ def validate(result, segments) -> tuple[SegmentError, ...]:
     -------
     tuple of SegmentError
         One per segment. The first :data:`VALIDATION_INIT_SAMPLES` samples fix the initial state;
-        the errors are computed on the rest.
+        the errors are computed on the rest. A free body (:func:`bayesnsi.nsi.is_free_body`) is
+        judged by the force it predicts from the measured motion instead (``quantity="force"``,
+        :func:`bayesnsi.nsi.force_prediction`; the means removed from the data stay removed).
     """
+    from .nsi import force_prediction, is_free_body
+
     out = []
     for name, signals in segments:
+        if is_free_body(result):
+            try:
+                fp = force_prediction(result, signals)
+            except BayesNSIError as err:
+                out.append(SegmentError(name, None, None, error=str(err), quantity="force"))
+                continue
+            out.append(SegmentError(name, fp.rmse, fp.nrmse, (fp.rmse,), quantity="force"))
+            continue
         try:
             rec = result.reconstruct(signals, closed_loop=True, n_init=VALIDATION_INIT_SAMPLES)
         except BayesNSIError as err:

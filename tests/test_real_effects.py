@@ -166,3 +166,14 @@ def test_asymmetric_friction_types_act_in_one_direction_and_are_not_default():
     np.testing.assert_allclose(force, [-15.0, -15.0, 25.0, 25.0])
     assert "sign(v)+" not in DEFAULT_EFFECT_TYPES and "v+" not in DEFAULT_EFFECT_TYPES
     assert len(effect_dictionary([1])) == len(DEFAULT_EFFECT_TYPES)
+
+
+def test_validation_of_a_free_body_is_its_force_prediction(carriage):
+    from bayesnsi.validation import validate
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        coulomb = identify(carriage, [("sign(v1)", 1)], NSIOptions(block_rows=20, order=2))
+    (error,) = validate(coulomb, [("second half", carriage.segment(3000, 6000))])
+    assert error.quantity == "force" and error.to_dict()["quantity"] == "force"
+    assert 0 < error.nrmse < 0.1

@@ -91,7 +91,9 @@ def identify(
     options : NSIOptions, optional
         Block rows, order, estimators of B, C, D, grid refinement, band (defaults:
         ``NSIOptions()``; each field is described there, measurements behind the choices in
-        ``docs/measurements.md``).
+        ``docs/measurements.md``). ``domain="frequency"`` identifies a periodic record
+        (``signals.period`` set) on its excited lines instead (FNSI, :mod:`._frequency`): the
+        same result object, with ``settings["domain"] == "frequency"``.
     correlations : HankelCorrelations, optional
         Lagged products of a candidate whose terms this one's start with
         (:func:`hankel_correlations`, same data and settings): only the products of the added

@@ -29,7 +29,7 @@ import pandas as pd
 if TYPE_CHECKING:
     from .nsi import NSIResult
 
-__all__ = ["modes_table", "coefficients_table", "modes_frame", "coefficients_frame"]
+__all__ = ["modes_table", "coefficients_table", "modes_frame", "coefficients_frame", "physical_table"]
 
 
 def _match(identified: np.ndarray, exact: np.ndarray) -> list[int | None]:
@@ -180,3 +180,31 @@ def coefficients_frame(result: NSIResult) -> pd.DataFrame:
         },
         index=pd.Index([c.term.name for c in result.coefficients], name="term"),
     )
+
+
+def physical_table(results: Mapping[str, NSIResult]) -> pd.DataFrame:
+    """Mass, viscous damping and stiffness of one-DOF candidates, and their rigid-body poles.
+
+    The lumped parameters come from the identified FRF (:attr:`NSIResult.physical_parameters`,
+    any virtual spring of a free body removed); models with more DOFs have none and are left out.
+
+    Parameters
+    ----------
+    results : mapping of str to NSIResult
+        Candidate name -> its identified model.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Rows: mass [kg], viscous damping [N s/m], stiffness [N/m], rigid-body poles; one column per
+        one-DOF candidate (empty when there is none).
+    """
+    data = {}
+    for name, res in results.items():
+        if not res.physical_parameters:
+            continue
+        (phys,) = res.physical_parameters
+        poles = ", ".join(f"{p.real:.3g}" for p in res.rigid_body_poles) or "-"
+        data[name] = [phys.mass, phys.damping, phys.stiffness, poles]
+    index = ["mass [kg]", "viscous damping [N s/m]", "stiffness [N/m]", "rigid-body poles s [1/s]"]
+    return pd.DataFrame(data, index=index)

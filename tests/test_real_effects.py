@@ -177,3 +177,14 @@ def test_validation_of_a_free_body_is_its_force_prediction(carriage):
     (error,) = validate(coulomb, [("second half", carriage.segment(3000, 6000))])
     assert error.quantity == "force" and error.to_dict()["quantity"] == "force"
     assert 0 < error.nrmse < 0.1
+
+
+def test_physical_table_lists_one_dof_models_with_their_rigid_body_pole(carriage):
+    from bayesnsi.tables import physical_table
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        coulomb = identify(carriage, [("sign(v1)", 1)], NSIOptions(block_rows=20, order=2))
+    table = physical_table({"Coulomb": coulomb})
+    assert table.loc["mass [kg]", "Coulomb"] == pytest.approx(95.0, rel=0.02)
+    assert table.loc["rigid-body poles s [1/s]", "Coulomb"] != "-"

@@ -14,7 +14,7 @@ from ..io import versions
 from ..io.report import Report
 from ..io.units import ChannelUnits
 from ..nsi import stabilization
-from ..tables import coefficients_table, modes_table
+from ..tables import coefficients_table, modes_table, physical_table
 from ._report_tables import adequacy_frame, decision_frame, probability_text, ranking_frame, summary_frame
 
 __all__ = [
@@ -107,6 +107,10 @@ def identification_report(config, signals, results, records, title, report=None,
     tables = report.section("Identified models (paper Tables 3-4, 6-7, 9-10)", MODELS)
     tables.append("Natural frequencies and damping ratios of each candidate's underlying linear model.")
     tables.append(modes_table(results, exact_f, exact_z))
+    physical = physical_table(results)
+    if not physical.empty:  # one-DOF models (e.g. a free body, whose rigid-body pole is no mode)
+        tables.append("Lumped parameters of the one-DOF models from the identified FRF (1/H = K - Mω² + jωC).")
+        tables.append(physical)
     if any(r.terms for r in results.values()):
         tables.append(
             "Nonlinear coefficients: the NSI estimate (mean real part of λ(ω) over the band of the modes) and its "

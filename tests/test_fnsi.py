@@ -187,3 +187,16 @@ def test_random_odd_record_reports_power_at_unexcited_lines():
     assert max(ratio["odd"] + ratio["even"]) < 2.0
     full = identify(_record(seed=2), CUBIC, NSIOptions(domain="frequency", order=4))
     assert full.settings["unexcited_ratio"] is None  # a full multisine leaves no line out
+
+
+def test_the_loop_closes_on_the_frequency_route(record):
+    """diagnose works unchanged: from the linear model it adds the cubic spring at DOF 1 and stops."""
+    from bayesnsi.diagnose import close_the_loop
+    from bayesnsi.models import CandidateModel
+    from bayesnsi.options import EvidenceOptions, LoopOptions
+
+    loop = close_the_loop(record, CandidateModel(name="linear", terms=()), LoopOptions(max_steps=2),
+                          nsi=NSIOptions(domain="frequency", order=4), evidence=EvidenceOptions(n_steps=200, n_burn=50))
+    assert [t.name for t in loop.final.terms] == [CUBIC[0].name]
+    assert loop.final.settings["domain"] == "frequency"
+    assert abs(loop.final.coefficient_values[0] / K3 - 1) < 0.01

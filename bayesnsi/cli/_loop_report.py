@@ -31,7 +31,7 @@ def _where(effect) -> str:
     return f"DOF {location[0]}" if len(location) == 1 else f"between DOFs {location[0]} and {location[1]}"
 
 
-def loop_sections(report, signals, loop, payload, units, has_validation: bool) -> None:
+def loop_sections(report, signals, loop, payload, units, has_validation: bool, final_evidence=None) -> None:
     """The answer of the loop (what was added) and its section: steps in order, errors, final model, forces.
 
     Parameters
@@ -44,6 +44,8 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool) -
     units : ChannelUnits
     has_validation : bool
         Whether the config has ``[[validation]]`` segments.
+    final_evidence : EvidenceResult, optional
+        Evidence of the final model (when the loop added an effect): its posterior comes first.
     """
     import pandas as pd
 
@@ -126,6 +128,16 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool) -
         section.append("Coefficients of the final model (NSI estimate; quality index |Im|/|Re|)." + note)
         frame = pd.DataFrame(payload["final_coefficients"]).set_index("term")
         section.append(frame.rename(columns={"value": "coefficient λ", "imag_ratio": "|Im|/|Re|"}))
+    if added:
+        from ..plots import plot_reconstruction
+
+        recs = {f"start: {start_name}": loop.start.reconstruct(signals), "final model": loop.final.reconstruct(signals)}
+        name = signals.output_names[0] if getattr(signals, "output_names", None) else f"x{signals.output_dofs[0]}"
+        fig = plot_reconstruction(recs, signals.fs, 0, units=units, channel_name=name)
+        fig.set_label(f"Measured {name} against the starting and the final model (open loop), with the errors")
+        section.append(fig)
+    if final_evidence is not None:
+        _final_posterior(report, loop, final_evidence)
     for step in added:
         fig = plot_effect_force(step, signals, units=units)
         fig.set_label(
@@ -134,3 +146,26 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool) -
             "(red), against displacement and velocity"
         )
         section.append(fig)
+
+
+def _final_posterior(report, loop, evidence) -> None:
+    """The final model's coefficient posterior, first in the posterior section."""
+    from ..plots import plot_posterior_pairs, plot_traces
+    from ._report import POSTERIOR
+    from ._report_tables import summary_frame
+
+    post = report.section("Coefficient posteriors", POSTERIOR)
+    terms = ", ".join(t.name for t in loop.final.terms)
+    post.append(f"Final model of the loop ({terms}) - log evidence {evidence.log_evidence:,.1f} ± "
+                f"{evidence.log_evidence_se:.2g} nat; priors: {evidence.priors_text.replace(chr(10), '; ')}")
+    post.append(summary_frame(evidence.summary))
+    for message in evidence.warnings:
+        post.append(("warning", message))
+    if evidence.posterior.coefficients.shape[-1]:
+        fig = plot_posterior_pairs(evidence.posterior)
+        fig.set_label("Posterior of the coefficients, final model of the loop (arviz-plots)")
+        post.append(fig)
+        fig = plot_traces(evidence.posterior)
+        fig.set_label("Traces of six walkers, final model of the loop (arviz-plots)")
+        post.append(fig)
+    post.append("The candidates of the config, as selected before the loop:")

@@ -99,20 +99,40 @@ def run(args) -> int:
         validation=[e.to_dict() for e in validate(loop.final, validation)],
     )
     payload["settings"]["loop"] = to_jsonable(loop.settings)
-    payload["posterior_files"] = write_posteriors(out, selection.evidences, selection.likelihood)
+    posteriors = dict(selection.evidences)
+    final_evidence = _final_evidence(loop, signals, selection.evidence)
+    if final_evidence is not None:  # the model the loop ends with, not only the one it started from
+        final_name = "final: " + " + ".join(t.name for t in loop.final.terms)
+        posteriors[final_name] = {selection.likelihood: final_evidence}
+        payload["final_evidence"] = to_jsonable(final_evidence.to_dict())
+    payload["posterior_files"] = write_posteriors(out, posteriors, selection.likelihood)
     payload["loop_scores"] = [[_score_record(row) for row in search] for search in loop.scores]
     if not args.no_figures:
         units = report_units(config)
         report = identification_report(
             config, signals, results, payload["candidates"], f"bayesnsi diagnose - {config.path.name}", units=units
         )
-        loop_sections(report, signals, loop, payload, units, has_validation=bool(validation))
+        loop_sections(report, signals, loop, payload, units, has_validation=bool(validation),
+                      final_evidence=final_evidence)
         role = "Starting model" if start != selection.selected else "Starting model, the one selected"
         selection_sections(report, signals, selection, start, units, role)
         progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
     path = atomic_write_json(out / RESULTS_FILENAME, payload)  # last: a complete folder, or a rerun resumes
     progress(f"wrote {path}", args.quiet)
     return 0
+
+
+def _final_evidence(loop, signals, evidence):
+    """Evidence (primary likelihood) of the loop's final model when the loop added an effect, else None."""
+    if not loop.added or evidence is None:
+        return None
+    import numpy as np
+
+    from ..evidence import candidate_evidence
+
+    options = evidence.replace(compare=())
+    seeds = np.random.SeedSequence(options.seed)
+    return candidate_evidence(loop.final, signals, options, seeds, warn=False)[options.likelihood]  # warnings shown
 
 
 def _effect_record(effect) -> dict:

@@ -24,7 +24,7 @@ CHROMIUM = os.environ.get("BAYESNSI_CHROMIUM") or shutil.which("chromium") or sh
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
 WIDTH = 1100  # a laptop window narrower than the report's 1100 px column plus margins
 
-pytestmark = pytest.mark.skipif(
+needs_chromium = pytest.mark.skipif(
     CHROMIUM is None, reason="no chromium found (apt-get install chromium, or set BAYESNSI_CHROMIUM)"
 )
 
@@ -114,6 +114,7 @@ def _facts(path: Path) -> dict:
     return _with_playwright(path)
 
 
+@needs_chromium
 @pytest.mark.parametrize("command", ["select", "diagnose"])
 def test_report_reads_cleanly_in_chromium(reports, command):
     facts = _facts(reports[command])
@@ -127,7 +128,24 @@ def test_report_reads_cleanly_in_chromium(reports, command):
         assert any(alt.startswith("Restoring-force view of sign(v) at DOF 2") for alt in facts["alts"]), facts["alts"]
 
 
+@needs_chromium
 def test_dump_dom_fallback_agrees(reports):
     """The fallback without playwright finds the same (no errors, no broken images, nothing too wide)."""
     facts = _with_dump_dom(reports["select"])
     assert facts["errors"] == [] and facts["broken"] == [] and facts["wide"] == [], facts
+
+
+def test_diagnose_reports_and_saves_the_final_model(reports):
+    """The loop's final model, not only the starting one: its posterior file, evidence and overlay."""
+    from bayesnsi.io.posterior import read_posterior
+
+    folder = reports["diagnose"].parent
+    results = json.loads((folder / "results.json").read_text())
+    final = [name for name in results["posterior_files"] if name.startswith("final: ")]
+    assert final == ["final: v1*abs(v1)@1 + sign(v2)@2"], results["posterior_files"]
+    tree = read_posterior(folder / results["posterior_files"][final[0]])
+    assert list(tree["posterior"]["coefficient"].coords["term"].values) == ["v1*abs(v1)@1", "sign(v2)@2"]
+    assert results["final_evidence"]["log_evidence"] > results["candidates"][0]["log_evidence"]
+    html = reports["diagnose"].read_text()
+    assert html.index("Final model of the loop") < html.index("declared - priors")  # the final posterior first
+    assert "against the starting and the final model" in html

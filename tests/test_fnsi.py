@@ -200,3 +200,20 @@ def test_the_loop_closes_on_the_frequency_route(record):
     assert [t.name for t in loop.final.terms] == [CUBIC[0].name]
     assert loop.final.settings["domain"] == "frequency"
     assert abs(loop.final.coefficient_values[0] / K3 - 1) < 0.01
+
+
+def test_a_validation_window_shorter_than_a_period_loads_without_it(tmp_path, record):
+    from bayesnsi.io import load_config, load_signals, load_validation
+
+    rows = ["f2,x1,x2"] + [f"{f:.17g},{a:.17g},{b:.17g}" for f, (a, b) in zip(record.force[:, 0], record.displacement)]
+    (tmp_path / "data.csv").write_text("\n".join(rows) + "\n")
+    (tmp_path / "experiment.toml").write_text(
+        '[data]\nfile = "data.csv"\nfs = 100.0\nperiod = 1000\nestimation = [0, 8000]\n'
+        "inputs = { f2 = 2 }\noutputs = { x1 = 1, x2 = 2 }\n"
+        '[[candidates]]\nname = "linear"\nterms = []\n'
+        '[[validation]]\nname = "short"\nstart = 8000\nstop = 8500\n'
+    )
+    config = load_config(tmp_path / "experiment.toml")
+    assert load_signals(config).period == P
+    (segment,) = load_validation(config)
+    assert segment[1].period is None and segment[1].n_samples == 500

@@ -100,7 +100,7 @@ class Record:
             fs=self.fs / self.data.decimate,
             input_dofs=tuple(self.data.inputs.values()), output_dofs=tuple(self.data.outputs.values()),
             input_names=tuple(self.data.inputs), output_names=tuple(self.data.outputs),
-            period=None if self.data.period is None else self.data.period // self.data.decimate,
+            period=_period(self.data, len(force)),
         )
 
     def _processed(self, start: int, stop: int) -> _Window:
@@ -151,6 +151,13 @@ class Record:
                     f"in samples [{start}, {stop}), the first at sample {start + row}"
                     f"{self.table.locate(start + row)}; fill or remove them, or choose a window that excludes them"
                 )
+
+
+def _period(data: DataSpec, n_samples: int) -> int | None:
+    """Samples per period of the loaded signals; None for a window shorter than one period."""
+    if data.period is None or n_samples < data.period // data.decimate:
+        return None
+    return data.period // data.decimate
 
 
 def read_any(path: Path, columns: list[str], roles: Mapping[str, str], time_column: str,

@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from bayesnsi.diagnose import close_the_loop
+from bayesnsi.exceptions import ConfigError
 from bayesnsi.io import (
     atomic_write_json,
     atomic_write_text,
@@ -58,7 +59,13 @@ def _raw(config):
 
 
 def _load(config_path):
-    config = load_config(config_path)
+    try:
+        config = load_config(config_path)
+    except ConfigError as err:
+        raise SystemExit(
+            f"emps: {err}\nthe config expects the EMPS files in ../shared/data/emps relative to the repository "
+            "(see that folder's README)"
+        ) from None
     missing = [p for p in [config.data.file, *(v.file for v in config.validation if v.file)] if not Path(p).exists()]
     if missing:
         raise SystemExit(

@@ -17,7 +17,7 @@
 # # Two-DOF walkthrough: identify, compare, select
 #
 # The paper's first example (Zhu et al., *Bayesian Model Selection in Nonlinear Subspace
-# Identification*, section III.A; SPEC 8.1): a two-DOF chain, force at DOF 2, displacement and
+# Identification*, section III.A; `docs/method.md` §8): a two-DOF chain, force at DOF 2, displacement and
 # velocity measured at both DOFs (2 % output noise, 10 s at 100 Hz), with **quadratic damping**
 # `α v1|v1|` (α = 20 N s²/m²) at DOF 1. Three candidates are identified by nonlinear subspace
 # identification (NSI):
@@ -148,7 +148,7 @@ for name in ("model 1", "model 3"):
 # %% [markdown]
 # ## 3. Evidence of each candidate
 #
-# `candidate_evidence` builds the default priors of SPEC 6 from the data (coefficient scales
+# `candidate_evidence` builds the default priors of `docs/method.md` §6 from the data (coefficient scales
 # from the rms of each nonlinear input and of the force), samples the posterior with emcee and
 # estimates `log Z` by bridge sampling, under the primary likelihood (AR(1) residuals) and the
 # white-noise one. The Laplace approximation and, where the dimension allows, the exact value by
@@ -205,7 +205,7 @@ show(plot_model_probabilities(table))
 # summary (mean, sd, 95 % HDI, bulk/tail ESS, r_hat, MCSE).
 #
 # Read it as what it is: the posterior of λ **given the candidate's identified linear part**
-# (for fixed A, B_f, C the reconstruction is affine in λ, SPEC 6). Model 3's linear part took up
+# (for fixed A, B_f, C the reconstruction is affine in λ, `docs/method.md` §6). Model 3's linear part took up
 # some of the damping (its first damping ratio is low in the modes table), so its α sits above
 # 20 and the Coulomb coefficient's narrow interval need not contain 0: these intervals measure the
 # noise, not the error of the linear part. That a redundant term does not help the fit is what
@@ -218,6 +218,24 @@ show(plot_traces(posterior_ar1.posterior))
 
 # %%
 posterior_ar1.summary
+
+# %% [markdown]
+# `bayesnsi select CONFIG --out DIR` saves these draws as `DIR/posterior/<candidate>.nc` (an arviz
+# `DataTree` in netCDF4, listed in results.json `posterior_files`). Written here the same way and
+# read back as a notebook reads a run's output: xarray opens the file, arviz works on the tree.
+
+# %%
+import tempfile
+
+import arviz_stats
+import xarray as xr
+
+from bayesnsi.io.posterior import NETCDF_ENGINE, write_posteriors
+
+run_folder = tempfile.mkdtemp()
+files = write_posteriors(run_folder, evidence, "ar1")
+tree = xr.open_datatree(f"{run_folder}/{files['model 3']}", engine=NETCDF_ENGINE)
+arviz_stats.summary(tree, var_names=["coefficient"])
 
 # %% [markdown]
 # NSI estimates against the posterior means and 95 % intervals, for every candidate and

@@ -183,5 +183,30 @@ def test_data_units_from_the_csv_units_row(tmp_path):
     units = data_units(load_config(config))
     assert (units.force, units.displacement, units.velocity) == ("N", "mm", "mm/s")
     assert units.label("frf") == "[mm/N]" and term_unit("x1**3", units) == "N/mm^3"
+    # a gain changes the unit: the file's is dropped unless the config states one
+    text = config.read_text()
+    config.write_text(text.replace("[nsi]", "scale = { f2 = 2.0 }\n[nsi]"))
+    assert data_units(load_config(config)).force == ""
+    config.write_text(text.replace("[nsi]", 'scale = { f2 = 2.0 }\nunits = { f2 = "kN" }\n[nsi]'))
+    assert data_units(load_config(config)).frf == "mm/kN"
     write_signals_csv(tmp_path / "d.csv", case.signals)  # no units row: nothing claimed
+    config.write_text(text)
     assert data_units(load_config(config)) == ChannelUnits()
+    config.write_text(text.replace("[nsi]", 'units = { f2 = "V", x1 = "V", x2 = "V" }\n[nsi]'))  # the config states them
+    assert data_units(load_config(config)) == ChannelUnits("V", "V", "V/s")
+
+
+def test_data_units_in_the_config_are_checked(tmp_path):
+    from bayesnsi.exceptions import ConfigError
+    from bayesnsi.io import load_config, write_signals_csv
+
+    case = simulate_case("two-dof", seed=0, duration=2.0)
+    write_signals_csv(tmp_path / "d.csv", case.signals)
+    base = '[data]\nfile = "d.csv"\nfs = 100.0\ninputs = { f2 = 2 }\noutputs = { x1 = 1 }\n{}\n' \
+        '[[candidates]]\nname = "linear"\nterms = []\n'
+    for bad, words in (('units = { q = "V" }', "not one of the mapped columns"), ("units = { x1 = 3 }", "unit label"),
+                       ('units = "V"', "inline table")):
+        config = tmp_path / "c.toml"
+        config.write_text(base.replace("{}", bad))
+        with pytest.raises(ConfigError, match=words):
+            load_config(config)

@@ -96,12 +96,33 @@ def parse_data(table: Any, where: Where, check_files: bool) -> DataSpec:
     if period is not None and period % decimate:
         raise where.error("period", f"a multiple of decimate ({decimate}) samples", period)
     scale = _scale_map(table, where, [*inputs, *outputs, *(velocities or {}), *accelerations])
+    units = _units_map(table, where, [*inputs, *outputs, *(velocities or {}), *accelerations])
     return DataSpec(
         file=file, fs=fs, inputs=inputs, outputs=outputs, velocities=velocities,
         accelerations=accelerations, estimation=estimation,
         remove_mean=get_bool(table, "remove_mean", where, False), time_column=time_column, period=period,
-        integrate=integrate, decimate=decimate, scale=scale,
+        integrate=integrate, decimate=decimate, scale=scale, units=units,
     )
+
+
+def _units_map(table: Mapping, where: Where, columns: list[str]) -> dict[str, str]:
+    """``[data] units = { column = "unit" }``: short unit labels of mapped columns (labels only)."""
+    value = table.get("units", {})
+    example = 'units = { V1 = "V", V2 = "V" }'
+    if not isinstance(value, dict):
+        raise where.error("units", "an inline table of column = unit", value, f"write {example}")
+    out = {}
+    for column, unit in value.items():
+        if column not in columns:
+            raise where.problem(
+                "units", f"column {column!r} is not one of the mapped columns {columns}; name a column of "
+                "inputs, outputs, velocities or accelerations"
+            )
+        if not isinstance(unit, str) or not unit.strip() or len(unit) > 20 or not unit.isprintable():
+            raise where.error("units", f"a unit label of 1 to 20 printable characters for {column!r}", unit,
+                              f"write {example}")
+        out[str(column)] = unit.strip()
+    return out
 
 
 def _scale_map(table: Mapping, where: Where, columns: list[str]) -> dict[str, float]:

@@ -112,6 +112,9 @@ class DataSpec:
     scale : dict of str to float
         Gain per column (``[data] scale = { column = factor }``), applied on load before anything
         else, e.g. force = drive gain × current; columns not named keep their values.
+    units : dict of str to str
+        Unit per column (``[data] units = { V1 = "V" }``) for the labels of figures and tables;
+        overrides the file's units row (:func:`bayesnsi.io.units.data_units`). Never converts.
     """
 
     file: Path
@@ -127,6 +130,7 @@ class DataSpec:
     decimate: int = 1
     period: int | None = None
     scale: dict[str, float] = field(default_factory=dict)
+    units: dict[str, str] = field(default_factory=dict)
 
     @property
     def signal_fs(self) -> float | None:

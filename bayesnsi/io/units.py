@@ -1,8 +1,9 @@
-"""Units of an experiment's channels, as the data file states them, for labels of figures and tables.
+"""Units of an experiment's channels, as the data file or the config state them, for labels.
 
 Units are reported, never converted (:mod:`bayesnsi.io.measurements`). A CSV file states them in
 its units row (the line after the header), a UFF58 file in its ordinate labels; MATLAB and HDF5
-files state none. A channel whose unit is not stated is labelled "data units".
+files state none; ``[data] units = { column = "unit" }`` in the config states or overrides them.
+A channel whose unit is not stated is labelled "data units".
 """
 
 from __future__ import annotations
@@ -60,8 +61,10 @@ class ChannelUnits:
 def data_units(config) -> ChannelUnits:
     """The units the ``[data]`` file of a config states for its force and response channels.
 
-    Reads only the header and units row of a CSV file (a UFF58 file is read whole for its labels).
-    With ``integrate``, the displacement unit is the acceleration unit without its ``/s²``.
+    Reads only the header and units row of a CSV file (a UFF58 file is read whole for its labels);
+    ``[data] units`` overrides them, and a column with a ``[data] scale`` gain keeps only a unit the
+    config states (the gain changes it). With ``integrate``, the displacement unit is the
+    acceleration unit without its ``/s²``.
 
     Parameters
     ----------
@@ -74,7 +77,8 @@ def data_units(config) -> ChannelUnits:
         disagree (the loader refuses that anyway).
     """
     data = config.data
-    stated = _stated_units(data)
+    stated = {column: unit for column, unit in _stated_units(data).items() if column not in data.scale}
+    stated |= dict(getattr(data, "units", {}) or {})  # the config's [data] units win
     force = _common(stated, data.inputs)
     if data.integrate is not None:
         acceleration = _common(stated, data.accelerations)

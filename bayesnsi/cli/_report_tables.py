@@ -156,7 +156,9 @@ def loop_frame(rows):
         "closed_loop_nrmse_after": "closed-loop NRMSE after", "reason": "reason",
     }
     frame = pd.DataFrame(rows)
-    return frame[[c for c in names if c in frame.columns]].rename(columns=names).set_index("step")
+    frame = frame[[c for c in names if c in frame.columns]].rename(columns=names).set_index("step")
+    frame.attrs["wrap_last"] = True  # the reasons wrap; the numbers do not
+    return frame
 
 
 def _with_error(value, error, digits: int = 1) -> str:

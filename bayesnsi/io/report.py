@@ -3,7 +3,8 @@
 A report is a list of sections, each with a heading, a place (``order``: the answer first, the
 versions last) and blocks: text (str), a lead paragraph (``("lead", text)``), a warning
 (``("warning", text)``), preformatted text (``("pre", text)``), tables (pandas DataFrame, in a
-container that scrolls sideways rather than widen the page) or figures (matplotlib Figure,
+container that scrolls sideways rather than widen the page; ``frame.attrs["wrap_last"]`` lets a
+last column of long texts wrap) or figures (matplotlib Figure,
 embedded as a PNG at :data:`FIGURE_DPI` dpi, never wider than the page).
 """
 
@@ -35,7 +36,7 @@ nav { font-size: 0.9em; } nav a { margin-right: 1em; white-space: nowrap; }
 .scroll { max-width: 100%; overflow-x: auto; margin: 0.8em 0; }
 table { border-collapse: collapse; font-size: 0.88em; }
 th, td { border: 1px solid #bbb; padding: 3px 8px; text-align: right; }
-td { white-space: nowrap; } td:last-child { white-space: normal; min-width: 16em; }
+td { white-space: nowrap; } table.wrap-last td:last-child { white-space: normal; min-width: 16em; }
 thead th { background: #eef; vertical-align: bottom; } tbody th { background: #f7f7fb; text-align: left; }
 figure { margin: 1.2em 0; max-width: 100%; } figure img { max-width: 100%; height: auto; display: block; }
 figcaption { font-size: 0.85em; color: #555; max-width: 48em; }
@@ -189,7 +190,8 @@ def _render(block) -> str:
     if isinstance(block, tuple) and len(block) == 2 and block[0] in _CLASSES:
         return f"<p class='{_CLASSES[block[0]]}'>{html.escape(block[1])}</p>"
     if hasattr(block, "to_html"):  # pandas DataFrame
-        table = block.to_html(float_format=format_number, na_rep="—", border=0, classes="table", escape=True)
+        classes = "table wrap-last" if getattr(block, "attrs", {}).get("wrap_last") else "table"
+        table = block.to_html(float_format=format_number, na_rep="—", border=0, classes=classes, escape=True)
         return f"<div class='scroll'>{table}</div>"
     if hasattr(block, "savefig"):  # matplotlib Figure
         caption = block.get_label() or ""

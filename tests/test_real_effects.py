@@ -188,3 +188,30 @@ def test_physical_table_lists_one_dof_models_with_their_rigid_body_pole(carriage
     table = physical_table({"Coulomb": coulomb})
     assert table.loc["mass [kg]", "Coulomb"] == pytest.approx(95.0, rel=0.02)
     assert table.loc["rigid-body poles s [1/s]", "Coulomb"] != "-"
+
+
+def test_offset_is_a_constant_force_read_at_dc():
+    from bayesnsi.exceptions import ExpressionError
+    from bayesnsi.models import Term
+    from bayesnsi.models.dictionary import effect_dictionary
+    from bayesnsi.nsi import force_prediction
+
+    from .test_free_body import OFFSET
+
+    assert Term("1", 1).expr.is_constant and not Term("sign(v1)", 1).expr.is_constant
+    with pytest.raises(ExpressionError, match="reads no displacement"):
+        Term("3*4", 1)  # only a bare number is a constant force
+    assert [e.name for e in effect_dictionary([1], types=["offset"])] == ["offset"]
+    q, tau = _free_body_record(duration=60.0)
+    # the force keeps its mean: the offset (-3 N) is in the data
+    signals = Signals(force=tau[:, None], displacement=(q - q.mean())[:, None], fs=200.0, input_dofs=(1,),
+                      output_dofs=(1,))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = identify(signals, [("sign(v1)", 1), ("1", 1)], NSIOptions(block_rows=20, order=2))
+        coulomb = identify(signals, [("sign(v1)", 1)], NSIOptions(block_rows=20, order=2))
+    fc, offset = result.coefficient_values
+    assert fc == pytest.approx(FC, rel=0.03) and offset == pytest.approx(OFFSET, rel=0.03)
+    assert result.coefficients[1].imag_ratio < 1e-6  # a real number at DC
+    without = force_prediction(coulomb, signals)
+    assert force_prediction(result, signals).rmse < without.rmse

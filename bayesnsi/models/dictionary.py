@@ -31,14 +31,16 @@ EFFECT_TYPES: dict[str, str] = {
     "x^2 sign(v)": "{x}**2*sign({v})",
     "sign(v)+": "(1+sign({v}))/2",
     "v+": "{v}*(1+sign({v}))/2",
+    "offset": "1",
 }
 """Effect types: name -> expression template in the displacement ``{x}`` and velocity ``{v}``.
 
 ``sign(v)+`` and ``v+`` act in the positive direction of motion only: beside ``sign(v)`` (or a
 viscous damper) they make friction asymmetric, ``F+`` moving forwards and ``F-`` backwards with
 ``λ_sign = F-`` and ``λ_sign+ = F+ - F-``. Asymmetric Coulomb friction differs from a constant force
-(an offset) only while the body is at rest, so on records that seldom stop (or with the means
-removed) the two cannot be told apart. They are not in :data:`DEFAULT_EFFECT_TYPES`."""
+only while the body is at rest, so on records that seldom stop the two cannot be told apart.
+``offset`` is a constant force (its coefficient read from the FRF at DC); a record whose means were
+removed leaves it nothing to explain. These three are not in :data:`DEFAULT_EFFECT_TYPES`."""
 
 DEFAULT_EFFECT_TYPES: tuple[str, ...] = ("x^2", "x|x|", "x^3", "sign(v)", "v|v|", "v^3", "x^2 sign(v)")
 """The types a dictionary holds unless others are asked for (``[diagnose] effects``)."""

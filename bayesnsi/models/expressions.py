@@ -88,6 +88,11 @@ class Expression:
         return tuple(sorted(set(self.displacement_dofs) | set(self.velocity_dofs)))
 
     @property
+    def is_constant(self) -> bool:
+        """True for a bare number: a constant force (offset) whose coefficient is its size."""
+        return not self.dofs
+
+    @property
     def uses_velocity(self) -> bool:
         """True when the expression reads any velocity."""
         return bool(self.velocity_dofs)
@@ -123,7 +128,8 @@ class Expression:
                 f"({err}); pass arrays with a row per DOF (row k-1 is DOF k) or a mapping with those DOFs"
             ) from None
         if isinstance(x, dict):
-            shape = np.shape(next(iter(x.values()))) if x else np.shape(next(iter(v.values())))
+            arrays = [*x.values(), *v.values()]
+            shape = np.shape(arrays[0]) if arrays else ()  # a constant with no state given: a scalar
         else:
             shape = np.shape(x)[1:]
         return np.broadcast_to(np.asarray(out, dtype=float), shape).copy()
@@ -173,7 +179,8 @@ def parse_expression(text: str) -> Expression:
     xs: set[int] = set()
     vs: set[int] = set()
     _collect(tree, xs, vs)
-    if not xs and not vs:
+    if not xs and not vs and not (tree.kind == "num" and float(tree.value) != 0.0):
+        # a bare non-zero number is a constant force basis (an offset, e.g. "1"); anything else is a mistake
         raise ExpressionError(f"expression {text!r} reads no displacement or velocity; {_HELP}")
     return Expression(
         text=text,

@@ -185,7 +185,7 @@ def _collinear_pair(terms: Sequence[Term]) -> tuple[Term, Term] | None:
 def _probe_values(expr: Expression) -> np.ndarray:
     x = {dof - 1: _probe_state(dof, 0) for dof in expr.displacement_dofs}
     v = {dof - 1: _probe_state(dof, 1) for dof in expr.velocity_dofs}
-    values = expr.evaluate(x, v)
+    values = np.broadcast_to(expr.evaluate(x, v), (_PROBE_POINTS,)).copy()  # a constant gives a scalar
     values.flags.writeable = False
     return values
 

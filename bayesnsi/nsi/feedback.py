@@ -82,6 +82,9 @@ def extended_input(
     x, v = signals.state_rows(x_dofs, v_dofs, velocity_method)
     columns = [force]
     for term in terms:
+        if term.expr.is_constant:  # an offset: the same force at every sample (exact interval mean)
+            columns.append(np.full((len(force), 1), -float(term.expr.function({}, {}))))
+            continue
         if input_hold == "average":
             value = -_interval_mean(term, x, v, signals.dt, subsamples)
         else:

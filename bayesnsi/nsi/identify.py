@@ -314,6 +314,10 @@ def _coefficients(model: StateSpaceModel, signals: Signals, terms, band) -> tupl
         return ()
     freqs = np.linspace(band[0], band[1], _BAND_POINTS)
     spectrum = coefficient_spectrum(model.frf(freqs), signals.input_dofs, signals.output_dofs, terms)
+    if any(t.expr.is_constant for t in terms):  # a constant force acts at DC: its coefficient is read there
+        at_dc = coefficient_spectrum(model.frf([0.0]), signals.input_dofs, signals.output_dofs, terms)
+        constant = [t.expr.is_constant for t in terms]
+        spectrum[:, constant] = at_dc[:, constant]
     return tuple(
         CoefficientEstimate(
             term=term,

@@ -110,7 +110,7 @@ def inverse_force(mass, damping, stiffness, terms, coefficients, x, v, a, offset
     """
     force = mass * a + damping * v + stiffness * x + offset
     for term, value in zip(terms, coefficients):
-        dof = max(term.expr.dofs)
+        dof = max(term.expr.dofs, default=1)  # a constant (offset) reads no DOF
         rows_x, rows_v = np.zeros((dof, len(x))), np.zeros((dof, len(x)))
         rows_x[:], rows_v[:] = x, v  # one DOF: every row is the measured one
         force = force + value * term.evaluate(rows_x, rows_v)

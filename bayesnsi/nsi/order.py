@@ -98,7 +98,9 @@ def scaled_stack(u: np.ndarray, y: np.ndarray, block_rows: int) -> _hankel.Scale
         Holds the scales (``u_scale``, ``y_scale``), computed once here.
     """
     check_block_rows(len(u), block_rows, u.shape[1] + y.shape[1])
-    return _hankel.ScaledStack(u, y, u.std(axis=0), y.std(axis=0))
+    std, rms = u.std(axis=0), np.sqrt(np.mean(u**2, axis=0))
+    # a constant input (an offset term) has no spread: scaled by its size instead
+    return _hankel.ScaledStack(u, y, np.where(std > 1e-12 * rms, std, rms), y.std(axis=0))
 
 
 def oblique_decomposition(stack: _hankel.ScaledStack, block_rows: int, route: str = "correlation", lagged=None):

@@ -60,6 +60,7 @@ _OPTIONAL_PACKAGES = (
     "arviz-stats",
     "arviz-plots",
     "xarray",
+    "h5netcdf",
     "matplotlib",
     "joblib",
     "dask",

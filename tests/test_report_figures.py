@@ -192,7 +192,7 @@ def test_data_units_from_the_csv_units_row(tmp_path):
     write_signals_csv(tmp_path / "d.csv", case.signals)  # no units row: nothing claimed
     config.write_text(text)
     assert data_units(load_config(config)) == ChannelUnits()
-    config.write_text(text.replace("[nsi]", 'units = { f2 = "V", x1 = "V", x2 = "V" }\n[nsi]'))  # the config states them
+    config.write_text(text.replace("[nsi]", 'units = { f2 = "V", x1 = "V", x2 = "V" }\n[nsi]'))  # stated by the config
     assert data_units(load_config(config)) == ChannelUnits("V", "V", "V/s")
 
 
@@ -210,3 +210,16 @@ def test_data_units_in_the_config_are_checked(tmp_path):
         config.write_text(base.replace("{}", bad))
         with pytest.raises(ConfigError, match=words):
             load_config(config)
+
+
+def test_decision_table_compares_every_candidate_with_the_selected_one():
+    log_z = {"linear": 260904.3, "cubic": 458019.7, "both": 462449.6, "weak": 462448.0, "failed": float("-inf")}
+    table = ranking_table(list(log_z), evidence={"ar1": (list(log_z.values()), [1e-4, 3e-4, 3e-4, 4e-4, 0.0])}, rng=0)
+    decision = decision_table(table, "ar1")
+    # most probable first, then (probabilities that underflow to 0) by evidence; a failure last
+    assert list(decision.index) == ["both", "weak", "cubic", "linear", "failed"]
+    np.testing.assert_allclose(decision.loc["cubic", "log_bayes_factor"], 462449.6 - 458019.7)
+    np.testing.assert_allclose(decision.loc["weak", "log_bayes_factor_se"], np.hypot(3e-4, 4e-4))
+    np.testing.assert_allclose(decision.loc["weak", "posterior_odds"], np.exp(1.6), rtol=1e-6)  # equal priors
+    assert list(decision["strength"]) == ["selected", "positive", "very strong", "very strong", "failed (no evidence)"]
+    assert decision_table(table, "ar1", selected="weak").loc["both", "strength"] == "none (not selected)"

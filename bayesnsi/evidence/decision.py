@@ -58,7 +58,7 @@ def decision_table(table, likelihood: str, selected: str | None = None):
     Returns
     -------
     pandas.DataFrame
-        Index: candidates, most probable first. Columns: ``probability``, ``probability_sd``,
+        Index: candidates, most probable first (then by log evidence). Columns: ``probability``, ``probability_sd``,
         ``log_evidence``, ``log_evidence_se``, ``log_bayes_factor`` (selected against this
         candidate; 0 for the selected one, +inf against a failed one), ``log_bayes_factor_se``,
         ``posterior_odds`` (``P(selected)/P(this)``), ``strength`` (:func:`evidence_strength`;
@@ -109,5 +109,6 @@ def decision_table(table, likelihood: str, selected: str | None = None):
     if "log_likelihood_plain" in table.columns:
         plain = table["log_likelihood_plain"].to_numpy(dtype=float)
         out["delta_log_likelihood_plain"] = plain[k] - plain
-    order = np.argsort(-np.nan_to_num(probability, nan=-1.0), kind="stable")
+    # most probable first; among probabilities that underflow to 0, the larger evidence first
+    order = np.lexsort((-np.nan_to_num(log_z, nan=-np.inf), -np.nan_to_num(probability, nan=-1.0)))
     return out.iloc[order]

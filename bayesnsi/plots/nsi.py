@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.ticker import MultipleLocator
+from matplotlib.ticker import MaxNLocator, MultipleLocator
 
 from ..io.units import ChannelUnits, term_unit
 
@@ -44,6 +44,7 @@ def plot_singular_values(result, ax=None, max_shown: int = 60):
     ax.semilogy(np.arange(1, len(s) + 1), s, "o-", ms=3)
     ax.axvline(result.order + 0.5, color="C3", ls="--", label=f"order n = {result.order}")
     ax.set_xlabel("index")
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_ylabel("singular value (scaled data, unitless)")
     ax.set_title(f"Singular values - {result.candidate.name}")
     ax.legend()

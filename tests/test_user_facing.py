@@ -143,3 +143,13 @@ def test_loop_settings_are_command_line_flags():
     assert (options.stability_factor, options.n_tries, options.max_imag_ratio) == (2.5, 5, 0.2)
     assert options.residual == "innovations" and options.refine_final is None
     assert options.threshold == 3.0  # a flag not given keeps the config's value
+
+
+def test_to_statespace_of_a_free_body_has_its_virtual_spring_removed(two_dof_result):
+    import dataclasses
+
+    spring = dataclasses.replace(two_dof_result, settings={**two_dof_result.settings, "virtual_stiffness": 300.0})
+    freqs = np.linspace(0.2, 20.0, 60)
+    ss = spring.to_statespace()
+    np.testing.assert_allclose(_frf_from_transfer_functions(ss, freqs), spring.underlying_frf(freqs), rtol=1e-6)
+    assert not np.allclose(spring.underlying_frf(freqs), two_dof_result.underlying_frf(freqs))  # the spring matters

@@ -124,7 +124,8 @@ class NSIResult:
         ``StateSpace(A, B[:, :m], C, D[:, :m], dt)``: the force columns of the identified
         extended-input model, so its frequency response is :meth:`underlying_frf` exactly. ``dt``
         is the model's sampling interval (the data's, or the upsampled grid's, see
-        :attr:`upsample`); inputs are the forces, outputs the displacements, in the data's units.
+        :attr:`upsample`); inputs are the forces, outputs the displacements, in the data's units;
+        a free body's virtual spring is removed (:attr:`free_model`).
         For python-control (``pip install control``): ``control.ss(s.A, s.B, s.C, s.D, s.dt)``
         with ``s = result.to_statespace()``.
 

@@ -15,6 +15,7 @@ from ..io.report import Report
 from ..io.units import ChannelUnits
 from ..nsi import stabilization
 from ..tables import coefficients_table, modes_table, physical_table
+from ._report_periodic import periodic_section
 from ._report_tables import adequacy_frame, decision_frame, probability_text, ranking_frame, summary_frame
 
 __all__ = [
@@ -98,6 +99,7 @@ def identification_report(config, signals, results, records, title, report=None,
     units = units or report_units(config)
     report = report or Report(title)
     _settings_sections(report, config, signals, records, units)
+    periodic_section(report, signals, units)  # periodic data: BLA figure and distortion level
     if not results:
         report.section("Answer", ANSWER).append(
             ("warning", "No candidate could be identified (see Data and settings).")

@@ -240,6 +240,10 @@ class BestLinearApproximation:
         Noise variance of the period-averaged output there (the level ``*_power`` would have
         without nonlinear distortion).
     n_realisations, n_periods : int
+    force_level : float
+        RMS over realisations and excited lines of the force spectrum |U|; ``sqrt(odd_power) /
+        force_level`` puts the unexcited lines' output in FRF units (the distortion level of one
+        realisation, beside ``sqrt(noise_var)``).
     """
 
     freqs_hz: np.ndarray
@@ -255,6 +259,7 @@ class BestLinearApproximation:
     even_noise: np.ndarray
     n_realisations: int
     n_periods: int
+    force_level: float = float("nan")
 
     def distortion_ratio(self) -> np.ndarray:
         """Median over the excited lines of total / noise variance, per channel (≈ 1: linear).
@@ -360,6 +365,7 @@ def best_linear_approximation(
         even_noise=level[even],
         n_realisations=n_real,
         n_periods=first.n_periods,
+        force_level=float(np.sqrt(np.mean([np.abs(s.force[lines, 0]) ** 2 for s in spectra]))),
     )
 
 

@@ -1,0 +1,81 @@
+"""Report section of a periodic run: the best linear approximation and the distortion level.
+
+Every run on a record with ``[data] period`` (identify, select, diagnose) shows the FRF averaged
+over the periods with its noise and nonlinear-distortion levels (:func:`bayesnsi.plots.periodic.plot_bla`)
+and, per response channel, the output power at the unexcited odd and even lines over its noise
+level (:meth:`bayesnsi.nsi.BestLinearApproximation.unexcited_ratio`): about 1 means the response is
+linear within the noise (a nonlinear model cannot gain anything), well above 1 means distortion a
+nonlinear model can explain (docs/method.md §11).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ..exceptions import BayesNSIError
+
+__all__ = ["BLA", "periodic_section"]
+
+BLA = 35
+"""Place of the section: after the identified models (30), before the figures (40)."""
+
+HEADING = "Best linear approximation and nonlinear distortion (periodic data)"
+
+
+def periodic_section(report, signals, units=None) -> bool:
+    """Add the BLA figure and the distortion levels of ``signals`` to ``report`` (periodic data only).
+
+    Parameters
+    ----------
+    report : Report
+    signals : Signals
+        Estimation data; nothing is added without ``signals.period`` or with several forces.
+    units : ChannelUnits, optional
+
+    Returns
+    -------
+    bool
+        True when the section was added.
+    """
+    import pandas as pd
+
+    from ..nsi import best_linear_approximation
+    from ..plots.periodic import plot_bla
+
+    if getattr(signals, "period", None) is None or signals.force.shape[1] != 1:
+        return False
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            bla = best_linear_approximation([signals])
+    except BayesNSIError as err:
+        report.section(HEADING, BLA).append(("warning", f"No best linear approximation: {err}"))
+        return False
+    ratios = bla.unexcited_ratio()
+    names = [f"x{dof}" for dof in signals.output_dofs]
+    table = pd.DataFrame(
+        {
+            "unexcited odd lines: power / noise": ratios["odd"],
+            "unexcited even lines: power / noise": ratios["even"],
+        },
+        index=pd.Index(names, name="response"),
+    )
+    if bla.n_realisations > 1:
+        table["excited lines: total / noise variance"] = bla.distortion_ratio()
+    blocks = report.section(HEADING, BLA)
+    worst = float(np.nanmax(ratios["odd"])) if np.any(np.isfinite(ratios["odd"])) else float("nan")
+    blocks.append(
+        f"Distortion level: the response at the lines the force leaves empty is up to {worst:.3g} times its noise "
+        f"level ({bla.n_periods} periods, {bla.n_realisations} realisation(s), {len(bla.freqs_hz)} excited lines). "
+        "About 1: linear within the noise, a nonlinear model cannot gain anything; well above 1: nonlinear "
+        "distortion (odd lines: odd nonlinearities such as cubic springs or friction; even lines: even ones such "
+        "as quadratic or one-sided contact). The channel with the largest ratio is nearest the nonlinearity."
+    )
+    blocks.append(table)
+    fig = plot_bla(bla, units=units, channel_names=names)
+    fig.set_label("Best linear approximation |G| with its noise std and the output at the unexcited odd and even "
+                  "lines over the force level (nonlinear distortion), per response")
+    blocks.append(fig)
+    return True

@@ -22,6 +22,7 @@ from ..models import Effect
 from ..models.dictionary import clearance_effect
 from ..nsi import force_affine, hankel_correlations, identify, is_free_body, nrmse
 from ..options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions, parse_likelihood
+from .localise import screen_effects_periodic
 from .results import EffectScore
 from .screen import screen_effects
 from .screen_force import screen_effects_force
@@ -210,6 +211,11 @@ def _screened(context: LoopContext, candidate, effects, exclude):
     try:
         if context.nsi.virtual_stiffness not in ("auto", 0.0, 0):  # a free body: screen in the force view
             ranked = screen_effects_force(context.signals, candidate, effects)
+        elif context.nsi.domain == "frequency" and context.signals.period and context.signals.force.shape[1] == 1:
+            ranked = screen_effects_periodic(  # where the data show the distortion first (localise.py)
+                context.signals, candidate, effects, max_frequency_hz=context.screen_hz,
+                velocity_method=context.nsi.velocity_method,
+            )
         else:
             ranked = screen_effects(
                 context.signals, candidate, effects, max_frequency_hz=context.screen_hz,

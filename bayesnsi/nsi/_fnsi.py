@@ -40,6 +40,16 @@ class LineData:
     outputs: np.ndarray  # (M, l) complex
     output_cov: np.ndarray  # (M, l, l) noise covariance of the mean outputs
     n_periods: int
+    excited: np.ndarray | None = None  # (M,) bool: the force excites the line (None: all do)
+
+    def excited_only(self) -> LineData:
+        """The same data on the excited lines only (the subspace step: the unexcited ones have no force)."""
+        if self.excited is None or self.excited.all():
+            return self
+        keep = self.excited
+        return LineData(lines=self.lines[keep], freqs_hz=self.freqs_hz[keep], z=self.z[keep],
+                        inputs=self.inputs[keep], outputs=self.outputs[keep], output_cov=self.output_cov[keep],
+                        n_periods=self.n_periods)
 
     @property
     def output_std(self) -> np.ndarray:
@@ -92,11 +102,14 @@ def line_data(signals: Signals, terms, velocity_method: str, band_hz, drop: int 
     cov = np.einsum("pki,pkj->kij", dev, dev.conj()) / (n_periods - 1) / n_periods
     power = np.sum(np.abs(f_mean) ** 2, axis=1)
     noise = np.sum(np.abs(f_periods - f_mean) ** 2, axis=(0, 2)) / (n_periods - 1) / n_periods
-    mask = excited_lines(power, noise)
+    excited = excited_lines(power, noise)
     freqs = omega / (2 * np.pi)
+    mask = excited.copy()
     if band_hz is not None:
         mask &= (freqs >= band_hz[0]) & (freqs <= band_hz[1])
     lines = np.flatnonzero(mask)
+    if len(lines) >= 4:  # every line between the first and last excited one of the band: the empty ones
+        lines = np.arange(lines[0], lines[-1] + 1)  # carry the nonlinear distortion (docs/method.md §11)
     if len(lines) < 4:
         raise InputDataError(
             f"only {len(lines)} excited line(s) inside the band {band_hz} Hz; widen [nsi] band_hz or check "
@@ -104,7 +117,7 @@ def line_data(signals: Signals, terms, velocity_method: str, band_hz, drop: int 
         )
     return LineData(
         lines=lines, freqs_hz=freqs[lines], z=np.exp(1j * omega[lines] / signals.fs), inputs=u_spec[lines],
-        outputs=x_mean[lines], output_cov=cov[lines], n_periods=n_periods,
+        outputs=x_mean[lines], output_cov=cov[lines], n_periods=n_periods, excited=excited[lines],
     )
 
 

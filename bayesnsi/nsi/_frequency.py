@@ -15,7 +15,9 @@ import warnings
 import numpy as np
 import scipy.linalg
 
-from ..exceptions import OrderError, SpuriousPoleWarning, UnstableModelError
+from .._fingerprint import signals_fingerprint
+from ..exceptions import BayesNSIError, BayesNSIWarning, OrderError, SpuriousPoleWarning, UnstableModelError
+from ..models import CandidateModel
 from ..options import NSIOptions
 from ..signals import Signals
 from . import _fnsi
@@ -49,18 +51,20 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
     """
     data = _fnsi.line_data(signals, cand.terms, options.velocity_method, options.band_hz)
     n_out = signals.displacement.shape[1]
-    points, omega0 = _fnsi.bilinear_points(data.freqs_hz)
+    excited = data.excited_only()  # the subspace step; B, D and the refinement use every band line
+    points, omega0 = _fnsi.bilinear_points(excited.freqs_hz)
     # r(m+q+l) real rows against 2M columns: at most half of them, so that the projection off the
     # inputs keeps room for the outputs (at the bound the fit fails: k3 24x off on 74 lines)
-    block_rows = min(int(options.block_rows), len(data.lines) // (data.inputs.shape[1] + n_out))
-    left, singular_values, (_, y_scale) = _fnsi.subspace(data, block_rows, points)
+    block_rows = min(int(options.block_rows), len(excited.lines) // (data.inputs.shape[1] + n_out))
+    left, singular_values, (_, y_scale) = _fnsi.subspace(excited, block_rows, points)
     order = _order(options, singular_values, n_out, block_rows)
     Ac, C = _fnsi.continuous_ac(*_fnsi.system_ac(left, order, n_out, y_scale), omega0)
     Ac, reflected = _fnsi.stabilise_continuous(Ac)
     reflected = reflected[reflected.imag >= 0]  # one of each conjugate pair
     Ac, C = _fnsi.refine(data, Ac, C, options.zero_feedthrough)
-    dt = 1.0 / signals.fs
     jw = 2j * np.pi * data.freqs_hz
+    Ac, C = _better_of_warm_start(signals, cand, options, data, (Ac, C), jw)
+    dt = 1.0 / signals.fs
     Bc, Dc, residual = _fnsi.input_matrices(data, Ac, C, options.zero_feedthrough, jw)
     upsample = int(options.upsample)
     dt_model = dt / upsample  # the stored discrete model; its FRF nears the continuous one as (ωΔt)²
@@ -94,6 +98,9 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
         )
     fit_band = (float(data.freqs_hz[0]), float(data.freqs_hz[-1]))
     band = tuple(float(b) for b in (options.band_hz or default_band(modes, signals.fs)))
+    _WARM[_warm_key(signals, cand.terms, options)] = (Ac, C)
+    while len(_WARM) > _WARM_SIZE:
+        _WARM.pop(next(iter(_WARM)))
     settings = dict(
         domain="frequency",
         block_rows=block_rows,
@@ -106,9 +113,11 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
         upsample=upsample,
         period=int(signals.period or 0),
         n_periods=int(data.n_periods),
-        n_lines=int(len(data.lines)),
+        n_lines=int(len(excited.lines)),
+        n_band_lines=int(len(data.lines)),
         reflected_poles_hz=[float(abs(p.imag) / (2 * np.pi)) for p in reflected],
-        line_misfit=float(np.sqrt(np.mean(np.abs(residual) ** 2))),
+        line_misfit=float(np.sqrt(np.mean(np.abs(residual if data.excited is None else residual[data.excited]) ** 2))),
+        band_misfit=float(np.sqrt(np.mean(np.abs(residual) ** 2))),  # the unexcited band lines included
         unexcited_ratio=_unexcited_ratio(signals),
         n_samples=int(signals.n_samples),
         fs=signals.fs,
@@ -127,6 +136,49 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
         coefficients=_coefficients(Ac, Bc, C, Dc, signals, cand.terms, band),
         settings=settings,
     )
+
+
+_WARM: dict = {}  # (data, terms, settings) -> refined continuous (A_c, C) of identified candidates
+_WARM_SIZE = 64
+
+
+def _warm_key(signals: Signals, terms, options: NSIOptions) -> tuple:
+    settings = (options.order, options.block_rows, options.band_hz, options.zero_feedthrough, options.velocity_method)
+    return signals_fingerprint(signals), tuple(t.name for t in terms), repr(settings)
+
+
+def _line_cost(data, Ac, C, zero_feedthrough: bool, jw) -> float:
+    return float(np.sum(np.abs(_fnsi.input_matrices(data, Ac, C, zero_feedthrough, jw)[2]) ** 2))
+
+
+def _better_of_warm_start(signals: Signals, cand, options: NSIOptions, data, fitted, jw):
+    """``fitted`` (A_c, C), or the refinement started from the poles of ``cand`` without its last term.
+
+    A candidate with one more term than a model identified before on the same data and settings
+    (the loop's current model) is also refined from that model's A_c, C: there, B and D gain one
+    column, so the weighted misfit on the lines can only fall. The extended-input subspace
+    estimate alone may start the refinement in a worse local minimum, which makes the ranking of
+    effects flat or wrong (docs/method.md §11: A, C re-estimated and refined for every candidate).
+    The lower weighted misfit wins. The smaller model is identified first when it was not (cached
+    per data and settings), so the result does not depend on what was identified before.
+    """
+    if not cand.terms:
+        return fitted
+    key = _warm_key(signals, cand.terms[:-1], options)
+    if key not in _WARM:  # identify the smaller model first: the result never depends on what ran before
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", BayesNSIWarning)
+                identify_frequency(signals, CandidateModel(name="warm start", terms=tuple(cand.terms[:-1])), options)
+        except (BayesNSIError, np.linalg.LinAlgError):
+            return fitted
+    start = _WARM.get(key)
+    if start is None or start[0].shape != fitted[0].shape or start[1].shape != fitted[1].shape:
+        return fitted
+    warm = _fnsi.refine(data, start[0], start[1], options.zero_feedthrough)
+    zf = options.zero_feedthrough
+    better = _line_cost(data, warm[0], warm[1], zf, jw) < _line_cost(data, fitted[0], fitted[1], zf, jw)
+    return warm if better else fitted
 
 
 def _unexcited_ratio(signals: Signals) -> dict | None:

@@ -22,6 +22,7 @@ from ._frequency import identify_frequency
 from ._noise import white_noise_std
 from ._output_error import refine_output_error
 from ._output_error import refine_poles as _refine_poles
+from ._stabilise import pole_text, reflect_out_of_band
 from .feedback import as_candidate, extended_input, resolve_input_hold, working_signals
 from .free_body import auto_stiffness, free_model, rigid_body_poles, stabilise
 from .order import oblique_decomposition, scaled_stack, select_order
@@ -178,12 +179,18 @@ def identify(
         # a free body: identify again with a known spring on the input (bayesnsi.nsi.free_body)
         fixed = options.replace(virtual_stiffness=auto_stiffness(measured))
         return identify(measured, cand, fixed, correlations=correlations)
-    if radius >= 1.0:
+    stabilised = reflect_out_of_band(A, signals.dt, options.band_hz) if radius >= 1.0 else (A, eigenvalues[:0])
+    if stabilised is None:
         raise UnstableModelError(
             f"candidate {cand.name!r}: the identified underlying linear model is unstable "
-            f"(largest |eigenvalue of A| = {radius:.4f}); try another order or number of block rows, "
-            "or reconsider the candidate's terms"
+            f"(largest |eigenvalue of A| = {radius:.4f}) inside [nsi] band_hz or with no band given; try another "
+            "order or number of block rows, or reconsider the candidate's terms"
         )
+    A, reflected = stabilised
+    if len(reflected):  # outside the band the data inform: mirrored into the unit circle (_stabilise.py)
+        warnings.warn(f"candidate {cand.name!r}: unstable pole(s) outside the band {options.band_hz} Hz at "
+                      f"{pole_text(reflected, signals.dt)} mirrored into the unit circle; the candidate is kept",
+                      SpuriousPoleWarning, stacklevel=2)
     noise_std = white_noise_std(stack.y[::upsample])  # at the data's samples the noise is white
     if options.refine_poles is not None:
         A, _ = _refine_poles(A, stack.u, stack.y, signals.dt, options.refine_poles, noise_std=noise_std)
@@ -226,6 +233,7 @@ def identify(
         n_samples=int(len(u)) // upsample,
         fs=data_fs,
         virtual_stiffness=stiffness,
+        reflected_poles_hz=[float(abs(np.angle(z)) / (2 * np.pi * signals.dt)) for z in reflected],
     )
     return NSIResult(
         candidate=cand,

@@ -306,9 +306,11 @@ def test_look_alike_taken_first_is_exchanged_once_its_partner_is_in():
 # the loop's API: typed effects, options, the record-half guard, results.json
 
 
-def test_halves_too_short_to_identify_reject_the_effect_with_that_reason():
-    # 1000 samples identify v1|v1| (60 block rows need 239) but each half, 500 samples, is too
-    # short for the stability guard's identifications: rejected as such, not as "unstable"
+def test_halves_too_short_for_the_block_rows_use_fewer_and_the_effect_can_be_added():
+    # 1000 samples (the README's 10 s tour) identify v1|v1| with 60 block rows, but each half,
+    # 500 samples, is too short for them (k = 1 force + 1 term + 2 outputs: 2*60*5 - 1 = 599 > 500).
+    # Before: both halves NaN, the effect rejected, so the loop could never add anything. Now the
+    # halves use the most block rows 500 samples allow, (500 + 1) // (2 * 5) = 50, and say so.
     from bayesnsi.diagnose.guards import TOO_SHORT
 
     case = undeclared_case("quadratic-damping", seed=0, noise_percent=1.0)
@@ -316,12 +318,23 @@ def test_halves_too_short_to_identify_reject_the_effect_with_that_reason():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         loop = close_the_loop(short, case.declared, LoopOptions(max_steps=1, effects=("v|v|", "v^3")), nsi=case.nsi)
-    assert loop.added == ()
     first = loop.steps[0]
     assert first.term.name == "v1*abs(v1)@1" and first.log_bayes_factor > np.log(100.0)
-    assert first.reason.startswith(TOO_SHORT) and "500 samples each" in first.reason
-    assert all(np.isnan(first.half_coefficients))
+    assert first.accepted, first.reason
+    assert first.half_block_rows == 50
+    assert first.half_note.startswith(TOO_SHORT) and "identified with 50" in first.half_note
+    assert np.all(np.isfinite(first.half_coefficients))
     assert {row.effect.base for row in loop.scores[0]} == {"v|v|", "v^3"}
+
+
+def test_halves_too_short_even_for_two_block_rows_are_reported_as_such():
+    from bayesnsi.diagnose.guards import half_block_rows, half_coefficients
+
+    assert half_block_rows(500, 60, 4) == 50 and half_block_rows(5000, 60, 4) == 60
+    case = undeclared_case("quadratic-damping", seed=0, noise_percent=1.0, duration=5.0)
+    tiny = case.signals.segment(0, 18)  # halves of 9 samples: 2 block rows need 2*2*5 - 1 = 19
+    halves, too_short, rows = half_coefficients(tiny, case.truth, case.nsi)
+    assert too_short and rows < 2 and all(np.isnan(halves))
 
 
 def test_loop_options_choose_the_effect_types_of_the_dictionary():

@@ -99,7 +99,7 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
                 "nrmse_after": s.nrmse_after,
                 "closed_loop_nrmse_before": s.closed_loop_nrmse_before,
                 "closed_loop_nrmse_after": s.closed_loop_nrmse_after,
-                "reason": s.reason,
+                "reason": s.reason + (f"; {s.half_note}" if s.half_note else ""),
             }
             for s in ordered
         ]

@@ -73,6 +73,8 @@ def run(args) -> int:
                 "ci95": list(step.ci95),
                 "imag_ratio": step.imag_ratio,
                 "half_coefficients": list(step.half_coefficients),
+                "half_block_rows": step.half_block_rows,
+                "half_note": step.half_note,
                 "bayes_factor_log": step.log_bayes_factor,
                 "nrmse_before": step.nrmse_before,
                 "nrmse_after": step.nrmse_after,
@@ -88,7 +90,7 @@ def run(args) -> int:
         selection,
         "diagnose",
         config,
-        selected=start,
+        start=start,  # "selected" stays the ranking's choice (issue 14: --start is not a selection)
         final_model=[term_record(t) for t in loop.final.terms],
         final_coefficients=[
             {"term": c.term.name, "value": c.value, "imag_ratio": c.imag_ratio} for c in loop.final.coefficients

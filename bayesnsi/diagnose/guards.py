@@ -7,9 +7,11 @@ An effect proposed against the current model is kept only if
 * its coefficient is physically sound: quality index |Im λ|/|Re λ| below ``max_imag_ratio``,
 * its coefficient is stable: identified on each half of the record it keeps its sign and stays
   within a factor ``stability_factor`` (docs/method.md §7: "the stability of the coefficient across data
-  segments" guards against terms that only absorb model-form error). When the halves are too
-  short to be identified (too few samples for the block rows), the effect is rejected with the
-  reason "record too short for the halves".
+  segments" guards against terms that only absorb model-form error). When a half is too short
+  for the block rows (each half needs j >= 2 i k samples), the halves are identified with the
+  most block rows a half allows, and the step's ``half_note`` says so ("record too short for the
+  halves at 60 block rows: identified with 41"); only when not even that works is the effect
+  rejected with the reason "record too short for the halves".
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ from .results import EffectScore, LoopStep
 from .scoring import shared_correlations
 from .state import Baseline, LoopContext
 
-__all__ = ["TOO_SHORT", "Verdict", "check_effect", "documented", "half_coefficients", "without"]
+__all__ = ["TOO_SHORT", "Verdict", "check_effect", "documented", "half_block_rows", "half_coefficients", "without"]
 
 TOO_SHORT = "record too short for the halves"
 """Start of the reason of an effect rejected because the record halves cannot be identified."""
@@ -67,7 +69,28 @@ def without(candidate: CandidateModel, term: Term) -> CandidateModel:
     )
 
 
-def half_coefficients(signals, candidate, nsi, cache=None) -> tuple[tuple[float, float], bool]:
+def half_block_rows(n_half: int, block_rows: int, n_channels: int) -> int:
+    """The block rows for a record half: ``block_rows``, or the most that ``n_half`` samples allow.
+
+    Parameters
+    ----------
+    n_half : int
+        Samples in the shorter half.
+    block_rows : int
+        The block rows of the whole record (``NSIOptions.block_rows``).
+    n_channels : int
+        k, inputs (force and nonlinear terms) plus outputs of the extended-input system.
+
+    Returns
+    -------
+    int
+        ``min(block_rows, (n_half + 1) // (2 (k + 1)))``: the largest i with
+        ``n_half >= 2 i (k + 1) - 1`` (:func:`bayesnsi.nsi.order.check_block_rows`).
+    """
+    return int(min(block_rows, (n_half + 1) // (2 * (n_channels + 1))))
+
+
+def half_coefficients(signals, candidate, nsi, cache=None) -> tuple[tuple[float, float], bool, int]:
     """The last coefficient of ``candidate`` identified on each half of the record.
 
     Parameters
@@ -81,16 +104,23 @@ def half_coefficients(signals, candidate, nsi, cache=None) -> tuple[tuple[float,
 
     Returns
     -------
-    ((float, float), bool)
-        The two estimates (NaN where the identification failed) and whether a half was too
-        short for the block rows.
+    ((float, float), bool, int)
+        The two estimates (NaN where the identification failed), whether a half was too short
+        even for the reduced block rows, and the block rows the halves were identified with
+        (``nsi.block_rows``, or fewer when a half is too short for them: :func:`half_block_rows`).
     """
     n = signals.n_samples // 2
     parts = (signals.segment(0, n), signals.segment(n, signals.n_samples))
+    n_channels = signals.force.shape[1] + len(candidate.terms) + signals.displacement.shape[1]
+    rows = half_block_rows(n, nsi.block_rows, n_channels)
+    if rows < 2:
+        return (math.nan, math.nan), True, rows
+    if rows != nsi.block_rows:
+        nsi = replace(nsi, block_rows=rows)
     shared = (None, None)
     if cache is not None and candidate.terms:
         base = without(candidate, candidate.terms[-1])
-        key = tuple(t.name for t in base.terms)
+        key = (rows, *(t.name for t in base.terms))
         if key not in cache:
             cache[key] = tuple(shared_correlations(part, base, nsi) for part in parts)
         shared = cache[key]
@@ -105,7 +135,7 @@ def half_coefficients(signals, candidate, nsi, cache=None) -> tuple[tuple[float,
             too_short = True
         except (BayesNSIError, np.linalg.LinAlgError):
             values.append(np.nan)
-    return (float(values[0]), float(values[1])), too_short
+    return (float(values[0]), float(values[1])), too_short, rows
 
 
 def _stable(halves, value: float, factor: float) -> bool:
@@ -144,16 +174,21 @@ def check_effect(context: LoopContext, entry: EffectScore, baseline: Baseline, s
     log_bf = entry.log_evidence - baseline.log_evidence
     coef = trial.coefficients[-1]
     halves: tuple[float, float] = (math.nan, math.nan)
-    too_short = False
+    too_short, rows, note = False, context.nsi.block_rows, ""
     if log_bf > threshold:  # the halves cost two identifications
-        halves, too_short = half_coefficients(signals, trial.candidate, context.nsi, half_cache)
+        halves, too_short, rows = half_coefficients(signals, trial.candidate, context.nsi, half_cache)
+        if rows != context.nsi.block_rows:
+            note = (
+                f"{TOO_SHORT} at {context.nsi.block_rows} block rows ({signals.n_samples // 2} samples each): "
+                + (f"identified with {rows}" if not too_short else "not identified")
+            )
     stable = _stable(halves, coef.value, options.stability_factor)
     if log_bf <= threshold:
         reason = f"log Bayes factor {log_bf:.2f} <= threshold {threshold:.2f}"
     elif coef.imag_ratio >= max_imag_ratio:
         reason = f"quality index |Im|/|Re| = {coef.imag_ratio:.2f} >= {max_imag_ratio}"
     elif too_short:
-        reason = f"{TOO_SHORT} ({signals.n_samples // 2} samples each for {context.nsi.block_rows} block rows)"
+        reason = f"{TOO_SHORT} ({signals.n_samples // 2} samples each for {rows} block rows)"
     elif not stable:
         reason = f"coefficient unstable across record halves: {halves[0]:.4g} vs {halves[1]:.4g}"
     elif is_free_body(trial) and np.isfinite(entry.nrmse) and entry.nrmse > baseline.nrmse:
@@ -166,7 +201,7 @@ def check_effect(context: LoopContext, entry: EffectScore, baseline: Baseline, s
     if reason == "accepted":  # emcee only for what is kept: its credible intervals
         full = candidate_evidence(trial, signals, context.evidence, seed, warn=False)[context.evidence.likelihood]
         intervals = full.ci95
-        ci95 = tuple(float(c) for c in full.ci95[-1])
+        ci95 = (float(full.ci95[-1][0]), float(full.ci95[-1][1]))
     step = LoopStep(
         effect=entry.effect,
         accepted=reason == "accepted",
@@ -175,6 +210,8 @@ def check_effect(context: LoopContext, entry: EffectScore, baseline: Baseline, s
         ci95=ci95,
         imag_ratio=coef.imag_ratio,
         half_coefficients=halves,
+        half_block_rows=rows if log_bf > threshold else None,
+        half_note=note,
         log_bayes_factor=float(log_bf),
         nrmse_before=baseline.nrmse,
         nrmse_after=float(entry.nrmse) if np.isfinite(entry.nrmse) else trial.reconstruct(signals).nrmse,
@@ -196,19 +233,17 @@ def _closed_loop_nrmse(result, signals) -> float:
 
 def documented(step: LoopStep, before, after, signals) -> LoopStep:
     """``step`` with its closed-loop errors and residual-force view (accepted steps, docs/method.md §7)."""
-    free = {}
+    short = (step.short_horizon_nrmse_before, step.short_horizon_nrmse_after)
     if is_free_body(after):  # open-loop simulation drifts: windows of one second instead
         horizon = max(4, int(round(signals.fs)))
-        free = dict(
-            short_horizon_nrmse_before=_short_horizon(before, signals, horizon),
-            short_horizon_nrmse_after=_short_horizon(after, signals, horizon),
-        )
+        short = (_short_horizon(before, signals, horizon), _short_horizon(after, signals, horizon))
     return replace(
         step,
         closed_loop_nrmse_before=_closed_loop_nrmse(before, signals),
         closed_loop_nrmse_after=_closed_loop_nrmse(after, signals),
         residual_force=residual_force(before, after, signals, step.term),
-        **free,
+        short_horizon_nrmse_before=short[0],
+        short_horizon_nrmse_after=short[1],
     )
 
 

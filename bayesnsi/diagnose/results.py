@@ -67,6 +67,12 @@ class LoopStep:
     half_coefficients : (float, float)
         Estimates on the first and the second half of the record (NaN when the effect failed
         the Bayes-factor threshold: they are then not computed).
+    half_block_rows : int or None
+        Block rows the record halves were identified with: ``NSIOptions.block_rows``, or fewer
+        when a half is too short for them; None when the halves were not computed.
+    half_note : str
+        Empty, or why the halves used fewer block rows ("record too short for the halves at 60
+        block rows (500 samples each): identified with 41").
     log_bayes_factor : float
         ``log Z(with effect) - log Z(without)``, both by the Laplace approximation.
     nrmse_before, nrmse_after : float
@@ -107,6 +113,8 @@ class LoopStep:
     error_quantity: str = "displacement"
     short_horizon_nrmse_before: float = math.nan
     short_horizon_nrmse_after: float = math.nan
+    half_block_rows: int | None = None
+    half_note: str = ""
 
     @property
     def term(self) -> Term:

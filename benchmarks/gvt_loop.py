@@ -1,0 +1,89 @@
+"""Closing the loop on the simulated ground vibration test from the linear model (issue 17 item 2).
+
+Per level of :func:`bayesnsi.simulate.gvt_records` (0.1, 1, 8 N; the configs of
+``workflows/gvt.py``: frequency route, order 20, band 1.5-15 Hz, D free, the joint undeclared):
+
+1. the data-only localisation (:func:`bayesnsi.diagnose.localise.location_distortion`): output
+   power at the unexcited odd lines over that at the excited lines, of each sensor's motion and of
+   the relative motion of the neighbouring pair 7-8 (the loop's dictionary locations);
+2. the loop from ``linear`` (:func:`bayesnsi.diagnose.close_the_loop`, default ``LoopOptions``):
+   the effects added, in order, with their coefficient and quality index;
+3. the closed-loop validation NRMSE (displacements, :func:`bayesnsi.validation.validate`) on the
+   other realisation of the level and on the other levels, before and after.
+
+    OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/gvt_loop.py [--level 2 1 0]
+
+Measured (seed 0; about 40-80 s per level on one core): localisation - the pair 7-8 leads every
+other location by 8x (0.1 N: 0.0047 vs 0.0006), 3.4x (1 N: 0.0100 vs 0.0029) and 3.6x (8 N:
+0.038 vs 0.011). 8 N: adds (x7-x8)**3 first (1.77e7 N/m³, true 2e7; |Im|/|Re| 0.24), then nothing
+(sign(v7-v8) and the others fail the quality index); validation NRMSE level 1: 0.820 -> 0.222
+(-73 %), level 0: 0.860 -> 0.572 (-33 %), the other 8 N realisation 0.288 -> 0.332. 1 N: adds
+nothing (sign(v7-v8): 0.075 N, true 0.1, but |Im|/|Re| 0.43; (x7-x8)**3: log Bayes factor 2.0).
+0.1 N: adds nothing (the joint effects are tried first and fail the quality index).
+"""
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_var] = "1"
+
+import argparse  # noqa: E402
+import importlib.util  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+import warnings  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+from bayesnsi.diagnose import close_the_loop  # noqa: E402
+from bayesnsi.diagnose.localise import location_distortion  # noqa: E402
+from bayesnsi.io import load_config, load_signals, load_validation  # noqa: E402
+from bayesnsi.simulate import gvt_records  # noqa: E402
+from bayesnsi.validation import validate  # noqa: E402
+
+_WORKFLOW = Path(__file__).resolve().parents[1] / "workflows" / "gvt.py"
+
+
+def _workflow():
+    spec = importlib.util.spec_from_file_location("gvt_workflow", _WORKFLOW)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _errors(result, segments) -> str:
+    rows = validate(result, segments)
+    return ", ".join(f"{s.name}: {'diverged' if s.nrmse is None else f'{s.nrmse:.3f}'}" for s in rows)
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--level", type=int, nargs="+", default=[2, 1, 0])
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args(argv)
+    workflow = _workflow()
+    records = gvt_records(levels=workflow.LEVELS, n_realisations=2, seed=args.seed)
+    with tempfile.TemporaryDirectory() as tmp:
+        configs = workflow.write(records, Path(tmp))
+        for level in args.level:
+            config = load_config(configs[level])
+            signals, segments = load_signals(config), load_validation(config)
+            levels = location_distortion(signals, [(2,), (7,), (8,), (7, 8)])
+            print(f"level {level} ({workflow.LEVELS[level]:g} N) - distortion-to-signal ratio, unexcited odd lines: "
+                  + ", ".join(f"{'-'.join(map(str, loc))}: {odd:.4f}" for loc, (odd, _) in levels.items()))
+            start = time.perf_counter()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                loop = close_the_loop(signals, config.candidates[0], config.loop, nsi=config.nsi,
+                                      evidence=config.evidence)
+                added = [s for s in loop.steps if s.accepted]
+                print(f"  loop ({time.perf_counter() - start:.0f} s): added "
+                      + (", ".join(f"{s.term.name} = {s.coefficient:.4g} (|Im|/|Re| {s.imag_ratio:.2f}, log BF "
+                                   f"{s.log_bayes_factor:.0f})" for s in added) or "nothing"))
+                for step in [s for s in loop.steps if not s.accepted][:4]:
+                    print(f"    rejected {step.term.name}: {step.reason}")
+                print(f"  validation NRMSE before: {_errors(loop.start, segments)}")
+                print(f"  validation NRMSE after:  {_errors(loop.final, segments)}")
+
+
+if __name__ == "__main__":
+    main()

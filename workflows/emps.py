@@ -47,7 +47,7 @@ from bayesnsi.io import (
 )
 from bayesnsi.models import Term
 from bayesnsi.nsi import force_prediction, identify
-from bayesnsi.nsi.inverse import filtered_kinematics, inverse_force
+from bayesnsi.nsi.inverse import edge_samples, filtered_kinematics, inverse_force
 from bayesnsi.selection import select
 
 CONFIG = Path(__file__).parent / "emps" / "emps.toml"
@@ -82,7 +82,8 @@ def published_force(signals, cutoff_hz=None):
     x, v, a, f, cutoff = filtered_kinematics(signals, cutoff_hz)
     p = PUBLISHED
     predicted = inverse_force(p["mass"], p["damping"], 0.0, [Term("sign(v1)", 1)], [p["coulomb"]], x, v, a, p["offset"])
-    keep = slice(int(np.ceil(signals.fs / cutoff)), len(f) - int(np.ceil(signals.fs / cutoff)))
+    trim = edge_samples(signals.fs, cutoff)  # the ends force_prediction leaves out
+    keep = slice(trim, len(f) - trim)
     return float(np.sqrt(np.mean((f - predicted)[keep] ** 2)))
 
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..exceptions import NotIdentifiableError
-from ..nsi.inverse import filtered_kinematics
+from ..nsi.inverse import edge_samples, filtered_kinematics
 
 __all__ = ["screen_effects_force"]
 
@@ -55,7 +55,7 @@ def screen_effects_force(signals, candidate, effects, *, cutoff_hz: float | None
     dof = signals.input_dofs[0]
     x, v, a, f, cutoff = filtered_kinematics(signals, cutoff_hz)
     step = max(1, int(signals.fs / cutoff))  # about one sample per correlation time of the filter
-    trim = int(np.ceil(signals.fs / cutoff))
+    trim = edge_samples(signals.fs, cutoff)
     keep = slice(trim, len(f) - trim, step)
     rows_x, rows_v = np.tile(x, (dof, 1)), np.tile(v, (dof, 1))  # row dof-1 is the measured DOF
 

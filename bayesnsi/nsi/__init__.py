@@ -4,7 +4,7 @@ from ._noise import white_noise_std
 from .feedback import extended_input
 from .free_body import PhysicalParameters, is_free_body, physical_parameters
 from .identify import hankel_correlations, identify
-from .inverse import ForcePrediction, force_affine, force_prediction, short_horizon_nrmse
+from .inverse import ForcePrediction, force_affine, force_noise_std, force_prediction, short_horizon_nrmse
 from .order import select_order, stabilization
 from .periodic import (
     BestLinearApproximation,
@@ -36,6 +36,7 @@ __all__ = [
     "ForcePrediction",
     "force_prediction",
     "force_affine",
+    "force_noise_std",
     "short_horizon_nrmse",
     "white_noise_std",
     "hankel_correlations",

@@ -21,6 +21,7 @@ from scipy import signal as _signal
 
 from ..exceptions import NotIdentifiableError
 from ..signals import Signals
+from ._noise import white_noise_std
 from .feedback import extended_input, working_signals
 from .reconstruct import AffineReconstruction, initial_state
 
@@ -31,7 +32,15 @@ __all__ = [
     "inverse_force",
     "short_horizon_nrmse",
     "filtered_kinematics",
+    "force_noise_std",
+    "edge_samples",
 ]
+
+EDGE_PERIODS = 5
+"""Samples left out at each end of the force view, in periods of the cutoff: ``filtfilt`` pads the
+force and the motion with extensions that do not obey the same dynamics, and the end transient of
+the 4th-order filter lasts about three periods (simulated carriage ending in motion: 180 N error at
+the last sample, 0.5 N three periods in, 0.01 N after four)."""
 
 
 @dataclass(frozen=True)
@@ -88,6 +97,53 @@ def filtered_kinematics(signals: Signals, cutoff_hz: float | None = None):
     return x, v, a, f, cutoff
 
 
+def edge_samples(fs: float, cutoff_hz: float) -> int:
+    """Samples left out at each end of a record filtered for the force view (:data:`EDGE_PERIODS`).
+
+    Parameters
+    ----------
+    fs : float
+        Sampling rate [Hz].
+    cutoff_hz : float
+        Low-pass cutoff [Hz].
+
+    Returns
+    -------
+    int
+        ``ceil(EDGE_PERIODS · fs / cutoff)``.
+    """
+    return int(np.ceil(EDGE_PERIODS * fs / cutoff_hz))
+
+
+def force_noise_std(signals: Signals, cutoff_hz: float | None = None) -> float:
+    """Std of the measured force's white noise left after the force view's low-pass filter.
+
+    The white-noise level of the raw force from high-order differences
+    (:func:`bayesnsi.nsi.white_noise_std`) times the noise gain of the zero-phase filter of
+    :func:`filtered_kinematics`, ``sqrt(mean |H(e^{iω})|⁴)`` over ``[0, π]`` (0.30 at fs/20): the
+    level a force residual that holds nothing but measurement noise reaches.
+
+    Parameters
+    ----------
+    signals : Signals
+        One force channel.
+    cutoff_hz : float, optional
+        Low-pass cutoff (default fs/20).
+
+    Returns
+    -------
+    float
+        [force unit]; 0 when the force has no detectable noise.
+    """
+    fs = signals.fs
+    cutoff = float(cutoff_hz) if cutoff_hz else fs / 20.0
+    if not 0 < cutoff < fs / 2:
+        raise NotIdentifiableError(f"force noise: cutoff {cutoff:g} Hz must lie in (0, {fs / 2:g}) Hz")
+    _, response = _signal.sosfreqz(_signal.butter(4, cutoff, fs=fs, output="sos"), worN=4096)
+    white = float(white_noise_std(np.asarray(signals.force, dtype=float)[:, :1])[0])
+    return white * float(np.sqrt(np.mean(np.abs(response) ** 4)))
+
+
 def inverse_force(mass, damping, stiffness, terms, coefficients, x, v, a, offset: float = 0.0) -> np.ndarray:
     """``M a + C v + K x + Σ λ_i n_i(x, v) + offset`` for a one-DOF model.
 
@@ -135,7 +191,7 @@ def force_prediction(
         Constant force added to the prediction, e.g. the mean force of the estimation record when
         the identification removed it (nothing is fitted on ``signals``).
     trim : int, optional
-        Samples left out at each end (filter transients; default ``fs/cutoff``).
+        Samples left out at each end (filter transients; default :func:`edge_samples`).
 
     Returns
     -------
@@ -155,7 +211,7 @@ def force_prediction(
     (phys,) = params
     x, v, a, f, cutoff = filtered_kinematics(signals, cutoff_hz)
     predicted = inverse_force(phys.mass, phys.damping, phys.stiffness, result.terms, result.coefficient_values, x, v, a)
-    keep = slice(int(trim if trim is not None else np.ceil(signals.fs / cutoff)), None)
+    keep = slice(int(trim if trim is not None else edge_samples(signals.fs, cutoff)), None)
     keep = slice(keep.start, len(f) - keep.start)
     predicted = predicted + float(offset)
     err = (f - predicted)[keep]
@@ -212,7 +268,7 @@ def force_affine(
     (phys,) = params
     x, v, a, f, cutoff = filtered_kinematics(signals, cutoff_hz)
     step = max(1, int(signals.fs / cutoff))  # about one sample per correlation time of the filter
-    trim = int(np.ceil(signals.fs / cutoff))
+    trim = edge_samples(signals.fs, cutoff)
     keep = slice(trim, len(f) - trim, step)
     linear = inverse_force(phys.mass, phys.damping, phys.stiffness, (), (), x, v, a)
     columns = [inverse_force(0.0, 0.0, 0.0, (t,), (1.0,), x, v, a) for t in result.terms]

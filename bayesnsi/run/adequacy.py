@@ -30,7 +30,8 @@ from ..exceptions import BayesNSIError
 __all__ = ["ModelCheck", "model_checks", "adequacy_warnings", "VALIDATION_TOLERANCE"]
 
 VALIDATION_TOLERANCE = 0.1
-"""The selected model "validates worse" when its validation NRMSE exceeds the best candidate's by more than this."""
+"""The selected model "validates worse" when its validation NRMSE exceeds the best candidate's by more than this
+(closed-loop simulation; a free body's force prediction, which does not drift, is compared without tolerance)."""
 
 
 @dataclass(frozen=True)
@@ -58,6 +59,10 @@ class ModelCheck:
         without validation data).
     validation_log_predictive : float or None
         Mean log predictive density per sample of the validation data [nat] (module notes).
+    quantity : str
+        What ``residual_rms`` and ``noise_std`` measure: "displacement", or "force" for a free body
+        (the force predicted from the measured motion against the measured force, and the force's
+        white noise, both through the low-pass filter of :func:`bayesnsi.nsi.force_prediction`).
     """
 
     name: str
@@ -70,6 +75,7 @@ class ModelCheck:
     quality_ok: bool
     validation_nrmse: float | None = None
     validation_log_predictive: float | None = None
+    quantity: str = "displacement"
 
     def to_dict(self) -> dict:
         """JSON-ready record.
@@ -83,7 +89,7 @@ class ModelCheck:
             "order": self.order, "residual_rms": list(self.residual_rms), "noise_std": list(self.noise_std),
             "noise_ratio": self.noise_ratio, "adequate": self.adequate, "quality_index": self.quality_index,
             "quality_ok": self.quality_ok, "validation_nrmse": self.validation_nrmse,
-            "validation_log_predictive": self.validation_log_predictive,
+            "validation_log_predictive": self.validation_log_predictive, "quantity": self.quantity,
         }
 
 
@@ -121,7 +127,7 @@ def model_checks(
     -------
     dict of str to ModelCheck
     """
-    from ..nsi import white_noise_std
+    from ..nsi import force_noise_std, force_prediction, is_free_body, white_noise_std
 
     validation = validation or {}
     noise = white_noise_std(np.asarray(signals.displacement, dtype=float))
@@ -131,12 +137,20 @@ def model_checks(
         result = outcome.result
         if result is None:
             continue
+        quantity, level = "displacement", noise
         try:
-            residual = np.asarray(result.reconstruct(signals).residual, dtype=float)
+            if is_free_body(result):
+                # a free body's displacement residual is the drift of its rigid-body mode: judge the
+                # force it predicts from the measured motion against the force's noise (issue 14)
+                fp = force_prediction(result, signals)
+                quantity, rms = "force", np.array([fp.rmse])
+                level = np.array([max(force_noise_std(signals, fp.cutoff_hz), np.finfo(float).tiny)])
+            else:
+                residual = np.asarray(result.reconstruct(signals).residual, dtype=float)
+                rms = np.sqrt(np.mean(residual**2, axis=0))
         except (BayesNSIError, np.linalg.LinAlgError):
             continue
-        rms = np.sqrt(np.mean(residual**2, axis=0))
-        ratio = float(np.max(rms / noise))
+        ratio = float(np.max(rms / level))
         quality = max((c.imag_ratio for c in result.coefficients), default=None)
         segments = validation.get(outcome.name, ())
         nrmse = None
@@ -144,10 +158,11 @@ def model_checks(
             nrmse = float(np.mean([s.nrmse if s.nrmse is not None else math.inf for s in segments]))
         checks[outcome.name] = ModelCheck(
             name=outcome.name, order=int(result.order), residual_rms=tuple(float(v) for v in rms),
-            noise_std=tuple(float(v) for v in noise), noise_ratio=ratio, adequate=ratio <= max_noise_ratio,
+            noise_std=tuple(float(v) for v in level), noise_ratio=ratio, adequate=ratio <= max_noise_ratio,
             quality_index=None if quality is None else float(quality),
             quality_ok=quality is None or quality <= max_imag_ratio, validation_nrmse=nrmse,
-            validation_log_predictive=_log_predictive(segments, np.where(rms > 0, rms, noise)) if segments else None,
+            validation_log_predictive=_log_predictive(segments, np.where(rms > 0, rms, level)) if segments else None,
+            quantity=quantity,
         )
     return checks
 
@@ -171,8 +186,9 @@ def adequacy_warnings(
     -------
     tuple of str
         One message per failed check: the selected model fails the quality index; it validates
-        more than :data:`VALIDATION_TOLERANCE` worse than another candidate; no candidate's
-        residual is near the noise level; the candidates have linear parts of different orders.
+        more than :data:`VALIDATION_TOLERANCE` worse than another candidate (a free body's force
+        prediction: worse at all); no candidate's residual is near the noise level; the candidates
+        have linear parts of different orders.
     """
     out = []
     chosen = checks.get(selected) if selected is not None else None
@@ -185,16 +201,21 @@ def adequacy_warnings(
         others = {n: c.validation_nrmse for n, c in checks.items() if n != selected and c.validation_nrmse is not None}
         if others:
             best = min(others, key=lambda n: others[n])
-            if chosen.validation_nrmse > (1 + VALIDATION_TOLERANCE) * others[best]:
+            # a free body's force prediction does not drift as a long simulation does: any reversal counts
+            force = chosen.quantity == "force"
+            if chosen.validation_nrmse > (1 + (0.0 if force else VALIDATION_TOLERANCE)) * others[best]:
+                what = "force-prediction NRMSE (free body)" if force else "closed-loop NRMSE"
+                worse = 100 * (chosen.validation_nrmse / others[best] - 1)
                 out.append(
-                    f"the selected model {selected!r} validates worse than {best!r}: closed-loop NRMSE "
-                    f"{chosen.validation_nrmse:.3g} against {others[best]:.3g} on the validation data"
+                    f"the selected model {selected!r} validates worse than {best!r}: {what} "
+                    f"{chosen.validation_nrmse:.3g} against {others[best]:.3g} (+{worse:.2g} %) on the validation data"
                 )
     if checks and not any(c.adequate for c in checks.values()):
         best = min(checks, key=lambda n: checks[n].noise_ratio)
+        what = " (force residual against the force noise)" if checks[best].quantity == "force" else ""
         out.append(
             f"no candidate is adequate: every residual is more than {max_noise_ratio:g}x the sensor noise "
-            f"(best {best!r}: {checks[best].noise_ratio:.2f}x); the probabilities only rank wrong models"
+            f"(best {best!r}: {checks[best].noise_ratio:.2f}x{what}); the probabilities only rank wrong models"
         )
     orders = sorted({c.order for c in checks.values()})
     if len(orders) > 1:

@@ -51,7 +51,9 @@ from ._noise import measured_noise_std
 from ._output_error import refine_output_error
 from .statespace import StateSpaceModel
 
-__all__ = ["input_noise", "kalman_gain", "refine_prediction_error", "refine_prediction_error_bc"]
+__all__ = [
+    "input_noise", "input_noise_covariances", "kalman_gain", "refine_prediction_error", "refine_prediction_error_bc",
+]
 
 
 def _channel_noise(signals: Signals, noise_std, velocity_method: str):
@@ -122,17 +124,27 @@ def input_noise(
     return jac, bias
 
 
-def kalman_gain(A, B_n, C, jac, R):
-    """Steady-state predictor gain K for the input-noise process noise (see the module notes)."""
-    n, l = A.shape[0], C.shape[0]
+def input_noise_covariances(B_n, jac, n_outputs: int):
+    """Process-noise covariance Q = B_n E[J Σ_e Jᵀ] B_nᵀ and cross covariance S = E[w vᵀ] (module notes)."""
     q_in = np.zeros((B_n.shape[1], B_n.shape[1]))
-    cross = np.zeros((B_n.shape[1], l))
+    cross = np.zeros((B_n.shape[1], n_outputs))
     for out_index, j, var in jac:
         q_in += (j.T @ j) / len(j) * var
         if out_index is not None:
             cross[:, out_index] -= j.mean(axis=0) * var
-    Q = B_n @ q_in @ B_n.T
-    S = B_n @ cross
+    return B_n @ q_in @ B_n.T, B_n @ cross
+
+
+def kalman_gain(A, B_n, C, jac, R, extra=None):
+    """Steady-state predictor gain K for the input-noise process noise (see the module notes).
+
+    ``extra``: optional ``(Q, S, R)`` of further noise sources, added to those of the inputs.
+    Returns ``(K, innovation covariance)``.
+    """
+    n = A.shape[0]
+    Q, S = input_noise_covariances(B_n, jac, C.shape[0])
+    if extra is not None:
+        Q, S, R = Q + extra[0], S + extra[1], R + extra[2]
     # a tiny floor keeps the Riccati equation solvable when Q is rank deficient
     Q = 0.5 * (Q + Q.T) + 1e-12 * (np.trace(Q) / n + 1e-300) * np.eye(n)
     try:

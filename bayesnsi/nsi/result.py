@@ -139,6 +139,52 @@ class NSIResult:
         model = self.free_model  # a free body's virtual spring removed (the same model otherwise)
         return StateSpace(model.A, model.B[:, :m], model.C, model.D[:, :m], dt=model.dt)
 
+    def innovation_form(self, signals: Signals, noise_std=None, force_noise_std=None):
+        """The model's innovation form: its steady-state Kalman gain for the noise of ``signals``.
+
+        ``x̂_{k+1} = A x̂_k + B u_k + K ε_k``, ``y_k = C x̂_k + D u_k + ε_k`` with white
+        innovations ε; K solves the Riccati equation for the measurement noise of the outputs
+        (estimated from ``signals`` unless given), the process noise that noisy nonlinear inputs
+        carry, and an optional unmeasured white force at the input DOFs
+        (:mod:`bayesnsi.nsi.innovation`).
+
+        Parameters
+        ----------
+        signals : Signals
+            The data the noise levels are taken from.
+        noise_std : array_like, shape (l,), optional
+            Measurement-noise std of each displacement channel.
+        force_noise_std : array_like, shape (m,), optional
+            Std of an unmeasured white force at each input DOF (default: none).
+
+        Returns
+        -------
+        InnovationForm
+            ``.gain`` (K), ``.innovation_covariance``, ``.predictor``, ``.innovations(u, y)``.
+
+        Examples
+        --------
+        >>> form = result.innovation_form(signals)  # doctest: +SKIP
+        >>> eps = form.innovations(result.extended_input(signals), signals.displacement)  # doctest: +SKIP
+        """
+        from .innovation import innovation_form
+
+        return innovation_form(self, signals, noise_std, force_noise_std)
+
+    def kalman_gain(self, signals: Signals, noise_std=None, force_noise_std=None) -> np.ndarray:
+        """The steady-state Kalman gain K, shape (n, l), of :meth:`innovation_form`.
+
+        Parameters
+        ----------
+        signals, noise_std, force_noise_std
+            As in :meth:`innovation_form`.
+
+        Returns
+        -------
+        ndarray, shape (n, l)
+        """
+        return self.innovation_form(signals, noise_std, force_noise_std).gain
+
     def __repr__(self) -> str:
         from .._repr import compact_repr
 

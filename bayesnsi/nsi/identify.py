@@ -128,12 +128,10 @@ def identify(
     SpuriousPoleWarning
         When some identified poles are real or have a damping ratio outside (0, 1).
 
-    Notes
-    -----
-    Channels are scaled to unit standard deviation before the Hankel products (conditioning);
-    the identified matrices are scaled back, so the model is in physical units. The discrete
-    model is used for FRFs (a zero-order-hold continuous conversion carries a half-sample
-    phase error).
+    See Also
+    --------
+    NSIResult.to_statespace, NSIResult.innovation_form : the linear model for scipy/control,
+        its Kalman gain. The method in brief: ``docs/method.md`` §2-4.
 
     References
     ----------

@@ -90,14 +90,23 @@ def test_segments_widen_the_posterior(two_dof_evidence):
     assert posterior_only.coefficients[0].sd == pytest.approx(alpha.posterior_sd)
 
 
-def test_too_short_record_warns_and_falls_back(two_dof_evidence):
-    """Sub-records shorter than the block rows allow: an IntervalWarning, posterior intervals."""
+def test_windows_are_lengthened_to_what_the_block_rows_need(two_dof_evidence):
+    """30 % of 1000 samples is below the 599 that 60 block rows need: the windows grow to 600."""
     case, result, evidence = two_dof_evidence
+    intervals = candidate_intervals(result, case.signals, evidence, FAST.replace(segment_fraction=0.3),
+                                    case.recommended)
+    assert intervals.method == "segments" and intervals.segment_samples == 600 and intervals.n_segments == 8
+
+
+def test_too_short_record_warns_and_falls_back():
+    """Even 90 % of the record is below what the block rows need: an IntervalWarning, posterior intervals."""
+    case = simulate_case("two-dof", seed=3)
+    short = case.signals.segment(0, 640)  # 60 block rows need 599 samples; 90 % is 576
+    result = identify(short, case.candidates[0], case.recommended)
+    evidence = candidate_evidence(result, short, FAST, np.random.SeedSequence(1), warn=False)["white"]
     with pytest.warns(IntervalWarning, match="too narrow"):
-        intervals = candidate_intervals(
-            result, case.signals, evidence, FAST.replace(segment_fraction=0.3), case.recommended
-        )
-    assert intervals.method == "posterior" and intervals.notes
+        intervals = candidate_intervals(result, short, evidence, FAST, case.recommended)
+    assert intervals.method == "posterior" and len(intervals.notes) == 1
 
 
 def test_results_record_and_cache_carry_the_intervals():

@@ -8,7 +8,8 @@ sub-records (moving-block subsampling, a delete-a-block jackknife):
 
 * ``n_segments`` windows of ``b = segment_fraction · N`` contiguous samples, at evenly spaced
   offsets (non-overlapping when ``segment_fraction · n_segments <= 1``), are re-identified with
-  the same settings, the full record's order and band;
+  the same settings, the full record's order and band (a window is lengthened to what the block
+  rows need, up to 90 % of the record);
 * for an estimator whose error variance is ``σ²/b`` on ``b`` samples, a window's deviation from
   the full-record estimate has variance ``σ²/b - σ²/N``, so the variance of the full-record
   estimate is ``σ²/N = b/(N - b) · mean_w (θ_w - θ_N)²`` (the delete-d jackknife factor);
@@ -40,6 +41,7 @@ INTERVAL_METHODS = ("posterior", "segments")
 
 _Z95 = 1.959963984540054
 _Z50 = 0.6744897501960817
+_MAX_FRACTION = 0.9  # windows are lengthened to what the block rows need, up to this fraction of the record
 _MODE_MATCH = 0.1  # a window mode farther than 10 % in frequency from every full-record mode is not matched
 
 
@@ -147,7 +149,8 @@ def segment_estimates(result, signals, options=None, n_segments: int = 8, fracti
     n_segments : int
         Number of sub-records, at evenly spaced offsets.
     fraction : float
-        Length of a sub-record as a fraction of the record, in (0, 1).
+        Length of a sub-record as a fraction of the record, in (0, 1); lengthened to what the
+        block rows need for this candidate, up to 90 % of the record.
 
     Returns
     -------
@@ -167,7 +170,7 @@ def segment_estimates(result, signals, options=None, n_segments: int = 8, fracti
         raise ValueError(f"fraction must lie in (0, 1), got {fraction!r}")
     options = (options or NSIOptions()).replace(order=result.order, band_hz=tuple(result.band_hz))
     n = signals.n_samples
-    b = int(round(fraction * n))
+    b = max(int(round(fraction * n)), min(_shortest_window(result), int(_MAX_FRACTION * n)))
     offsets = np.unique(np.linspace(0, n - b, n_segments).round().astype(int))
     f_full = np.array([m.frequency_hz for m in result.modes])
     coefficients, freqs, zetas, failures = [], [], [], []
@@ -198,6 +201,13 @@ def segment_estimates(result, signals, options=None, n_segments: int = 8, fracti
         np.array(zetas, dtype=float).reshape(len(zetas), m),
         failures,
     )
+
+
+def _shortest_window(result) -> int:
+    """Fewest data samples the block rows accept for this candidate's extended input and outputs."""
+    channels = result.model.B.shape[1] + result.model.C.shape[0]
+    needed = 2 * int(result.block_rows) * (channels + 1) - 1  # on the identification grid
+    return -(-needed // max(int(result.upsample), 1)) + 1
 
 
 def _interval(name: str, centre: float, posterior_sd: float, segment_sd: float) -> ParameterInterval:
@@ -265,7 +275,7 @@ def candidate_intervals(result, signals, evidence_result, options=None, nsi_opti
             "the identified linear part, and too narrow: use a longer record or a larger segment_fraction"
         )
         warnings.warn(note, IntervalWarning, stacklevel=2)
-        return _posterior_only(names, draws, (note, *failures))
+        return _posterior_only(names, draws, (note,))
     coef_sd = _scatter_sd(coefs, result.coefficient_values, samples, n)
     f_full = np.array([m.frequency_hz for m in result.modes])
     z_full = np.array([m.damping_ratio for m in result.modes])

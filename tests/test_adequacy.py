@@ -5,6 +5,7 @@ whose output noise is 2 % of each channel's std: the true model's open-loop resi
 noise level (measured ratio 1.0-1.1), a Coulomb-only or linear model's is not (1.5-2.4).
 """
 
+import json
 import math
 import warnings
 
@@ -90,3 +91,24 @@ def test_results_json_lists_the_warnings(two_dof, tmp_path):
     payload = selection_payload(selection, "select", config)
     assert payload["warnings"] == list(selection.warnings) and payload["warnings"]
     assert payload["candidates"][0]["model_check"]["adequate"] is False
+
+
+def test_command_line_prints_the_warnings(tmp_path, capsys):
+    """``bayesnsi select --quiet`` on candidates that cannot fit: the warning on stderr and in results.json."""
+    from bayesnsi.cli import main
+
+    assert main(["simulate", "two-dof", "--seed", "3", "--out", str(tmp_path / "two_dof.csv"), "--quiet"]) == 0
+    config = tmp_path / "wrong.toml"
+    config.write_text(
+        '[data]\nfile = "two_dof.csv"\nfs = 100.0\ninputs = { f2 = 2 }\noutputs = { x1 = 1, x2 = 2 }\n'
+        '[nsi]\nblock_rows = 60\norder = 4\n'
+        '[evidence]\nn_steps = 200\nn_burn = 50\nlikelihood = "white"\ncompare = []\ninterval = "posterior"\n'
+        '[[candidates]]\nname = "linear"\nterms = []\n'
+        '[[candidates]]\nname = "coulomb"\nterms = [{ expr = "sign(v1)", at = 1 }]\n'
+    )
+    capsys.readouterr()
+    assert main(["select", str(config), "--out", str(tmp_path / "out"), "--quiet", "--no-figures"]) == 0
+    err = capsys.readouterr().err
+    assert "warning: no candidate is adequate" in err
+    results = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert any("no candidate is adequate" in w for w in results["warnings"])

@@ -98,7 +98,7 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
         )
     fit_band = (float(data.freqs_hz[0]), float(data.freqs_hz[-1]))
     band = tuple(float(b) for b in (options.band_hz or default_band(modes, signals.fs)))
-    _WARM[_warm_key(signals, cand.terms, options)] = (Ac, C)
+    _WARM[_warm_key(signals, cand.terms, options)] = (Ac.copy(), C.copy())  # copies: the model may share them
     while len(_WARM) > _WARM_SIZE:
         _WARM.pop(next(iter(_WARM)))
     settings = dict(
@@ -160,7 +160,8 @@ def _better_of_warm_start(signals: Signals, cand, options: NSIOptions, data, fit
     estimate alone may start the refinement in a worse local minimum, which makes the ranking of
     effects flat or wrong (docs/method.md §11: A, C re-estimated and refined for every candidate).
     The lower weighted misfit wins. The smaller model is identified first when it was not (cached
-    per data and settings), so the result does not depend on what was identified before.
+    per data and settings), so the result does not depend on what was identified before (up to the
+    refinement's tolerance along poorly determined directions).
     """
     if not cand.terms:
         return fitted
@@ -175,7 +176,7 @@ def _better_of_warm_start(signals: Signals, cand, options: NSIOptions, data, fit
     start = _WARM.get(key)
     if start is None or start[0].shape != fitted[0].shape or start[1].shape != fitted[1].shape:
         return fitted
-    warm = _fnsi.refine(data, start[0], start[1], options.zero_feedthrough)
+    warm = _fnsi.refine(data, start[0].copy(), start[1].copy(), options.zero_feedthrough)
     zf = options.zero_feedthrough
     better = _line_cost(data, warm[0], warm[1], zf, jw) < _line_cost(data, fitted[0], fitted[1], zf, jw)
     return warm if better else fitted

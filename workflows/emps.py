@@ -81,7 +81,10 @@ def published_force(signals, cutoff_hz=None):
     """The published inverse model's force prediction on ``signals`` (filtered as ours)."""
     x, v, a, f, cutoff = filtered_kinematics(signals, cutoff_hz)
     p = PUBLISHED
-    predicted = inverse_force(p["mass"], p["damping"], 0.0, [Term("sign(v1)", 1)], [p["coulomb"]], x, v, a, p["offset"])
+    predicted = inverse_force(
+        p["mass"], p["damping"], 0.0, [Term("sign(v1)", 1)], [p["coulomb"]], x, v, a, p["offset"],
+        fs=signals.fs, cutoff_hz=cutoff,
+    )
     trim = edge_samples(signals.fs, cutoff)  # the ends force_prediction leaves out
     keep = slice(trim, len(f) - trim)
     return float(np.sqrt(np.mean((f - predicted)[keep] ** 2)))

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..exceptions import NotIdentifiableError
-from ..nsi.inverse import edge_samples, filtered_kinematics
+from ..nsi.inverse import edge_samples, filtered_kinematics, parallel_filter
 
 __all__ = ["screen_effects_force"]
 
@@ -61,7 +61,10 @@ def screen_effects_force(signals, candidate, effects, *, cutoff_hz: float | None
 
     def basis(term):
         with np.errstate(all="ignore"):
-            return term.evaluate(rows_x, rows_v)[keep]
+            column = term.evaluate(rows_x, rows_v)
+        if not np.all(np.isfinite(column)):
+            return column[keep]
+        return parallel_filter(column, signals.fs, cutoff)[keep]  # filtered as the force was
 
     present = {t.name for t in candidate.terms}
     columns = [a[keep], v[keep], x[keep], np.ones_like(x[keep])] + [basis(t) for t in candidate.terms]

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..signals import Signals
 
-__all__ = ["measured_noise_std", "white_noise_std"]
+__all__ = ["column_std", "measured_noise_std", "row_var", "white_noise_std"]
 
 _MAX_DIFFERENCE_ORDER = 6
 
@@ -30,17 +30,48 @@ def white_noise_std(signal: np.ndarray) -> np.ndarray:
     -------
     ndarray, shape (n_channels,)
     """
-    y = np.asarray(signal, dtype=float)
-    best = np.full(y.shape[1], np.inf)
+    # one contiguous row per channel: reductions along rows are ~7x faster than down the
+    # columns of an (n_samples, few channels) array, and this runs in every identification
+    y = np.ascontiguousarray(np.asarray(signal, dtype=float).T)
+    best = np.full(y.shape[0], np.inf)
     diff = y
     for d in range(1, _MAX_DIFFERENCE_ORDER + 1):
-        diff = np.diff(diff, axis=0)
+        diff = diff[:, 1:] - diff[:, :-1]
         if d >= 2:
             norm = float(
                 np.prod(np.arange(d + 1, 2 * d + 1)) / np.prod(np.arange(1, d + 1))
             )  # C(2d, d)
-            best = np.minimum(best, diff.var(axis=0) / norm)
+            best = np.minimum(best, row_var(diff) / norm)
     return np.sqrt(best)
+
+
+def row_var(rows: np.ndarray) -> np.ndarray:
+    """Variance of each row of a C-contiguous 2-D array (two passes, as :meth:`numpy.ndarray.var`).
+
+    Parameters
+    ----------
+    rows : ndarray, shape (n_channels, n_samples)
+
+    Returns
+    -------
+    ndarray, shape (n_channels,)
+    """
+    centred = rows - rows.mean(axis=1, keepdims=True)
+    return np.einsum("ij,ij->i", centred, centred) / rows.shape[1]
+
+
+def column_std(columns: np.ndarray) -> np.ndarray:
+    """Standard deviation of each column of an (n_samples, n_channels) array (fast path of ``std(axis=0)``).
+
+    Parameters
+    ----------
+    columns : ndarray, shape (n_samples, n_channels)
+
+    Returns
+    -------
+    ndarray, shape (n_channels,)
+    """
+    return np.sqrt(row_var(np.ascontiguousarray(np.asarray(columns, dtype=float).T)))
 
 
 def measured_noise_std(signals: Signals):

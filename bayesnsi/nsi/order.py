@@ -7,6 +7,7 @@ import numpy as np
 from ..exceptions import BlockRowsError, OrderError
 from ..signals import Signals
 from . import _hankel, _subspace
+from ._noise import column_std, row_var
 from .feedback import as_candidate, extended_input
 from .physics import split_poles
 
@@ -98,9 +99,10 @@ def scaled_stack(u: np.ndarray, y: np.ndarray, block_rows: int) -> _hankel.Scale
         Holds the scales (``u_scale``, ``y_scale``), computed once here.
     """
     check_block_rows(len(u), block_rows, u.shape[1] + y.shape[1])
-    std, rms = u.std(axis=0), np.sqrt(np.mean(u**2, axis=0))
+    rows = np.ascontiguousarray(np.asarray(u, dtype=float).T)  # fast per-channel reductions
+    std, rms = np.sqrt(row_var(rows)), np.sqrt(np.einsum("ij,ij->i", rows, rows) / rows.shape[1])
     # a constant input (an offset term) has no spread: scaled by its size instead
-    return _hankel.ScaledStack(u, y, np.where(std > 1e-12 * rms, std, rms), y.std(axis=0))
+    return _hankel.ScaledStack(u, y, np.where(std > 1e-12 * rms, std, rms), column_std(y))
 
 
 def oblique_decomposition(stack: _hankel.ScaledStack, block_rows: int, route: str = "correlation", lagged=None):

@@ -15,6 +15,7 @@ from ..io.report import Report
 from ..io.units import ChannelUnits
 from ..nsi import stabilization
 from ..tables import coefficients_table, modes_table, physical_table
+from ._report_intervals import interval_sections
 from ._report_periodic import periodic_section
 from ._report_tables import adequacy_frame, decision_frame, probability_text, ranking_frame, summary_frame
 
@@ -261,9 +262,12 @@ def selection_sections(report, signals, selection, selected, units=None, role: s
             "(a white residual). The probabilities only compare the candidates with each other."
         )
         evidence.append(adequacy_frame(selection.adequacy))
+    interval_sections(report, selection.outcomes, selected, opts.likelihood, answer, MODELS)
     _reconstruction_figures(report, signals, results, units)
     post = report.section("Coefficient posteriors", POSTERIOR)
-    post.append("arviz summaries of the emcee draws (one chain per walker); the draws are in posterior/<name>.nc.")
+    post.append("arviz summaries of the emcee draws (one chain per walker); the draws are in posterior/<name>.nc. "
+                "Their HDI is the posterior's alone, given the identified linear part (too narrow: the intervals "
+                "that include the linear part's uncertainty are in 'Intervals of coefficients and modes').")
     for name, by_lik in evidences.items():
         ev = by_lik[opts.likelihood]
         post.append(f"{name} - priors: {ev.priors_text.replace(chr(10), '; ')}")

@@ -1,0 +1,173 @@
+"""Report tables of the honest intervals (issue 15): coefficients and modes with their 50 % / 95 % intervals.
+
+The intervals are :attr:`CandidateOutcome.intervals` (:func:`bayesnsi.evidence.candidate_intervals`):
+the coefficient posterior widened by the scatter of the whole identification over record windows,
+so they include the uncertainty of the identified linear part. The posterior-only interval (given
+the linear part as if it were exact) is shown beside them and labelled so.
+"""
+
+from __future__ import annotations
+
+import math
+
+__all__ = [
+    "INTERVAL_TEXT", "coefficient_intervals_frame", "mode_intervals_frame", "interval_text", "interval_sections",
+]
+
+INTERVAL_TEXT = (
+    "95 % and 50 % intervals include the uncertainty of the identified linear part: the whole identification is "
+    "repeated on {n} windows of {samples} samples of the record and their scatter (delete-a-block jackknife) is added "
+    "to the posterior variance of the coefficients. The posterior-only interval beside it conditions on the "
+    "identified linear part as if it were exact and is too narrow (issue 15). A bias shared by every window "
+    "(e.g. errors-in-variables bias) is not included."
+)
+_POSTERIOR_TEXT = (
+    "The intervals are the coefficient posterior's alone, given the identified linear part as if it were exact: "
+    "they do not include the linear part's uncertainty and are too narrow."
+)
+
+
+def _pair(ci) -> str:
+    lo, hi = float(ci[0]), float(ci[1])
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        return "—"
+    return f"[{lo:.4g}, {hi:.4g}]"
+
+
+def interval_text(outcomes) -> str:
+    """What the report's intervals include, worded from the first outcome that carries intervals.
+
+    Parameters
+    ----------
+    outcomes : sequence of CandidateOutcome
+
+    Returns
+    -------
+    str
+        Empty when no outcome carries intervals.
+    """
+    for outcome in outcomes:
+        iv = getattr(outcome, "intervals", None)
+        if iv is None:
+            continue
+        if iv.method == "segments":
+            return INTERVAL_TEXT.format(n=iv.n_segments, samples=iv.segment_samples)
+        return _POSTERIOR_TEXT + (" " + " ".join(iv.notes) if iv.notes else "")
+    return ""
+
+
+def coefficient_intervals_frame(outcomes, likelihood: str):
+    """One row per candidate and coefficient: estimate, sd, honest 50 % / 95 % and posterior-only 95 %.
+
+    Parameters
+    ----------
+    outcomes : sequence of CandidateOutcome
+    likelihood : str
+        The primary likelihood (its posterior gives the posterior-only interval).
+
+    Returns
+    -------
+    pandas.DataFrame or None
+        None when no candidate has a coefficient with intervals.
+    """
+    import pandas as pd
+
+    rows = []
+    for outcome in outcomes:
+        iv = getattr(outcome, "intervals", None)
+        if iv is None or not iv.coefficients:
+            continue
+        evidence = (outcome.evidences or {}).get(likelihood)
+        posterior = [] if evidence is None else list(evidence.ci95)
+        for k, p in enumerate(iv.coefficients):
+            rows.append({
+                "candidate": outcome.name,
+                "coefficient": p.name,
+                "estimate": p.estimate,
+                "sd": p.sd,
+                "95 % interval": _pair(p.ci95),
+                "50 % interval": _pair(p.ci50),
+                "95 % posterior only (given the linear part)": _pair(posterior[k]) if k < len(posterior) else "—",
+                "interval": "windows + posterior" if iv.method == "segments" else "posterior only",
+            })
+    if not rows:
+        return None
+    return pd.DataFrame(rows).set_index(["candidate", "coefficient"])
+
+
+def mode_intervals_frame(outcomes):
+    """One row per candidate and mode: natural frequency and damping ratio with 95 % / 50 % intervals.
+
+    Parameters
+    ----------
+    outcomes : sequence of CandidateOutcome
+
+    Returns
+    -------
+    pandas.DataFrame or None
+        None when no candidate carries modal intervals.
+    """
+    import pandas as pd
+
+    rows = []
+    for outcome in outcomes:
+        iv = getattr(outcome, "intervals", None)
+        if iv is None or not iv.frequencies:
+            continue
+        for k, (f, z) in enumerate(zip(iv.frequencies, iv.damping_ratios)):
+            rows.append({
+                "candidate": outcome.name,
+                "mode": k + 1,
+                "frequency [Hz]": f.estimate,
+                "frequency 95 % interval": _pair(f.ci95),
+                "frequency 50 % interval": _pair(f.ci50),
+                "damping ratio [%]": 100 * z.estimate,
+                "damping 95 % interval [%]": _pair([100 * v for v in z.ci95]),
+                "damping 50 % interval [%]": _pair([100 * v for v in z.ci50]),
+            })
+    if not rows:
+        return None
+    return pd.DataFrame(rows).set_index(["candidate", "mode"])
+
+
+def interval_sections(report, outcomes, selected, likelihood: str, answer: list, order: int) -> None:
+    """The selected model's coefficients with intervals in the answer, and the section of all intervals.
+
+    Parameters
+    ----------
+    report : Report
+    outcomes : sequence of CandidateOutcome
+    selected : str or None
+        The candidate the answer presents.
+    likelihood : str
+        The primary likelihood.
+    answer : list
+        The answer section's blocks.
+    order : int
+        Place of the intervals section in the document.
+    """
+    chosen = [o for o in outcomes if o.name == selected and getattr(o, "intervals", None) is not None]
+    if chosen and chosen[0].intervals.coefficients:
+        iv = chosen[0].intervals
+        evidence = (chosen[0].evidences or {}).get(likelihood)
+        posterior = [] if evidence is None else list(evidence.ci95)
+        parts = []
+        for k, p in enumerate(iv.coefficients):
+            text = f"{p.name} = {p.estimate:.4g}, 95 % interval {_pair(p.ci95)}"
+            if iv.method == "segments" and k < len(posterior):
+                text += f" (posterior only, given the linear part: {_pair(posterior[k])})"
+            parts.append(text)
+        what = "linear-part uncertainty from the record windows + posterior" if iv.method == "segments" else (
+            "posterior only, given the linear part: too narrow")
+        answer.append(f"Coefficients of {selected}: " + "; ".join(parts) + f". Intervals include: {what}.")
+    coefficients, modes = coefficient_intervals_frame(outcomes, likelihood), mode_intervals_frame(outcomes)
+    if coefficients is None and modes is None:
+        return
+    section = report.section("Intervals of coefficients and modes", order)
+    section.append(interval_text(outcomes))
+    if coefficients is not None:
+        section.append(coefficients)
+    if modes is not None:
+        section.append("Natural frequencies and damping ratios of each candidate's underlying linear model with the "
+                       "intervals from the scatter over the record windows.")
+        section.append(modes)

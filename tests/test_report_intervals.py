@@ -1,0 +1,80 @@
+"""The report shows the honest intervals (issue 15): coefficients and modes with the intervals of
+:func:`bayesnsi.evidence.candidate_intervals`, the posterior-only interval beside them, labelled.
+
+Reference values: the outcome's own ``intervals`` and its evidence's ``ci95`` (the report only
+words them), formatted as the report does (4 significant digits).
+"""
+
+import numpy as np
+import pytest
+
+from bayesnsi.cli._report_intervals import coefficient_intervals_frame, interval_sections, mode_intervals_frame
+from bayesnsi.io.report import Report
+from bayesnsi.options import EvidenceOptions
+from bayesnsi.run import run_candidates
+from bayesnsi.simulate import simulate_case
+
+FAST = EvidenceOptions(n_steps=200, n_burn=50, likelihood="white", compare=())
+
+
+@pytest.fixture(scope="module")
+def outcome():
+    case = simulate_case("two-dof", seed=0)
+    (found,) = run_candidates(case.signals, case.candidates[:1], case.recommended, FAST)
+    assert found.intervals is not None and found.intervals.method == "segments"
+    return found
+
+
+def _pair(ci):
+    return f"[{ci[0]:.4g}, {ci[1]:.4g}]"
+
+
+def test_report_contains_the_honest_interval_values(outcome):
+    report = Report("t")
+    answer = report.section("Answer", 0)
+    interval_sections(report, [outcome], outcome.name, "white", answer, 30)
+    html = report.to_html()
+    honest = outcome.intervals.coefficients[0]
+    posterior = outcome.evidences["white"].ci95[0]
+    assert _pair(honest.ci95) in html and _pair(honest.ci50) in html
+    assert _pair(posterior) in html and "posterior only" in html
+    assert "linear part" in html and "windows" in html
+    # the honest interval is the wider one (it adds the linear part's scatter to the posterior)
+    assert honest.ci95[1] - honest.ci95[0] > posterior[1] - posterior[0]
+    for f, z in zip(outcome.intervals.frequencies, outcome.intervals.damping_ratios):
+        assert _pair(f.ci95) in html and _pair([100 * v for v in z.ci95]) in html
+
+
+def test_interval_frames(outcome):
+    coefficients = coefficient_intervals_frame([outcome], "white")
+    assert coefficients.loc[(outcome.name, outcome.intervals.coefficients[0].name), "sd"] == pytest.approx(
+        outcome.intervals.coefficients[0].sd)
+    modes = mode_intervals_frame([outcome])
+    assert len(modes) == 2
+    assert np.allclose(modes["frequency [Hz]"], [m.frequency_hz for m in outcome.result.modes])
+    assert coefficient_intervals_frame([], "white") is None and mode_intervals_frame([]) is None
+
+
+def test_select_report_shows_the_intervals_of_results_json(tmp_path, capsys):
+    """``bayesnsi select``: report.html carries results.json's honest ci95 of α and of the modes."""
+    import json
+
+    from bayesnsi.cli import main
+
+    assert main(["simulate", "two-dof", "--seed", "3", "--out", str(tmp_path / "two_dof.csv"), "--quiet"]) == 0
+    config = tmp_path / "true.toml"
+    config.write_text(
+        '[data]\nfile = "two_dof.csv"\nfs = 100.0\ninputs = { f2 = 2 }\noutputs = { x1 = 1, x2 = 2 }\n'
+        '[nsi]\nblock_rows = 60\norder = 4\n'
+        '[evidence]\nn_steps = 200\nn_burn = 50\nlikelihood = "white"\ncompare = []\n'
+        '[[candidates]]\nname = "cubic"\nterms = [{ expr = "x1**3", at = 1 }]\n'
+    )
+    assert main(["select", str(config), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+    capsys.readouterr()
+    results = json.loads((tmp_path / "out" / "results.json").read_text())
+    (record,) = results["candidates"]
+    html = (tmp_path / "out" / "report.html").read_text()
+    coefficient = record["coefficients"][0]
+    assert coefficient["interval"] == "segments"
+    assert _pair(coefficient["ci95"]) in html and _pair(coefficient["ci95_posterior"]) in html
+    assert _pair(record["modes"][0]["frequency_ci95"]) in html

@@ -13,12 +13,14 @@ import numpy as np
 
 from .exceptions import InputDataError, ShapeError
 
-__all__ = ["Signals", "differentiate", "MIN_FS", "MAX_FS"]
+__all__ = ["Signals", "differentiate", "MIN_FS", "MAX_FS", "MEASURED_QUANTITIES"]
 
 MIN_FS = 1e-6
 """Lowest accepted sampling frequency [Hz] (one sample every 11.6 days)."""
 MAX_FS = 1e9
 """Highest accepted sampling frequency [Hz] (1 GHz, far above any structural measurement)."""
+MEASURED_QUANTITIES = ("displacement", "velocity", "acceleration")
+"""What the response sensors can measure (``Signals.measured``; errors are reported in it)."""
 
 _DIFFERENTIATORS = {
     # central-difference stencils (coefficients for offsets -k..k, divided by dt)
@@ -131,6 +133,9 @@ class Signals:
     period : int, optional
         Samples per period of a periodic test (the force repeats every ``period`` samples;
         docs/method.md §11); None for a non-periodic record.
+    measured : {"displacement", "velocity", "acceleration"}
+        What the response sensors measured (``displacement`` holds it integrated when not a
+        displacement); errors are reported in this quantity (bayesnsi._measured).
     """
 
     force: np.ndarray
@@ -142,6 +147,7 @@ class Signals:
     input_names: tuple[str, ...] = field(default=())
     output_names: tuple[str, ...] = field(default=())
     period: int | None = None
+    measured: str = "displacement"
 
     def __post_init__(self):
         force = _as_matrix("force", self.force, None)
@@ -170,6 +176,8 @@ class Signals:
                     f"period must be a whole number of samples in [2, {len(force)}] (the record), got {period!r}"
                 )
             set_("period", int(period))
+        if self.measured not in MEASURED_QUANTITIES:
+            raise InputDataError(f"measured must be one of {MEASURED_QUANTITIES}, got {self.measured!r}")
 
     @property
     def n_samples(self) -> int:
@@ -206,6 +214,7 @@ class Signals:
             input_names=self.input_names,
             output_names=self.output_names,
             period=self.period if self.period is not None and stop - start >= self.period else None,
+            measured=self.measured,
         )
 
     def state_rows(self, displacement_dofs, velocity_dofs, velocity_method: str = "fourth"):

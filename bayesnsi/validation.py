@@ -13,9 +13,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from ._measured import MeasuredError, measured_error
 from .exceptions import BayesNSIError, ConfigError
 
-__all__ = ["ADEQUACY_LEVEL", "VALIDATION_INIT_SAMPLES", "SegmentError", "Whiteness", "residual_whiteness", "validate"]
+__all__ = [
+    "ADEQUACY_LEVEL", "VALIDATION_INIT_SAMPLES", "SegmentError", "Whiteness", "measured_errors", "residual_whiteness",
+    "validate",
+]
 
 ADEQUACY_LEVEL = 0.01
 """Significance level of the whiteness test: a model is flagged when some channel's p < this."""
@@ -33,7 +37,7 @@ class SegmentError:
     name : str
         Name of the segment (config ``[[validation]]``).
     rmse : float or None
-        RMS error over all output channels, in the output's units; None when the simulation failed.
+        RMS error over all output channels, in the units of ``quantity``; None when the simulation failed.
     nrmse : float or None
         ``sqrt(mean_c(mean(e_c^2) / mean(y_c^2)))``; None when the simulation failed.
     rmse_per_channel : tuple of float
@@ -41,8 +45,15 @@ class SegmentError:
     error : str or None
         Why the closed-loop simulation failed (diverged, unstable), else None.
     quantity : str
-        What the errors measure: "displacement" (closed-loop simulation), or "force" for a free
-        body (the force predicted from the measured motion, whose open-loop simulation drifts).
+        What the errors measure: the measured response (``Signals.measured``: "displacement",
+        "velocity" or "acceleration"; the model's displacement differentiated as
+        :func:`bayesnsi._measured.to_measured` does), or "force" for a free body (the force
+        predicted from the measured motion, whose open-loop simulation drifts).
+    nrmse_per_channel : tuple of float
+        NRMSE of each output channel.
+    displacement_rmse_per_channel : tuple of float
+        RMS displacement error of each channel (the model's own output; the adequacy checks
+        compare it with the displacement noise); empty for a free body.
     """
 
     name: str
@@ -51,12 +62,16 @@ class SegmentError:
     rmse_per_channel: tuple[float, ...] = ()
     error: str | None = None
     quantity: str = "displacement"
+    nrmse_per_channel: tuple[float, ...] = ()
+    displacement_rmse_per_channel: tuple[float, ...] = ()
 
     def to_dict(self) -> dict:
         """Plain-data form, as written to results.json."""
         out: dict[str, object] = {"name": self.name, "rmse": self.rmse, "nrmse": self.nrmse, "quantity": self.quantity}
         if self.error is None:
             out["rmse_per_channel"] = list(self.rmse_per_channel)
+            if self.nrmse_per_channel:
+                out["nrmse_per_channel"] = list(self.nrmse_per_channel)
         else:
             out["error"] = self.error
         return out
@@ -98,17 +113,38 @@ def validate(result, segments) -> tuple[SegmentError, ...]:
             out.append(SegmentError(name, None, None, error=str(err)))
             continue
         residual = rec.residual[VALIDATION_INIT_SAMPLES:]
-        meas = rec.measured[VALIDATION_INIT_SAMPLES:]
-        mean_square = np.mean(residual**2, axis=0)
+        found = measured_error(rec.measured, rec.predicted, signals, skip=VALIDATION_INIT_SAMPLES)
         out.append(
             SegmentError(
-                name,
-                float(np.sqrt(np.mean(mean_square))),
-                float(np.sqrt(np.mean(mean_square / np.mean(meas**2, axis=0)))),
-                tuple(float(v) for v in np.sqrt(mean_square)),
+                name, found.rmse, found.nrmse, found.rmse_per_channel, quantity=found.quantity,
+                nrmse_per_channel=found.nrmse_per_channel,
+                displacement_rmse_per_channel=tuple(float(v) for v in np.sqrt(np.mean(residual**2, axis=0))),
             )
         )
     return tuple(out)
+
+
+def measured_errors(result, signals, closed_loop: bool = False) -> MeasuredError:
+    """Open- or closed-loop error of ``result`` on ``signals`` in the measured quantity.
+
+    Parameters
+    ----------
+    result : NSIResult
+        Identified model (not a free body: its errors are force errors, see :func:`validate`).
+    signals : Signals
+        Estimation or held-out data; ``signals.measured`` says what the sensors measured.
+    closed_loop : bool
+        Closed-loop simulation (the first :data:`VALIDATION_INIT_SAMPLES` samples fix the initial
+        state and are left out) instead of the open-loop reconstruction.
+
+    Returns
+    -------
+    MeasuredError
+        Per channel and overall, with ``quantity``.
+    """
+    skip = VALIDATION_INIT_SAMPLES if closed_loop else 0
+    rec = result.reconstruct(signals, closed_loop=closed_loop, n_init=VALIDATION_INIT_SAMPLES if closed_loop else None)
+    return measured_error(rec.measured, rec.predicted, signals, skip=skip)
 
 
 @dataclass(frozen=True)

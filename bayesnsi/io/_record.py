@@ -101,6 +101,7 @@ class Record:
             input_dofs=tuple(self.data.inputs.values()), output_dofs=tuple(self.data.outputs.values()),
             input_names=tuple(self.data.inputs), output_names=tuple(self.data.outputs),
             period=_period(self.data, len(force)),
+            measured="acceleration" if self.integrate is not None else "displacement",
         )
 
     def _processed(self, start: int, stop: int) -> _Window:

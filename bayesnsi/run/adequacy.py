@@ -99,7 +99,7 @@ def _log_predictive(segments, sigma: np.ndarray) -> float | None:
     for seg in segments:
         if seg.error is not None or not seg.rmse_per_channel:
             return -math.inf
-        rmse = np.asarray(seg.rmse_per_channel, dtype=float)
+        rmse = np.asarray(getattr(seg, "displacement_rmse_per_channel", ()) or seg.rmse_per_channel, dtype=float)
         values.append(float(np.sum(-0.5 * np.log(2 * np.pi * sigma**2) - 0.5 * rmse**2 / sigma**2)))
     return float(np.mean(values)) if values else None
 

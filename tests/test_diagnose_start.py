@@ -15,6 +15,11 @@ TRUTH = """
 [[candidates]]
 name = "truth"
 terms = [{ expr = "v1*abs(v1)", at = 1 }]
+
+[evidence]
+likelihood = "white"
+n_steps = 300
+n_burn = 100
 """
 
 

@@ -77,7 +77,8 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
         "Each row is an effect examined at a step, in the order of the steps (accepted first within a step). An "
         "effect is added only if its log Bayes factor (Laplace, on the residual named in the loop settings) passes "
         "the threshold, its quality index |Im|/|Re| is small and its coefficient keeps sign and size on both record "
-        "halves. The 95 % interval is sampled (emcee) for the effects that pass. NRMSE: open-loop reconstruction of "
+        "halves. The 95 % interval is sampled (emcee) for the effects that pass: the posterior's, given the linear "
+        "part (the final model's intervals below include its uncertainty). NRMSE: open-loop reconstruction of "
         "the estimation data; closed-loop NRMSE: simulation of it, computed for accepted effects ('—' where the "
         "simulation diverges, e.g. chaotic responses, or was not run)."
     )
@@ -125,9 +126,14 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
             if final_nsi.get("upsample", 1) > 1 and loop.settings.get("nsi", {}).get("upsample", 1) == 1
             else ""
         )
-        section.append("Coefficients of the final model (NSI estimate; quality index |Im|/|Re|)." + note)
-        frame = pd.DataFrame(payload["final_coefficients"]).set_index("term")
-        section.append(frame.rename(columns={"value": "coefficient λ", "imag_ratio": "|Im|/|Re|"}))
+        section.append(
+            "Coefficients of the final model (NSI estimate; quality index |Im|/|Re|). Its 95 % and 50 % intervals "
+            "include the linear part's uncertainty (the identification repeated on record windows) + the posterior; "
+            "the posterior-only interval beside them takes the linear part as exact." + note
+        )
+        from ._report_intervals import final_coefficients_frame
+
+        section.append(final_coefficients_frame(payload["final_coefficients"]))
     if added:
         from ..plots import plot_reconstruction
 

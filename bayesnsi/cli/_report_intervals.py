@@ -12,6 +12,7 @@ import math
 
 __all__ = [
     "INTERVAL_TEXT", "coefficient_intervals_frame", "mode_intervals_frame", "interval_text", "interval_sections",
+    "final_coefficients_frame",
 ]
 
 INTERVAL_TEXT = (
@@ -171,3 +172,32 @@ def interval_sections(report, outcomes, selected, likelihood: str, answer: list,
         section.append("Natural frequencies and damping ratios of each candidate's underlying linear model with the "
                        "intervals from the scatter over the record windows.")
         section.append(modes)
+
+
+def final_coefficients_frame(records):
+    """The loop's final coefficients (results.json ``final_coefficients``) with their intervals, readable.
+
+    Parameters
+    ----------
+    records : list of dict
+        ``term``, ``value``, ``imag_ratio`` and, when computed, ``estimate``, ``sd``, ``ci95``,
+        ``ci50``, ``ci95_posterior`` and ``interval``.
+
+    Returns
+    -------
+    pandas.DataFrame
+    """
+    import pandas as pd
+
+    rows = {}
+    for r in records:
+        row = {"coefficient λ (NSI)": r["value"], "|Im|/|Re|": r["imag_ratio"]}
+        if "ci95" in r:
+            row.update({
+                "posterior mean": r["estimate"], "sd": r["sd"], "95 % interval": _pair(r["ci95"]),
+                "50 % interval": _pair(r["ci50"]),
+                "95 % posterior only (given the linear part)": _pair(r.get("ci95_posterior", (math.nan, math.nan))),
+                "interval": "windows + posterior" if r["interval"] == "segments" else "posterior only",
+            })
+        rows[r["term"]] = row
+    return pd.DataFrame(rows).T.rename_axis("term")

@@ -60,6 +60,7 @@ def run(args) -> int:
         nsi=config.nsi, evidence=selection.evidence, execution=execution,
     )
     validation = load_validation(config)
+    final_evidence, final_intervals = _final_evidence(loop, signals, selection, start)
     steps = []
     for step in loop.steps:
         steps.append(
@@ -92,17 +93,18 @@ def run(args) -> int:
         config,
         start=start,  # "selected" stays the ranking's choice (issue 14: --start is not a selection)
         final_model=[term_record(t) for t in loop.final.terms],
-        final_coefficients=[
-            {"term": c.term.name, "value": c.value, "imag_ratio": c.imag_ratio} for c in loop.final.coefficients
-        ],
+        final_coefficients=_final_coefficients(
+            loop, final_intervals, final_evidence or selection.evidences.get(start, {}).get(selection.likelihood)
+        ),
         loop=[s for s in steps if s["accepted"]],
         loop_rejected=[s for s in steps if not s["accepted"]],
         validation_before=[e.to_dict() for e in validate(loop.start, validation)],
         validation=[e.to_dict() for e in validate(loop.final, validation)],
     )
     payload["settings"]["loop"] = to_jsonable(loop.settings)
+    if final_intervals is not None:  # as select's "intervals": coefficients and modes, method, windows
+        payload["final_intervals"] = to_jsonable(final_intervals.to_dict())
     posteriors = dict(selection.evidences)
-    final_evidence = _final_evidence(loop, signals, selection.evidence)
     if final_evidence is not None:  # the model the loop ends with, not only the one it started from
         final_name = "final: " + " + ".join(t.name for t in loop.final.terms)
         posteriors[final_name] = {selection.likelihood: final_evidence}
@@ -124,17 +126,36 @@ def run(args) -> int:
     return 0
 
 
-def _final_evidence(loop, signals, evidence):
-    """Evidence (primary likelihood) of the loop's final model when the loop added an effect, else None."""
-    if not loop.added or evidence is None:
-        return None
-    import numpy as np
+def _final_evidence(loop, signals, selection, start):
+    """Evidence (primary likelihood; None when the final model is the start) and intervals of the final model.
 
-    from ..evidence import candidate_evidence
+    The intervals include the linear part's uncertainty (:func:`bayesnsi.diagnose.final_intervals`);
+    when nothing was added the final model is the start, whose intervals the selection holds.
+    """
+    if selection.evidence is None:
+        return None, None
+    if not loop.added and loop.final is loop.start:  # not re-identified (refine_final): the selection's intervals
+        return None, selection.outcome(start).intervals
+    from ..diagnose import final_intervals
 
-    options = evidence.replace(compare=())
-    seeds = np.random.SeedSequence(options.seed)
-    return candidate_evidence(loop.final, signals, options, seeds, warn=False)[options.likelihood]  # warnings shown
+    return final_intervals(loop, signals, selection.evidence)  # its warnings are shown by the report
+
+
+def _final_coefficients(loop, intervals, posterior) -> list:
+    """The final coefficients for results.json: NSI value, quality index and, as in select's, ``ci95``/``ci50``/
+    ``sd`` (linear-part uncertainty included, ``interval`` says how) and ``ci95_posterior`` (given the linear part)."""
+    ci95 = [] if posterior is None else list(posterior.ci95)
+    records = []
+    for k, c in enumerate(loop.final.coefficients):
+        record = {"term": c.term.name, "value": c.value, "imag_ratio": c.imag_ratio}
+        if intervals is not None and k < len(intervals.coefficients):
+            iv = intervals.coefficients[k]
+            record.update(estimate=iv.estimate, ci95=list(iv.ci95), ci50=list(iv.ci50), sd=iv.sd,
+                          interval=intervals.method)
+            if k < len(ci95):
+                record["ci95_posterior"] = [float(ci95[k][0]), float(ci95[k][1])]
+        records.append(record)
+    return records
 
 
 def _effect_record(effect) -> dict:

@@ -4,9 +4,11 @@ Modules: :mod:`~bayesnsi.diagnose.search` (the loop), :mod:`~bayesnsi.diagnose.s
 evidence of each effect, the screen, clearance gaps), :mod:`~bayesnsi.diagnose.guards` (Bayes
 factor, quality index, record-half stability), :mod:`~bayesnsi.diagnose.moves` (prune, look
 ahead, re-examine), :mod:`~bayesnsi.diagnose.state` (the loop's context and state),
-:mod:`~bayesnsi.diagnose.results`, :mod:`~bayesnsi.diagnose.screen`, :mod:`~bayesnsi.diagnose.forces`.
+:mod:`~bayesnsi.diagnose.results`, :mod:`~bayesnsi.diagnose.screen`, :mod:`~bayesnsi.diagnose.forces`,
+:mod:`~bayesnsi.diagnose.final` (evidence and honest intervals of the final model).
 """
 
+from .final import final_intervals
 from .forces import ResidualForce, residual_force
 from .results import EffectScore, LoopResult, LoopStep
 from .scoring import refine_gap, score_effects
@@ -20,6 +22,7 @@ __all__ = [
     "ResidualForce",
     "close_the_loop",
     "close_the_loop_with",
+    "final_intervals",
     "loop_effects",
     "refine_gap",
     "residual_force",

@@ -1,0 +1,71 @@
+"""The loop's final model carries the honest intervals of ``select`` (issue 15).
+
+Reference: the simulated quadratic-damping case (true coefficient in the config's [meta]); the
+loop from the declared (linear) model adds v|v| at DOF 1. The final coefficient's interval
+must include the linear part's uncertainty (wider than the posterior given the linear part),
+and results.json / the report must carry the values of :func:`bayesnsi.diagnose.final_intervals`.
+"""
+
+from __future__ import annotations
+
+import json
+import tomllib
+
+import pytest
+
+from bayesnsi.cli import main
+
+FAST = '[evidence]\nn_steps = 200\nn_burn = 50\nlikelihood = "white"\ncompare = []\n\n'
+
+
+def _pair(ci):
+    return f"[{ci[0]:.4g}, {ci[1]:.4g}]"
+
+
+@pytest.fixture(scope="module")
+def loop_run(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("loop")
+    csv = tmp / "qd.csv"
+    assert main(["simulate", "quadratic-damping", "--seed", "0", "--out", str(csv), "--quiet"]) == 0
+    config = csv.with_suffix(".toml")
+    config.write_text(config.read_text().replace("[meta]", FAST + "[meta]"))
+    out = tmp / "out"
+    assert main(["diagnose", str(config), "--out", str(out), "--quiet", "--max-steps", "1", "--no-figures"]) == 0
+    return tomllib.loads(config.read_text()), json.loads((out / "results.json").read_text()), out
+
+
+def test_results_json_final_coefficients_carry_segment_intervals(loop_run):
+    _, results, _ = loop_run
+    assert results["loop"], "the loop should add v|v| on this case"
+    (coefficient,) = results["final_coefficients"]
+    assert coefficient["interval"] == "segments"
+    lo, hi = coefficient["ci95"]
+    plo, phi = coefficient["ci95_posterior"]
+    assert lo < coefficient["estimate"] < hi and hi - lo > phi - plo  # linear-part uncertainty widens it
+    clo, chi = coefficient["ci50"]
+    assert lo < clo < chi < hi
+    record = results["final_intervals"]
+    assert record["method"] == "segments" and record["n_segments"] >= 2
+    assert record["coefficients"][0]["ci95"] == coefficient["ci95"]
+    assert len(record["frequencies"]) >= 1 and "ci95" in record["damping_ratios"][0]
+
+
+def test_final_interval_covers_the_true_coefficient(loop_run):
+    config, results, _ = loop_run
+    true = config["meta"]["true_coefficients"][-1]
+    lo, hi = results["final_coefficients"][0]["ci95"]
+    assert lo < true < hi, (lo, true, hi)
+
+
+def test_loop_report_table_shows_the_final_intervals(loop_run):
+    """The loop section's table of final coefficients (report.html) words results.json's values."""
+    from bayesnsi.cli._report_intervals import final_coefficients_frame
+    from bayesnsi.io.report import Report
+
+    _, results, _ = loop_run
+    report = Report("t")
+    report.section("loop", 10).append(final_coefficients_frame(results["final_coefficients"]))
+    html = report.to_html()
+    coefficient = results["final_coefficients"][0]
+    assert _pair(coefficient["ci95"]) in html and _pair(coefficient["ci95_posterior"]) in html
+    assert _pair(coefficient["ci50"]) in html and "windows + posterior" in html

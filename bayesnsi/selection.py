@@ -21,7 +21,7 @@ from .exceptions import AdequacyWarning, BayesNSIError
 from .options import EvidenceOptions, ExecutionOptions, NSIOptions
 from .run.adequacy import ModelCheck, adequacy_warnings, model_checks
 from .run.batch import CandidateOutcome, run_candidates
-from .validation import SegmentError, Whiteness, residual_whiteness, validate
+from .validation import SegmentError, Whiteness, open_loop_error, residual_whiteness, validate
 
 __all__ = ["Selection", "select"]
 
@@ -55,6 +55,9 @@ class Selection:
     warnings : tuple of str
         What the selection should not be trusted for (:func:`bayesnsi.run.adequacy.adequacy_warnings`),
         each also issued as an :class:`~bayesnsi.exceptions.AdequacyWarning`.
+    open_loop : mapping of str to MeasuredError
+        Open-loop error of each identified candidate on the estimation data in the measured
+        quantity (accelerations when accelerations were measured; :func:`bayesnsi.validation.open_loop_error`).
     """
 
     outcomes: tuple[CandidateOutcome, ...]
@@ -65,6 +68,7 @@ class Selection:
     adequacy: Mapping[str, Whiteness] = field(default_factory=dict)
     checks: Mapping[str, ModelCheck] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
+    open_loop: Mapping[str, Any] = field(default_factory=dict)
 
     def __repr__(self) -> str:
         from ._repr import compact_repr
@@ -206,4 +210,5 @@ def select(
     messages = adequacy_warnings(fits, selection.selected, **limits)
     for message in messages:
         warnings.warn(message, AdequacyWarning, stacklevel=2)
-    return replace(selection, warnings=messages)
+    open_loop = {o.name: e for o in identified if (e := open_loop_error(o.result, signals)) is not None}
+    return replace(selection, warnings=messages, open_loop=open_loop)

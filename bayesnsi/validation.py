@@ -17,8 +17,8 @@ from ._measured import MeasuredError, measured_error
 from .exceptions import BayesNSIError, ConfigError
 
 __all__ = [
-    "ADEQUACY_LEVEL", "VALIDATION_INIT_SAMPLES", "SegmentError", "Whiteness", "measured_errors", "residual_whiteness",
-    "validate",
+    "ADEQUACY_LEVEL", "VALIDATION_INIT_SAMPLES", "SegmentError", "Whiteness", "measured_errors", "open_loop_error",
+    "residual_whiteness", "validate",
 ]
 
 ADEQUACY_LEVEL = 0.01
@@ -145,6 +145,31 @@ def measured_errors(result, signals, closed_loop: bool = False) -> MeasuredError
     skip = VALIDATION_INIT_SAMPLES if closed_loop else 0
     rec = result.reconstruct(signals, closed_loop=closed_loop, n_init=VALIDATION_INIT_SAMPLES if closed_loop else None)
     return measured_error(rec.measured, rec.predicted, signals, skip=skip)
+
+
+def open_loop_error(result, signals) -> MeasuredError | None:
+    """The open-loop reconstruction error of :func:`measured_errors`, None where it does not apply.
+
+    Parameters
+    ----------
+    result : NSIResult
+        Identified model.
+    signals : Signals
+        Its estimation data.
+
+    Returns
+    -------
+    MeasuredError or None
+        None for a free body (judged by its force, :func:`validate`) or a failed reconstruction.
+    """
+    from .nsi import is_free_body
+
+    if is_free_body(result):
+        return None
+    try:
+        return measured_errors(result, signals)
+    except (BayesNSIError, np.linalg.LinAlgError):
+        return None
 
 
 @dataclass(frozen=True)

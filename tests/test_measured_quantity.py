@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
 from bayesnsi._measured import to_measured
+from bayesnsi.exceptions import AdequacyWarning
 from bayesnsi.models import Term
 from bayesnsi.nsi import identify
 from bayesnsi.signals import Signals
@@ -121,3 +124,36 @@ def test_measured_must_be_a_known_quantity():
     with pytest.raises(InputDataError, match="measured must be one of"):
         Signals(force=np.ones((10, 1)) * np.arange(10)[:, None], displacement=np.arange(10.0), fs=1.0,
                 input_dofs=(1,), output_dofs=(1,), measured="jerk")
+
+
+def test_results_json_says_the_quantity_of_open_loop_and_validation_errors(accel_case):
+    """select -> selection_payload: candidates carry open_loop and validation errors in accelerations."""
+    from bayesnsi.io import selection_payload
+    from bayesnsi.options import EvidenceOptions
+    from bayesnsi.selection import select
+
+    signals, validation, result, _ = accel_case
+    fast = EvidenceOptions(n_steps=100, n_burn=20, likelihood="white", compare=(), interval="posterior")
+    with warnings.catch_warnings():
+        # the adequacy check's noise level (white part of the displacement) is near zero on
+        # displacements integrated line by line: the residual/noise ratio is not this test's point
+        warnings.simplefilter("ignore", AdequacyWarning)
+        selection = select(signals, [result.candidate], result_options(result), fast, validation=validation)
+
+    class _Config:  # the two fields selection_payload reads besides the settings
+        path, raw, seed, nsi = "experiment.toml", {}, 0, result_options(result)
+
+    payload = selection_payload(selection, "select", _Config())
+    (record,) = payload["candidates"]
+    expected = measured_errors(selection.results[result.candidate.name], signals)
+    assert record["open_loop"]["quantity"] == "acceleration"
+    assert record["open_loop"]["nrmse"] == pytest.approx(expected.nrmse, rel=1e-9)
+    assert len(record["open_loop"]["nrmse_per_channel"]) == 2
+    (segment,) = record["validation"]
+    assert segment["quantity"] == "acceleration" and len(segment["nrmse_per_channel"]) == 2
+
+
+def result_options(result):
+    from bayesnsi.options import NSIOptions
+
+    return NSIOptions(domain="frequency", order=4)

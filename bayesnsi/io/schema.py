@@ -217,6 +217,8 @@ def selection_payload(selection, command: str, config, **extra) -> dict[str, Any
             record["adequacy"] = selection.adequacy[outcome.name].to_dict()
         if outcome.name in selection.checks:
             record["model_check"] = selection.checks[outcome.name].to_dict()
+        if outcome.name in getattr(selection, "open_loop", {}):
+            record["open_loop"] = selection.open_loop[outcome.name].to_dict()
         records.append(record)
     selected = selection.selected
     payload = {

@@ -1,0 +1,113 @@
+"""Calibration of the loop's final coefficients and modes (issue 15) on undeclared-effect cases.
+
+For each case (``coulomb-dof2``: declared 20 v1|v1|, missing sign(v2) = 1 N; ``cubic-pair``:
+declared linear, missing (x1-x2)³ = 2e5) and seed, it simulates the case (30 s, 2 % noise),
+runs :func:`bayesnsi.diagnose.close_the_loop` from the declared model with default
+``LoopOptions`` and the case's NSI settings, and gives the final model the intervals of
+``bayesnsi select`` (:func:`bayesnsi.diagnose.final_intervals`: posterior + the scatter over 8
+record windows of 70 %). It prints, as ``calibration_intervals.py`` does, per coefficient of
+the final model (truth 0 for a term the truth does not hold) and per modal parameter: bias,
+seed-to-seed sd, coverage of the 50 % / 95 % intervals and of the posterior-only 95 % interval,
+and the mean 95 % width over 2 x 1.96 x sd; seeds whose loop did not end on the true model are
+counted and left out of the coefficient rows.
+
+Run::
+
+    .venv/bin/python benchmarks/calibration_loop.py --seeds 6        # a handful of seeds, 2 workers
+    nice .venv/bin/python benchmarks/calibration_loop.py --seeds 100 # the full study
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS"):
+    os.environ[_var] = "1"
+
+import argparse  # noqa: E402
+import platform  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+import warnings  # noqa: E402
+from concurrent.futures import ProcessPoolExecutor, as_completed  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from calibration_intervals import print_case  # noqa: E402
+
+CASE_NAMES = ("coulomb-dof2", "cubic-pair")
+
+
+def one_seed(case_name: str, seed: int, opts) -> dict:
+    """Simulate one seed, close the loop, and compute the final model's intervals."""
+    from bayesnsi.diagnose import close_the_loop, final_intervals
+    from bayesnsi.exceptions import BayesNSIError
+    from bayesnsi.options import LoopOptions
+    from bayesnsi.simulate.undeclared import undeclared_case
+
+    t0 = time.perf_counter()
+    case = undeclared_case(case_name, seed=seed)
+    truth = dict(zip(case.reference.true_terms, case.reference.true_coefficients))
+    out: dict = {"case": case_name, "seed": seed}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            loop = close_the_loop(case.signals, case.declared, LoopOptions(), nsi=case.nsi, evidence=opts)
+            primary, iv = final_intervals(loop, case.signals, opts, np.random.SeedSequence([seed, 15]))
+        except (BayesNSIError, np.linalg.LinAlgError) as err:
+            out["error"] = f"{type(err).__name__}: {err}"
+            return out
+    terms = tuple(loop.final.terms)
+    out["true_model"] = set(terms) == set(truth)
+    out["final"] = [t.name for t in terms]
+    params = []
+    for k, (term, p) in enumerate(zip(terms, iv.coefficients)):
+        params.append({**p.to_dict(), "truth": float(truth.get(term, 0.0)),
+                       "posterior_ci95": [float(v) for v in primary.ci95[k]]})
+    exact_f, exact_z = case.reference.exact_frequencies_hz, case.reference.exact_damping_ratios
+    for kind, items, exact in (("f", iv.frequencies, exact_f), ("zeta", iv.damping_ratios, exact_z)):
+        for k, p in enumerate(items):
+            nearest = int(np.argmin(np.abs(exact_f - loop.final.modes[k].frequency_hz)))
+            params.append({**p.to_dict(), "name": f"{kind}{nearest + 1}", "truth": float(exact[nearest]),
+                           "posterior_ci95": None})
+    out.update(method=iv.method, n_segments=iv.n_segments, params=params, seconds=time.perf_counter() - t0)
+    return out
+
+
+def main(argv=None) -> int:
+    from bayesnsi import EvidenceOptions
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--seeds", type=int, default=6)
+    ap.add_argument("--seed0", type=int, default=0)
+    ap.add_argument("--cases", nargs="+", default=list(CASE_NAMES), choices=CASE_NAMES)
+    ap.add_argument("--workers", type=int, default=2)
+    args = ap.parse_args(argv)
+    opts = EvidenceOptions()
+    print("bayesnsi loop interval calibration (issue 15)")
+    print(f"python {platform.python_version()}, numpy {np.__version__}, {os.cpu_count()} CPUs, {args.workers} workers")
+    print(f"cases {args.cases}; {args.seeds} seeds per case from {args.seed0}; evidence options {opts.to_dict()}")
+    tasks = [(name, args.seed0 + j, opts) for name in args.cases for j in range(args.seeds)]
+    records: list[dict] = []
+    start = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        futures = [pool.submit(one_seed, *t) for t in tasks]
+        for k, fut in enumerate(as_completed(futures), 1):
+            records.append(fut.result())
+            print(f"  [{k}/{len(tasks)}] {time.perf_counter() - start:.0f} s", file=sys.stderr, flush=True)
+    print(f"wall time {time.perf_counter() - start:.0f} s")
+    for name in args.cases:
+        mine = sorted((r for r in records if r["case"] == name), key=lambda r: r["seed"])
+        wrong = [r for r in mine if "params" in r and not r["true_model"]]
+        for r in wrong:
+            print(f"    {name} seed {r['seed']}: loop ended on {r['final']} (not the truth), left out")
+        print_case(name, [r for r in mine if r not in wrong])
+        times = [r["seconds"] for r in mine if "seconds" in r]
+        if times:
+            print(f"  loop + final intervals: median {np.median(times):.1f} s per seed")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

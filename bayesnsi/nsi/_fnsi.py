@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 
 from ..exceptions import BlockRowsError, InputDataError
 from ..signals import Signals
@@ -150,12 +151,15 @@ def subspace(data: LineData, block_rows: int, points=None):
     stacked_u = (powers[:, None, :] * Us.T[None]).reshape(r * n_in, n_lines)
     stacked_y = (powers[:, None, :] * Ys.T[None]).reshape(r * n_out, n_lines)
     real = lambda a: np.hstack([a.real, a.imag])  # noqa: E731
-    _, R = np.linalg.qr(np.vstack([real(stacked_u), real(stacked_y)]).T)
+    R = scipy.linalg.qr(np.vstack([real(stacked_u), real(stacked_y)]).T, mode="r", check_finite=False)[0]
     ru = r * n_in
     projected = R[ru:, ru:].T  # rows of 𝒴 Π⊥ in an orthonormal basis of the columns
     cov = data.output_cov / np.outer(y_scale, y_scale)[None]
-    outer = powers[:, None, :] * powers.conj()[None, :, :]  # (r, r, M)
-    weight = np.real(np.tensordot(outer, cov, axes=([2], [0]))).transpose(0, 2, 1, 3).reshape(r * n_out, r * n_out)
+    # z_k^a conj(z_k^b) = z_k^(a-b) on the unit circle: the weight is block Toeplitz in the lags a - b
+    lags = np.arange(-(r - 1), r)
+    by_lag = np.real(np.tensordot(z[None, :] ** lags[:, None], cov, axes=([1], [0])))  # (2r-1, l, l)
+    lag = np.arange(r)[:, None] - np.arange(r)[None, :] + r - 1
+    weight = by_lag[lag].transpose(0, 2, 1, 3).reshape(r * n_out, r * n_out)
     weight = (weight + weight.T) / 2 + 1e-12 * np.trace(weight) / len(weight) * np.eye(len(weight))
     chol = np.linalg.cholesky(weight)
     left, singular_values, _ = np.linalg.svd(np.linalg.solve(chol, projected))
@@ -186,8 +190,8 @@ def input_matrices(data: LineData, A: np.ndarray, C: np.ndarray, zero_feedthroug
 
 
 def _weighted_fit(data: LineData, A, C, zero_feedthrough: bool, points=None) -> dict:
-    """The weighted linear least squares of :func:`input_matrices` with what the Jacobian of
-    :func:`refine` reuses (resolvent, orthonormal basis of the weighted design)."""
+    """The weighted linear least squares of :func:`input_matrices` for any A (the refinement's modal
+    A_c uses :class:`._modal_fit.ModalProblem`, the same least squares arranged for that form)."""
     U, Y = data.inputs, data.outputs
     z = data.z if points is None else np.asarray(points)
     n_lines, n_in = U.shape
@@ -196,8 +200,7 @@ def _weighted_fit(data: LineData, A, C, zero_feedthrough: bool, points=None) -> 
     Us = U / u_scale
     sigma = data.output_std
     lam, vec = np.linalg.eig(A)
-    resolvent = (vec[None] / (z[:, None] - lam[None])[:, None, :]) @ np.linalg.inv(vec)  # (zI-A)^-1, (M, n, n)
-    G = C @ resolvent  # (M, l, n)
+    G = ((C @ vec)[None] / (z[:, None] - lam[None])[:, None, :]) @ np.linalg.inv(vec)  # C (zI-A)^-1, (M, l, n)
     phi_b = np.einsum("kj,koi->koji", Us, G).reshape(n_lines, n_out, n_in * n)
     blocks = [phi_b]
     if not zero_feedthrough:
@@ -216,7 +219,7 @@ def _weighted_fit(data: LineData, A, C, zero_feedthrough: bool, points=None) -> 
     if not zero_feedthrough:
         D = theta[n_in * n :].reshape((n_out, n_in), order="F") / u_scale
     fitted = np.einsum("kom,mj,kj->ko", G, B, U) + U @ D.T
-    return dict(B=B, D=D, residual=(Y - fitted) / sigma, resolvent=resolvent, G=G, basis=q, sigma=sigma)
+    return dict(B=B, D=D, residual=(Y - fitted) / sigma)
 
 
 def _time(spectrum: np.ndarray, period: int) -> np.ndarray:
@@ -272,14 +275,16 @@ def refine(data: LineData, Ac: np.ndarray, C: np.ndarray, zero_feedthrough: bool
     (Levenberg-Marquardt with Kaufman's Jacobian of the projected residual). Returns the better
     of start and end.
     """
-    from scipy.optimize import least_squares
+    from scipy.optimize import leastsq
+
+    from ._modal_fit import ModalProblem
 
     blocks, T = _real_modal(Ac)
     if blocks is None:
         return Ac, C
     n_pairs, n_out = len(blocks), C.shape[0]
     jw = 2j * np.pi * data.freqs_hz
-    U = data.inputs
+    problem = ModalProblem(data.inputs, data.outputs, data.output_std, jw, zero_feedthrough)
     cache: dict = {}
 
     def unpack(theta):
@@ -289,11 +294,15 @@ def refine(data: LineData, Ac: np.ndarray, C: np.ndarray, zero_feedthrough: bool
             A[2 * i : 2 * i + 2, 2 * i : 2 * i + 2] = [[sig, om], [-om, sig]]
         return A, theta[2 * n_pairs :].reshape(n_out, -1)
 
+    def parts(theta):
+        return -np.exp(np.clip(theta[:n_pairs], -60.0, 20.0)), theta[n_pairs : 2 * n_pairs], theta[2 * n_pairs :]
+
     def fitted(theta):
         key = theta.tobytes()
         if key not in cache:
             cache.clear()
-            cache[key] = _weighted_fit(data, *unpack(theta), zero_feedthrough, jw)
+            damping, omega, c = parts(theta)
+            cache[key] = problem.fit(damping, omega, c.reshape(n_out, -1))
         return cache[key]
 
     def residual(theta):
@@ -301,37 +310,20 @@ def refine(data: LineData, Ac: np.ndarray, C: np.ndarray, zero_feedthrough: bool
         return np.concatenate([res.real.ravel(), res.imag.ravel()])
 
     def jacobian(theta):
-        fit = fitted(theta)
-        sigma, G = fit["sigma"], fit["G"]
-        X = np.einsum("kab,bj,kj->ka", fit["resolvent"], fit["B"], U)  # (zI-A)^-1 B U per line
-        sig = -np.exp(np.clip(theta[:n_pairs], -60.0, 20.0))
-        columns = []
-        for i in range(n_pairs):  # d/d log(-σ_i): σ_i ∂A/∂σ_i; d/dω_i: the rotation part
-            a, b = 2 * i, 2 * i + 1
-            columns.append(sig[i] * (G[:, :, a] * X[:, None, a] + G[:, :, b] * X[:, None, b]))
-        for i in range(n_pairs):
-            a, b = 2 * i, 2 * i + 1
-            columns.append(G[:, :, a] * X[:, None, b] - G[:, :, b] * X[:, None, a])
-        for o in range(n_out):  # d/dC[o, c]: output o only
-            for c in range(X.shape[1]):
-                d = np.zeros(G.shape[:2], dtype=complex)
-                d[:, o] = X[:, c]
-                columns.append(d)
-        dy = np.stack([col / sigma for col in columns], axis=-1)  # d(model)/dθ, weighted, (M, l, p)
-        dy = np.vstack([dy.real.reshape(-1, dy.shape[-1]), dy.imag.reshape(-1, dy.shape[-1])])
-        q = fit["basis"]
-        return -(dy - q @ (q.T @ dy))
+        return problem.jacobian(fitted(theta), parts(theta)[0])
 
     start = np.concatenate([np.log(-blocks[:, 0]), blocks[:, 1], (C @ T).ravel()])
     cost0 = np.sum(residual(start) ** 2)
-    fit = least_squares(residual, start, jac=jacobian, method="lm", x_scale="jac", max_nfev=max_nfev,
-                        ftol=1e-7, xtol=1e-7)
-    if not np.isfinite(fit.cost) or 2 * fit.cost >= cost0:
+    # MINPACK's lmder as least_squares(method="lm", x_scale="jac", gtol=1e-8) calls it, without its wrappers
+    x, _, info, _, _ = leastsq(residual, start, Dfun=jacobian, full_output=True, ftol=1e-7, xtol=1e-7, gtol=1e-8,
+                               maxfev=max_nfev, factor=100.0)
+    cost = float(np.dot(info["fvec"], info["fvec"]))
+    if not np.isfinite(cost) or cost >= cost0:
         return Ac, C
-    sigma, omega = np.exp(np.clip(fit.x[:n_pairs], -60.0, 20.0)), np.abs(fit.x[n_pairs : 2 * n_pairs])
+    sigma, omega = np.exp(np.clip(x[:n_pairs], -60.0, 20.0)), np.abs(x[n_pairs : 2 * n_pairs])
     if np.any(sigma < _MIN_DAMPING * np.hypot(sigma, omega)) or np.any(sigma > 100 * np.abs(jw).max()):
         return Ac, C  # a pole pushed onto the imaginary axis or far past the lines: keep the subspace model
-    return unpack(fit.x)
+    return unpack(x)
 
 
 def _real_modal(Ac: np.ndarray):

@@ -3,9 +3,9 @@
 The loop decides with Laplace evidences and samples only the effects it accepts; their credible
 intervals condition on the identified linear part. :func:`final_intervals` gives the final model
 the intervals of ``bayesnsi select`` (:func:`bayesnsi.evidence.candidate_intervals`): the
-posterior widened by the scatter of the whole identification over record windows, with the loop's
-residual and the settings the final model was identified with (``settings["final_nsi"]``, upsampled
-for velocity-switching terms).
+posterior widened by the scatter of the whole identification over record windows, re-identified
+with the settings the final model was identified with (``settings["final_nsi"]``, upsampled for
+velocity-switching terms).
 """
 
 from __future__ import annotations
@@ -28,8 +28,9 @@ def final_intervals(loop, signals, evidence: EvidenceOptions | None = None, seed
     signals : Signals
         The estimation data the loop ran on.
     evidence : EvidenceOptions, optional
-        Evidence and interval settings; default: those the loop recorded (``settings["evidence"]``).
-        The loop's residual is kept and no other likelihood is computed.
+        Evidence and interval settings, used as given (``bayesnsi diagnose`` passes the selection's,
+        so the final evidence compares with the candidates'); default: those the loop recorded
+        (``settings["evidence"]``, with the loop's residual). No other likelihood is computed.
     seed_sequence : numpy.random.SeedSequence, optional
         Seeds of the sampler (default: from ``evidence.seed``).
 
@@ -44,8 +45,7 @@ def final_intervals(loop, signals, evidence: EvidenceOptions | None = None, seed
     settings = loop.settings or {}
     if evidence is None:
         evidence = EvidenceOptions.from_mapping(settings.get("evidence") or {})
-    residual = settings.get("residual", evidence.residual)
-    options = evidence.replace(compare=(), residual=residual)
+    options = evidence.replace(compare=())
     nsi = NSIOptions.from_mapping(settings["final_nsi"]) if settings.get("final_nsi") else NSIOptions()
     seeds = seed_sequence if seed_sequence is not None else np.random.SeedSequence(options.seed)
     result = candidate_evidence(loop.final, signals, options, seeds, warn=False)[options.likelihood]

@@ -19,7 +19,13 @@ FAST = '[evidence]\nn_steps = 200\nn_burn = 50\nlikelihood = "white"\ncompare = 
 
 
 def _pair(ci):
-    return f"[{ci[0]:.4g}, {ci[1]:.4g}]"
+    """The report's text of an interval, checked against the values it words (to 5 % of the width)."""
+    from bayesnsi.cli._report_intervals import format_interval
+
+    text = format_interval(ci)
+    lo, hi = (float(v) for v in text.strip("[]").split(", "))
+    assert abs(lo - ci[0]) <= 0.05 * abs(ci[1] - ci[0]) + 1e-12 and abs(hi - ci[1]) <= 0.05 * abs(ci[1] - ci[0]) + 1e-12
+    return text
 
 
 @pytest.fixture(scope="module")

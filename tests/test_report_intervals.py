@@ -26,7 +26,13 @@ def outcome():
 
 
 def _pair(ci):
-    return f"[{ci[0]:.4g}, {ci[1]:.4g}]"
+    """The report's text of an interval, checked against the values it words (to 5 % of the width)."""
+    from bayesnsi.cli._report_intervals import format_interval
+
+    text = format_interval(ci)
+    lo, hi = (float(v) for v in text.strip("[]").split(", "))
+    assert abs(lo - ci[0]) <= 0.05 * abs(ci[1] - ci[0]) + 1e-12 and abs(hi - ci[1]) <= 0.05 * abs(ci[1] - ci[0]) + 1e-12
+    return text
 
 
 def test_report_contains_the_honest_interval_values(outcome):

@@ -12,7 +12,7 @@ import math
 
 __all__ = [
     "INTERVAL_TEXT", "coefficient_intervals_frame", "mode_intervals_frame", "interval_text", "interval_sections",
-    "final_coefficients_frame",
+    "final_coefficients_frame", "format_interval",
 ]
 
 INTERVAL_TEXT = (
@@ -28,11 +28,27 @@ _POSTERIOR_TEXT = (
 )
 
 
-def _pair(ci) -> str:
+def format_interval(ci) -> str:
+    """``[lo, hi]`` with enough significant digits to show the width (at least 4, two in the width).
+
+    Parameters
+    ----------
+    ci : sequence of two floats
+
+    Returns
+    -------
+    str
+        ``"—"`` when a bound is not finite.
+    """
     lo, hi = float(ci[0]), float(ci[1])
     if not (math.isfinite(lo) and math.isfinite(hi)):
         return "—"
-    return f"[{lo:.4g}, {hi:.4g}]"
+    span, size = abs(hi - lo), max(abs(lo), abs(hi))
+    digits = 4 if span == 0.0 or size == 0.0 else max(4, math.ceil(math.log10(size / span)) + 2)
+    return f"[{lo:.{digits}g}, {hi:.{digits}g}]"
+
+
+_pair = format_interval
 
 
 def interval_text(outcomes) -> str:

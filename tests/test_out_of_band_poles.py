@@ -26,12 +26,21 @@ def _exact_hz() -> np.ndarray:
     return np.sort(np.abs(s[s.imag > 0]) / (2 * np.pi))
 
 
+def _band_limited(white: np.ndarray, fs: float, band_hz) -> np.ndarray:
+    """White noise with every DFT line outside ``band_hz`` set to zero (unit std)."""
+    spectrum = np.fft.rfft(white, axis=0)
+    lines = np.fft.rfftfreq(len(white), 1 / fs)
+    spectrum[(lines < band_hz[0]) | (lines > band_hz[1])] = 0
+    out = np.fft.irfft(spectrum, len(white), axis=0)
+    return out / out.std()
+
+
 @pytest.fixture(scope="module")
 def drifting() -> Signals:
-    """White-noise force; the outputs carry a growing 0.2 Hz drift (e^{0.08 t}) below a 2-20 Hz band."""
+    """A force band-limited to 2-20 Hz; the outputs carry a growing 0.2 Hz drift (e^{0.08 t}) below the band."""
     rng = np.random.default_rng(0)
     n = 6000
-    force = np.repeat(rng.standard_normal((n, 1)) * 5, 2, axis=0)
+    force = _band_limited(rng.standard_normal((2 * n, 1)), 2 * FS, (2.0, 20.0)) * 5
     response = simulate_response(*MCK, [2], force, 2 * FS, 2, [], [])
     t = np.arange(n)[:, None] / FS
     drift = 2e-4 * np.exp(0.08 * t) * np.sin(2 * np.pi * 0.2 * t + np.array([[0.0, 0.5]]))
@@ -40,7 +49,8 @@ def drifting() -> Signals:
 
 
 def test_a_growing_pole_below_the_band_is_mirrored_with_a_warning_naming_it(drifting):
-    with pytest.warns(SpuriousPoleWarning, match=r"outside the band \(2.0, 20.0\) Hz at 0.2 Hz \(\|z\| = 1.00"):
+    message = r"outside the band \(2.0, 20.0\) Hz, where the force has no power, at 0.2 Hz \(\|z\| = 1.00"
+    with pytest.warns(SpuriousPoleWarning, match=message):
         result = identify(drifting, None, NSIOptions(order=6, block_rows=10, band_hz=(2.0, 20.0)))
     assert result.settings["reflected_poles_hz"] == [pytest.approx(0.2, abs=0.01)]
     assert np.max(np.abs(result.model.poles_discrete)) < 1.0
@@ -68,3 +78,19 @@ def test_reflection_keeps_frequencies_and_refuses_an_unstable_pole_inside_the_ba
     assert np.allclose(sorted(np.abs(np.angle(poles))), sorted(np.abs(np.angle(np.r_[z, z.conj()]))))  # same angles
     assert reflect_out_of_band(A, dt, (0.05, 10.0)) is None  # the growing pole is inside this band
     assert reflect_out_of_band(A, dt, None) is None
+    white = np.random.default_rng(1).standard_normal((20_000, 1))
+    assert reflect_out_of_band(A, dt, (1.0, 10.0), white) is None  # a white force informs 0.1 Hz: a failure
+    limited = _band_limited(white, 1 / dt, (1.0, 10.0))
+    assert reflect_out_of_band(A, dt, (1.0, 10.0), limited) is not None  # nothing at 0.1 Hz: mirrored
+
+
+def test_a_growing_pole_where_a_broadband_force_has_power_still_fails(drifting):
+    """The beam's case (white force up to Nyquist, a real unstable pole of a wrong candidate at 0 Hz): the
+    force informs that frequency, so the pole is the data's verdict on the candidate, not a blind spot."""
+    rng = np.random.default_rng(2)
+    force = rng.standard_normal((len(drifting.force), 1)) * np.std(drifting.force)
+    broadband = Signals(force=force, displacement=drifting.displacement, fs=FS, input_dofs=(2,), output_dofs=(1, 2))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(UnstableModelError, match="at a frequency the force excites"):
+            identify(broadband, None, NSIOptions(order=6, block_rows=10, band_hz=(2.0, 20.0)))

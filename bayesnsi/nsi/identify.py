@@ -177,16 +177,19 @@ def identify(
         # a free body: identify again with a known spring on the input (bayesnsi.nsi.free_body)
         fixed = options.replace(virtual_stiffness=auto_stiffness(measured))
         return identify(measured, cand, fixed, correlations=correlations)
-    stabilised = reflect_out_of_band(A, signals.dt, options.band_hz) if radius >= 1.0 else (A, eigenvalues[:0])
+    stabilised = (reflect_out_of_band(A, signals.dt, options.band_hz, np.asarray(signals.force)) if radius >= 1.0
+                  else (A, eigenvalues[:0]))
     if stabilised is None:
         raise UnstableModelError(
             f"candidate {cand.name!r}: the identified underlying linear model is unstable "
-            f"(largest |eigenvalue of A| = {radius:.4f}) inside [nsi] band_hz or with no band given; try another "
+            f"(largest |eigenvalue of A| = {radius:.4f}) inside [nsi] band_hz, at a frequency the force excites, or "
+            "with no band given; try another "
             "order or number of block rows, or reconsider the candidate's terms"
         )
     A, reflected = stabilised
     if len(reflected):  # outside the band the data inform: mirrored into the unit circle (_stabilise.py)
-        warnings.warn(f"candidate {cand.name!r}: unstable pole(s) outside the band {options.band_hz} Hz at "
+        warnings.warn(f"candidate {cand.name!r}: unstable pole(s) outside the band {options.band_hz} Hz, "
+                      f"where the force has no power, at "
                       f"{pole_text(reflected, signals.dt)} mirrored into the unit circle; the candidate is kept",
                       SpuriousPoleWarning, stacklevel=2)
     noise_std = white_noise_std(stack.y[::upsample])  # at the data's samples the noise is white

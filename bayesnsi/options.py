@@ -256,6 +256,9 @@ class LoopOptions(_Options):
     max_imag_ratio: float = _option(0.3, "largest quality index |Im λ|/|Re λ| accepted", kind="float", low=0.0)
     stability_factor: float = _option(
         1.4, "largest ratio of the record-half coefficient estimates", kind="float", low=1.0)
+    max_shared: float = _option(
+        0.5, "largest squared partial correlation of a new effect's column with an effect the loop added",
+        kind="float", low=0.0, high=1.0)
     max_steps: int = _option(3, "most effects added", kind="int", low=0, high=1000)
     n_tries: int = _option(3, "effects checked per step, best first", kind="int", low=1, high=1000)
     lookahead: bool = _option(True, "try a pair when an effect fails only the quality index", kind="bool")

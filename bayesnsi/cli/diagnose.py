@@ -24,8 +24,8 @@ def add_parser(sub) -> None:
     p.add_argument("--start", default=None, help="candidate to start from (default: the selected one)")
     add_option_flags(
         p, LoopOptions,
-        ("max_steps", "threshold", "screen", "residual", "max_imag_ratio", "stability_factor", "n_tries",
-         "refine_final"),
+        ("max_steps", "threshold", "screen", "residual", "max_imag_ratio", "stability_factor", "max_shared",
+         "n_tries", "refine_final"),
     )
     p.set_defaults(run=run)
 

@@ -12,6 +12,10 @@ An effect proposed against the current model is kept only if
   most block rows a half allows, and the step's ``half_note`` says so ("record too short for the
   halves at 60 block rows: identified with 41"); only when not even that works is the effect
   rejected with the reason "record too short for the halves".
+* it is separable from the effects the loop added before: the squared partial correlation of its
+  column with each of theirs, given the linear part and the other terms, is at most
+  ``max_shared`` (:mod:`bayesnsi.diagnose.separable`); otherwise the reason reads "not separable
+  from ...".
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ from ..nsi import identify, is_free_body, short_horizon_nrmse
 from .forces import residual_force
 from .results import EffectScore, LoopStep
 from .scoring import shared_correlations
+from .separable import shared_fraction
 from .state import Baseline, LoopContext
 
 __all__ = ["TOO_SHORT", "Verdict", "check_effect", "documented", "half_block_rows", "half_coefficients", "without"]
@@ -145,7 +150,9 @@ def _stable(halves, value: float, factor: float) -> bool:
     return max(abs(h) for h in halves) < factor * min(abs(h) for h in halves)
 
 
-def check_effect(context: LoopContext, entry: EffectScore, baseline: Baseline, seed, half_cache=None) -> Verdict:
+def check_effect(
+    context: LoopContext, entry: EffectScore, baseline: Baseline, seed, half_cache=None, accepted=()
+) -> Verdict:
     """Log Bayes factor (Laplace) and the guards of one proposed effect (module notes).
 
     The decision uses the Laplace log-evidence ``entry`` was ranked by; the full emcee evidence
@@ -164,6 +171,8 @@ def check_effect(context: LoopContext, entry: EffectScore, baseline: Baseline, s
         Seed of the full evidence (sampled only when the effect passes).
     half_cache : dict, optional
         As ``cache`` of :func:`half_coefficients`.
+    accepted : sequence of Term
+        The terms of the current model the loop added (the "separable" guard checks against them).
 
     Returns
     -------
@@ -183,6 +192,10 @@ def check_effect(context: LoopContext, entry: EffectScore, baseline: Baseline, s
                 + (f"identified with {rows}" if not too_short else "not identified")
             )
     stable = _stable(halves, coef.value, options.stability_factor)
+    shared, rho2 = "", 0.0
+    if log_bf > threshold and accepted:
+        terms = trial.candidate.terms
+        shared, rho2 = shared_fraction(signals, terms[:-1], terms[-1], accepted, is_free_body(trial))
     if log_bf <= threshold:
         reason = f"log Bayes factor {log_bf:.2f} <= threshold {threshold:.2f}"
     elif coef.imag_ratio >= max_imag_ratio:
@@ -191,6 +204,12 @@ def check_effect(context: LoopContext, entry: EffectScore, baseline: Baseline, s
         reason = f"{TOO_SHORT} ({signals.n_samples // 2} samples each for {rows} block rows)"
     elif not stable:
         reason = f"coefficient unstable across record halves: {halves[0]:.4g} vs {halves[1]:.4g}"
+    elif rho2 > options.max_shared:
+        reason = (
+            f"not separable from {shared}: {shared} already explains {100 * rho2:.0f} % of its column beyond the "
+            f"linear part (squared partial correlation {rho2:.2f} > max_shared {options.max_shared:g}; "
+            f"it would inflate the variance of {shared}'s coefficient {1 / (1 - min(rho2, 0.999999)):.1f}x)"
+        )
     elif is_free_body(trial) and np.isfinite(entry.nrmse) and entry.nrmse > baseline.nrmse:
         # the field's error for a free body: the identified model's own force prediction must improve
         reason = f"force-prediction NRMSE rises from {baseline.nrmse:.4g} to {entry.nrmse:.4g} (free body, IDIM view)"

@@ -81,6 +81,12 @@ def prune(context: LoopContext, state: LoopState, new_terms) -> None:
             state.log_z = state.log_z - (z_with - z_without)
 
 
+def _loop_added(state, entry) -> tuple:
+    """The terms of ``entry``'s model the loop added (accepted steps and the pending first of a pair)."""
+    added = {s.term.name for s in state.steps if s.accepted} | {entry.term.name}
+    return tuple(t for t in entry.result.candidate.terms if t.name in added)
+
+
 def look_ahead(context: LoopContext, state: LoopState, pending: tuple[Verdict, EffectScore]):
     """Search the next effect from the model holding ``pending`` (``LoopOptions.lookahead``).
 
@@ -109,7 +115,7 @@ def look_ahead(context: LoopContext, state: LoopState, pending: tuple[Verdict, E
     for trial in scored[: context.options.n_tries]:
         if not np.isfinite(trial.log_evidence):
             break
-        second = check_effect(context, trial, baseline, state.next_seed(), state.half_cache)
+        second = check_effect(context, trial, baseline, state.next_seed(), state.half_cache, _loop_added(state, entry))
         first_coef = trial.result.coefficients[-2]
         step = second.step
         if step.accepted and first_coef.imag_ratio >= max_imag_ratio:

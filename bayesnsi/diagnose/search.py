@@ -254,10 +254,12 @@ def _step(context: LoopContext, state: LoopState) -> bool:
         return False
     baseline = state.baseline(context.signals)
     pending = None
+    added = {s.term.name for s in state.steps if s.accepted}  # the "separable" guard checks against these
+    accepted = tuple(t for t in state.current.candidate.terms if t.name in added)
     for entry in scored[: options.n_tries]:
         if not np.isfinite(entry.log_evidence):
             break
-        verdict = check_effect(context, entry, baseline, state.next_seed(), state.half_cache)
+        verdict = check_effect(context, entry, baseline, state.next_seed(), state.half_cache, accepted)
         state.steps.append(verdict.step)
         if verdict.step.accepted:
             step = documented(verdict.step, state.current, entry.result, context.signals)

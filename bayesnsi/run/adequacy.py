@@ -63,6 +63,9 @@ class ModelCheck:
         What ``residual_rms`` and ``noise_std`` measure: "displacement", or "force" for a free body
         (the force predicted from the measured motion against the measured force, and the force's
         white noise, both through the low-pass filter of :func:`bayesnsi.nsi.force_prediction`).
+    unsupported : tuple of (str, float, float)
+        Coefficients whose 95 % interval (:attr:`CandidateOutcome.intervals`, the honest segments
+        interval when select computed it) includes zero: name, lower and upper bound.
     """
 
     name: str
@@ -76,6 +79,7 @@ class ModelCheck:
     validation_nrmse: float | None = None
     validation_log_predictive: float | None = None
     quantity: str = "displacement"
+    unsupported: tuple[tuple[str, float, float], ...] = ()
 
     def to_dict(self) -> dict:
         """JSON-ready record.
@@ -162,9 +166,15 @@ def model_checks(
             quality_index=None if quality is None else float(quality),
             quality_ok=quality is None or quality <= max_imag_ratio, validation_nrmse=nrmse,
             validation_log_predictive=_log_predictive(segments, np.where(rms > 0, rms, level)) if segments else None,
-            quantity=quantity,
+            quantity=quantity, unsupported=_unsupported(getattr(outcome, "intervals", None)),
         )
     return checks
+
+
+def _unsupported(intervals) -> tuple[tuple[str, float, float], ...]:
+    """The coefficients of ``intervals`` whose 95 % interval includes zero."""
+    coefficients = getattr(intervals, "coefficients", None) or ()
+    return tuple((p.name, float(p.ci95[0]), float(p.ci95[1])) for p in coefficients if p.ci95[0] <= 0.0 <= p.ci95[1])
 
 
 def adequacy_warnings(
@@ -187,8 +197,9 @@ def adequacy_warnings(
     tuple of str
         One message per failed check: the selected model fails the quality index; it validates
         more than :data:`VALIDATION_TOLERANCE` worse than another candidate (a free body's force
-        prediction: worse at all); no candidate's residual is near the noise level; the candidates
-        have linear parts of different orders.
+        prediction: worse at all); it holds a term whose 95 % interval includes zero; no
+        candidate's residual is near the noise level; the candidates have linear parts of different
+        orders.
     """
     out = []
     chosen = checks.get(selected) if selected is not None else None
@@ -197,6 +208,8 @@ def adequacy_warnings(
             f"the selected model {selected!r} fails the quality index: |Im|/|Re| = {chosen.quality_index:.3g} > "
             f"{max_imag_ratio:g} (its coefficients are not constant over the band)"
         )
+    for name, low, high in chosen.unsupported if chosen is not None else ():
+        out.append(f"term {name} is not supported by the data: its 95 % interval [{low:.4g}, {high:.4g}] includes 0")
     if chosen is not None and chosen.validation_nrmse is not None:
         others = {n: c.validation_nrmse for n, c in checks.items() if n != selected and c.validation_nrmse is not None}
         if others:

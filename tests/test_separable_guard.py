@@ -7,6 +7,7 @@ docs/method.md §7), and on the simulated two-missing case the true x1³ shares 
 found sign(v2).
 """
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +15,7 @@ import pytest
 
 from bayesnsi.diagnose.separable import shared_fraction
 from bayesnsi.evidence.intervals import Intervals, ParameterInterval
+from bayesnsi.exceptions import SpuriousPoleWarning
 from bayesnsi.models import Term
 from bayesnsi.run.adequacy import ModelCheck, _unsupported, adequacy_warnings
 from bayesnsi.simulate.undeclared import undeclared_case
@@ -83,3 +85,32 @@ def test_select_warns_about_a_term_whose_interval_includes_zero():
     assert messages == ("term v1**3@1 is not supported by the data: its 95 % interval [-2, 5] includes 0",)
     assert adequacy_warnings({"a": check, "b": check}, "b") != ()  # the selected model's terms only
     assert adequacy_warnings({"a": check, "b": ModelCheck(**{**check.__dict__, "unsupported": ()})}, "b") == ()
+
+
+@pytest.mark.skipif(not EMPS.exists(), reason="EMPS data not available")
+def test_the_loop_rejects_v_abs_v_after_coulomb_friction_on_emps_as_not_separable():
+    from bayesnsi.diagnose.guards import check_effect
+    from bayesnsi.diagnose.results import EffectScore
+    from bayesnsi.diagnose.state import Baseline, LoopContext
+    from bayesnsi.io import load_config, load_signals
+    from bayesnsi.models.dictionary import Effect
+    from bayesnsi.nsi import identify
+
+    config = load_config(ROOT / "workflows" / "emps" / "emps.toml")
+    signals = load_signals(config)
+    coulomb, quadratic = Term("sign(v1)", 1), Term("v1*abs(v1)", 1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SpuriousPoleWarning)  # the rigid-body pole (free body)
+        trial = identify(signals, [coulomb, quadratic], config.nsi)
+    context = LoopContext(signals, (), config.nsi, config.evidence, config.loop)
+    entry = EffectScore(Effect("v|v|", quadratic), log_evidence=0.0, nrmse=0.01, result=trial)
+    baseline = Baseline(log_evidence=-62.0, nrmse=0.005)  # log BF 62, as measured
+    step = check_effect(context, entry, baseline, np.random.SeedSequence(0), accepted=(coulomb,)).step
+    assert not step.accepted
+    assert step.reason.startswith("not separable from sign(v1)@1: sign(v1)@1 already explains 68 %"), step.reason
+    loose = context.options.replace(max_shared=0.9)  # without the guard the next one decides (no sampling)
+    with_loose = check_effect(LoopContext(signals, (), config.nsi, config.evidence, loose), entry, baseline,
+                              np.random.SeedSequence(0), accepted=(coulomb,)).step
+    assert with_loose.reason.startswith("force-prediction NRMSE rises"), with_loose.reason
+    unchecked = check_effect(context, entry, baseline, np.random.SeedSequence(0)).step  # nothing added by the loop
+    assert unchecked.reason == with_loose.reason

@@ -105,43 +105,51 @@ def parse_data(table: Any, where: Where, check_files: bool) -> DataSpec:
     )
 
 
-def _units_map(table: Mapping, where: Where, columns: list[str]) -> dict[str, str]:
-    """``[data] units = { column = "unit" }``: short unit labels of mapped columns (labels only)."""
-    value = table.get("units", {})
-    example = 'units = { V1 = "V", V2 = "V" }'
+def _column_map(table: Mapping, where: Where, columns: list[str], key: str, example: str, expected: str,
+                valid) -> dict:
+    """``[data] key = { column = value }`` over mapped columns, each value checked by ``valid``.
+
+    ``valid(value)`` gives the normalised value, or None when the value is refused.
+    """
+    value = table.get(key, {})
     if not isinstance(value, dict):
-        raise where.error("units", "an inline table of column = unit", value, f"write {example}")
+        raise where.error(key, "an inline table of column = value", value, f"write {example}")
     out = {}
-    for column, unit in value.items():
+    for column, item in value.items():
         if column not in columns:
             raise where.problem(
-                "units", f"column {column!r} is not one of the mapped columns {columns}; name a column of "
+                key, f"column {column!r} is not one of the mapped columns {columns}; name a column of "
                 "inputs, outputs, velocities or accelerations"
             )
-        if not isinstance(unit, str) or not unit.strip() or len(unit) > 20 or not unit.isprintable():
-            raise where.error("units", f"a unit label of 1 to 20 printable characters for {column!r}", unit,
-                              f"write {example}")
-        out[str(column)] = unit.strip()
+        checked = valid(item)
+        if checked is None:
+            raise where.error(key, f"{expected} for {column!r}", item, f"write {example}")
+        out[str(column)] = checked
     return out
+
+
+def _unit_label(unit):
+    if not isinstance(unit, str) or not unit.strip() or len(unit) > 20 or not unit.isprintable():
+        return None
+    return unit.strip()
+
+
+def _gain(factor):
+    if isinstance(factor, bool) or not isinstance(factor, (int, float)) or not math.isfinite(factor) or not factor:
+        return None
+    return float(factor)
+
+
+def _units_map(table: Mapping, where: Where, columns: list[str]) -> dict[str, str]:
+    """``[data] units = { column = "unit" }``: short unit labels of mapped columns (labels only)."""
+    return _column_map(table, where, columns, "units", 'units = { V1 = "V", V2 = "V" }',
+                       "a unit label of 1 to 20 printable characters", _unit_label)
 
 
 def _scale_map(table: Mapping, where: Where, columns: list[str]) -> dict[str, float]:
     """``[data] scale = { column = factor }``: finite, non-zero gains of mapped columns."""
-    value = table.get("scale", {})
-    example = "scale = { current = 35.15 }"
-    if not isinstance(value, dict):
-        raise where.error("scale", "an inline table of column = factor", value, f"write {example}")
-    out = {}
-    for column, factor in value.items():
-        if column not in columns:
-            raise where.problem(
-                "scale", f"column {column!r} is not one of the mapped columns {columns}; name a column of "
-                "inputs, outputs, velocities or accelerations"
-            )
-        if isinstance(factor, bool) or not isinstance(factor, (int, float)) or not math.isfinite(factor) or not factor:
-            raise where.error("scale", f"a finite, non-zero number for {column!r}", factor, f"write {example}")
-        out[str(column)] = float(factor)
-    return out
+    return _column_map(table, where, columns, "scale", "scale = { current = 35.15 }", "a finite, non-zero number",
+                       _gain)
 
 
 def _parse_integrate(table: Mapping, where: Where, fs: float | None, accelerations) -> IntegrationSpec | None:

@@ -16,6 +16,7 @@ parameters.)
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -133,7 +134,7 @@ def test_parallel_filtering_of_the_nonlinear_columns():
     assert rms(fs=FS, cutoff_hz=cutoff) < 0.4 * rms()
 
 
-EMPS = __import__("pathlib").Path(__file__).resolve().parents[2] / "shared" / "data" / "emps" / "DATA_EMPS.mat"
+EMPS = Path(__file__).resolve().parents[2] / "shared" / "data" / "emps" / "DATA_EMPS.mat"
 
 
 @pytest.mark.skipif(not EMPS.exists(), reason="EMPS data not present")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import sys
 from dataclasses import fields
@@ -67,9 +68,13 @@ def add_option_flags(parser, options_class, names) -> None:
         meta = item.metadata
         text = f"{meta['help']} (default: the config's [{options_class.SECTION}] {item.name}, else {item.default!r}"
         text += "; none: 'none')" if meta["none"] else ")"
-        parser.add_argument(
-            "--" + item.name.replace("_", "-"), dest=item.name, type=_flag_type(meta), default=None, help=text
-        )
+        flag = "--" + item.name.replace("_", "-")
+        if meta["kind"] == "bool":  # --name / --no-name
+            parser.add_argument(flag, dest=item.name, action=argparse.BooleanOptionalAction, default=None, help=text)
+        elif str(item.type).startswith("tuple"):  # a list of words: --effects 'sign(v)' 'v|v|'
+            parser.add_argument(flag, dest=item.name, type=_flag_type(meta), nargs="+", default=None, help=text)
+        else:
+            parser.add_argument(flag, dest=item.name, type=_flag_type(meta), default=None, help=text)
 
 
 def option_overrides(options, args):
@@ -87,6 +92,7 @@ def option_overrides(options, args):
         Validated again (a bad value raises ConfigError, exit 2).
     """
     given = {name: getattr(args, name) for name in options.names() if getattr(args, name, None) is not None}
+    given = {name: _NONE if isinstance(value, list) and _NONE in value else value for name, value in given.items()}
     return options.replace(**{name: None if value is _NONE else value for name, value in given.items()})
 
 

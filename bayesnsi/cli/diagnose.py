@@ -25,14 +25,14 @@ def add_parser(sub) -> None:
     add_option_flags(
         p, LoopOptions,
         ("max_steps", "threshold", "screen", "residual", "max_imag_ratio", "stability_factor", "max_shared",
-         "n_tries", "refine_final"),
+         "n_tries", "refine_final", "lookahead", "effects"),
     )
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
     """Execute the command."""
-    from ..diagnose import close_the_loop
+    from ..diagnose import close_the_loop, loop_effects
     from ..exceptions import ConfigError
     from ..io import RESULTS_FILENAME, atomic_write_json, load_validation, selection_payload, term_record, to_jsonable
     from ..io.posterior import write_posteriors
@@ -45,6 +45,8 @@ def run(args) -> int:
     names = [c.name for c in config.candidates]
     if args.start is not None and args.start not in names:  # before any work
         raise ConfigError(f"--start {args.start!r} is not a candidate of the config; choose one of {names}")
+    loop_options = option_overrides(config.loop, args)
+    loop_effects(signals, loop_options.effects)  # unknown effect names: ConfigError before any work
     selection = run_selection(config, signals, args, out)
     results = selection.results
     if not results:
@@ -53,7 +55,6 @@ def run(args) -> int:
     if start not in results:
         raise ConfigError(f"--start {start!r} is not an identified candidate; choose one of {sorted(results)}")
     progress(f"closing the loop from {start!r} ...", args.quiet)
-    loop_options = option_overrides(config.loop, args)
     execution = ExecutionOptions(jobs=getattr(args, "jobs", 1), scheduler=getattr(args, "scheduler", None))
     loop = close_the_loop(
         signals, results[start].candidate, loop_options,
@@ -84,6 +85,8 @@ def run(args) -> int:
                 "error_quantity": step.error_quantity,
                 "short_horizon_nrmse_before": step.short_horizon_nrmse_before,
                 "short_horizon_nrmse_after": step.short_horizon_nrmse_after,
+                "search": step.search,  # the effects that search screened and scored, what became of each
+                "screened": [] if step.search is None else loop.search_records(step.search),
             }
         )
         progress(f"{'added' if step.accepted else 'rejected'} {step.term.name}: {step.reason}", args.quiet)
@@ -110,7 +113,7 @@ def run(args) -> int:
         posteriors[final_name] = {selection.likelihood: final_evidence}
         payload["final_evidence"] = to_jsonable(final_evidence.to_dict())
     payload["posterior_files"] = write_posteriors(out, posteriors, selection.likelihood)
-    payload["loop_scores"] = [[_score_record(row) for row in search] for search in loop.scores]
+    payload["loop_scores"] = [loop.search_records(k) for k in range(len(loop.scores))]
     if not args.no_figures:
         units = report_units(config)
         report = identification_report(
@@ -161,9 +164,3 @@ def _final_coefficients(loop, intervals, posterior) -> list:
 def _effect_record(effect) -> dict:
     """Type, location and parameters of a loop effect, as written to results.json."""
     return {"type": effect.base, "at": list(effect.location), "gap": effect.gap}
-
-
-def _score_record(row) -> dict:
-    """One effect of a loop search with its Laplace log-evidence (NaN: screened out)."""
-    return {**_effect_record(row.effect), "term": row.term.name, "log_evidence_laplace": row.log_evidence,
-            "nrmse": row.nrmse}

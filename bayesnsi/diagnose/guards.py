@@ -151,7 +151,8 @@ def _stable(halves, value: float, factor: float) -> bool:
 
 
 def check_effect(
-    context: LoopContext, entry: EffectScore, baseline: Baseline, seed, half_cache=None, accepted=()
+    context: LoopContext, entry: EffectScore, baseline: Baseline, seed, half_cache=None, accepted=(),
+    search: int | None = None,
 ) -> Verdict:
     """Log Bayes factor (Laplace) and the guards of one proposed effect (module notes).
 
@@ -173,6 +174,8 @@ def check_effect(
         As ``cache`` of :func:`half_coefficients`.
     accepted : sequence of Term
         The terms of the current model the loop added (the "separable" guard checks against them).
+    search : int, optional
+        Index of the search that proposed the effect (:attr:`LoopStep.search`).
 
     Returns
     -------
@@ -236,6 +239,7 @@ def check_effect(
         nrmse_after=float(entry.nrmse) if np.isfinite(entry.nrmse) else trial.reconstruct(signals).nrmse,
         candidate=trial.candidate,
         error_quantity="force" if is_free_body(trial) else "displacement",
+        search=search,
     )
     return Verdict(step, float(entry.log_evidence), intervals, quality_only)
 

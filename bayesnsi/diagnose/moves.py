@@ -110,12 +110,14 @@ def look_ahead(context: LoopContext, state: LoopState, pending: tuple[Verdict, E
     p_step = verdict.step
     max_imag_ratio = context.options.max_imag_ratio
     scored = rank_effects(context, entry.result.candidate, [*state.added, (p_step.effect.base, p_step.effect.location)])
-    state.record_scores(scored)
+    search = state.record_scores(scored, verdict.log_evidence)
     baseline = Baseline(verdict.log_evidence, p_step.nrmse_after)
     for trial in scored[: context.options.n_tries]:
         if not np.isfinite(trial.log_evidence):
             break
-        second = check_effect(context, trial, baseline, state.next_seed(), state.half_cache, _loop_added(state, entry))
+        second = check_effect(
+            context, trial, baseline, state.next_seed(), state.half_cache, _loop_added(state, entry), search=search
+        )
         first_coef = trial.result.coefficients[-2]
         step = second.step
         if step.accepted and first_coef.imag_ratio >= max_imag_ratio:

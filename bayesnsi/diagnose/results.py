@@ -9,7 +9,7 @@ from typing import Any
 from ..models import CandidateModel, Effect, Term
 from .forces import ResidualForce
 
-__all__ = ["EffectScore", "LoopResult", "LoopStep"]
+__all__ = ["EffectScore", "LoopResult", "LoopStep", "score_record"]
 
 
 @dataclass(frozen=True)
@@ -28,6 +28,21 @@ class EffectScore:
         The enlarged model (None in :attr:`LoopResult.scores`, which keep the scores only).
     error : str
         Why the score is −inf (the identification or the evidence failed), else empty.
+    screen_rank : int
+        Rank (1 = best) of the effect in the search's screen; 0 when the search had no screen.
+    screen_score : float
+        Its screen score (a log-likelihood ratio for the frequency-domain and force views, a
+        distortion level for periodic data); it only orders the effects. NaN without a screen.
+    screen_view : str
+        Which screen ranked it: "frequency" (:func:`bayesnsi.diagnose.screen.screen_effects`),
+        "force" (free body, :func:`bayesnsi.diagnose.screen_force.screen_effects_force`),
+        "periodic" (:func:`bayesnsi.diagnose.localise.screen_effects_periodic`), or empty.
+    log_bayes_factor : float
+        ``log_evidence`` minus the Laplace log-evidence of the model the search started from (NaN
+        until the search is recorded, :meth:`bayesnsi.diagnose.state.LoopState.record_scores`).
+    imag_ratio : float
+        Quality index |Im λ|/|Re λ| of the effect's coefficient in the enlarged model (NaN when
+        not identified).
     """
 
     effect: Effect
@@ -35,6 +50,11 @@ class EffectScore:
     nrmse: float = math.nan
     result: Any = field(default=None, repr=False, compare=False)
     error: str = ""
+    screen_rank: int = 0
+    screen_score: float = math.nan
+    screen_view: str = ""
+    log_bayes_factor: float = math.nan
+    imag_ratio: float = math.nan
 
     @property
     def term(self) -> Term:
@@ -94,6 +114,9 @@ class LoopStep:
     short_horizon_nrmse_before, short_horizon_nrmse_after : float
         Free bodies, accepted steps: displacement NRMSE of simulations over windows of 1 s
         (:func:`bayesnsi.nsi.short_horizon_nrmse`), which replace the long simulation that drifts.
+    search : int or None
+        Index in :attr:`LoopResult.scores` of the search that proposed the effect (None for an
+        effect proposed in exchange for another, whose search is not recorded).
     """
 
     effect: Effect
@@ -115,6 +138,7 @@ class LoopStep:
     short_horizon_nrmse_after: float = math.nan
     half_block_rows: int | None = None
     half_note: str = ""
+    search: int | None = None
 
     @property
     def term(self) -> Term:
@@ -162,3 +186,57 @@ class LoopResult:
     def added(self) -> tuple[LoopStep, ...]:
         """The accepted steps."""
         return tuple(s for s in self.steps if s.accepted)
+
+    def search_records(self, index: int) -> list[dict]:
+        """Every effect of one search with its screen and evidence scores and what became of it.
+
+        Parameters
+        ----------
+        index : int
+            Index of the search in :attr:`scores` (:attr:`LoopStep.search`).
+
+        Returns
+        -------
+        list of dict
+            In the search's order (by Laplace log-evidence, then the screened-out ones in screen
+            order): ``type``, ``at``, ``gap``, ``term``, ``screen_rank``, ``screen_score``,
+            ``screen_view``, ``log_evidence_laplace``, ``log_bayes_factor``, ``nrmse``,
+            ``imag_ratio``, ``status`` ("accepted", "rejected", "not checked", "failed",
+            "screened out") and ``reason``.
+        """
+        checked = {s.term.name: s for s in self.steps if s.search == index}
+        n_tries, screen = self.settings.get("n_tries"), self.settings.get("screen")
+        return [score_record(row, checked.get(row.term.name), n_tries, screen) for row in self.scores[index]]
+
+
+def score_record(row: EffectScore, step: LoopStep | None = None, n_tries=None, screen=None) -> dict:
+    """One scored effect as a plain dict (results.json), with its status and the reason for it.
+
+    Parameters
+    ----------
+    row : EffectScore
+    step : LoopStep, optional
+        The step that checked the effect, when one did.
+    n_tries, screen : int, optional
+        The loop's ``n_tries`` and ``screen`` (for the reasons of effects not checked).
+
+    Returns
+    -------
+    dict
+        As in :meth:`LoopResult.search_records`.
+    """
+    if step is not None:
+        status, reason = ("accepted" if step.accepted else "rejected"), step.reason
+    elif row.screened_out:
+        status, reason = "screened out", f"screen rank {row.screen_rank} > screen = {screen}: not re-identified"
+    elif not math.isfinite(row.log_evidence):
+        status, reason = "failed", row.error or "no finite evidence"
+    else:
+        status, reason = "not checked", f"not among the n_tries = {n_tries} best by evidence"
+    effect = row.effect
+    return {
+        "type": effect.base, "at": list(effect.location), "gap": effect.gap, "term": row.term.name,
+        "screen_rank": row.screen_rank, "screen_score": row.screen_score, "screen_view": row.screen_view,
+        "log_evidence_laplace": row.log_evidence, "log_bayes_factor": row.log_bayes_factor, "nrmse": row.nrmse,
+        "imag_ratio": row.imag_ratio, "status": status, "reason": reason,
+    }

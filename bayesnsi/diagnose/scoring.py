@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from dataclasses import replace
 
 import numpy as np
 
@@ -199,31 +200,45 @@ def refine_gap(
 
 
 def _screened(context: LoopContext, candidate, effects, exclude):
-    """Split ``effects`` into the best ``screen`` by :func:`screen_effects` and the rest.
+    """Split ``effects`` into the best ``screen`` by the screen (module notes) and the rest.
 
     Effects already in the model or excluded are dropped first. Returns ``(kept effects, scores
-    of the rest)``; the rest carry a NaN score (screened out, not re-identified), in screen order.
+    of the rest, screen)``; the rest carry a NaN score (screened out, not re-identified), in screen
+    order; ``screen`` maps each kept effect's term name to its ``(rank, score, view)``.
     """
     count = context.options.screen
     effects = new_effects(candidate, effects, exclude)
-    if len(effects) <= count:
-        return effects, []
     try:
         if context.nsi.virtual_stiffness not in ("auto", 0.0, 0):  # a free body: screen in the force view
-            ranked = screen_effects_force(context.signals, candidate, effects)
+            view, ranked = "force", screen_effects_force(context.signals, candidate, effects)
         elif context.nsi.domain == "frequency" and context.signals.period and context.signals.force.shape[1] == 1:
-            ranked = screen_effects_periodic(  # where the data show the distortion first (localise.py)
+            view, ranked = "periodic", screen_effects_periodic(  # where the data show the distortion first
                 context.signals, candidate, effects, max_frequency_hz=context.screen_hz,
                 velocity_method=context.nsi.velocity_method,
             )
         else:
-            ranked = screen_effects(
+            view, ranked = "frequency", screen_effects(
                 context.signals, candidate, effects, max_frequency_hz=context.screen_hz,
                 velocity_method=context.nsi.velocity_method,
             )
     except BayesNSIError:
-        return effects, []  # too short a record to screen: score them all
-    return [e for e, _ in ranked[:count]], [EffectScore(e, math.nan) for e, _ in ranked[count:]]
+        return effects, [], {}  # too short a record to screen: score them all
+    screen = {e.term.name: (rank, float(score), view) for rank, (e, score) in enumerate(ranked, start=1)}
+    rest = [
+        EffectScore(e, math.nan, screen_rank=rank, screen_score=float(score), screen_view=view)
+        for rank, (e, score) in enumerate(ranked[count:], start=count + 1)
+    ]
+    if len(effects) <= count:  # all re-identified, in dictionary order as without a screen
+        return effects, [], screen
+    return [e for e, _ in ranked[:count]], rest, screen
+
+
+def _with_screen(entry: EffectScore, screen: dict, name: str | None = None) -> EffectScore:
+    """``entry`` with the screen rank, score and view of ``name`` (default its own term's)."""
+    found = screen.get(entry.term.name if name is None else name)
+    if found is None:
+        return entry
+    return replace(entry, screen_rank=found[0], screen_score=found[1], screen_view=found[2])
 
 
 def rank_effects(context: LoopContext, candidate, exclude=(), effects=None, screen: bool = True) -> list[EffectScore]:
@@ -246,17 +261,19 @@ def rank_effects(context: LoopContext, candidate, exclude=(), effects=None, scre
         Best first; the screened-out effects follow with a NaN score.
     """
     effects = context.effects if effects is None else effects
-    kept, rest = effects, []
+    kept, rest, ranks = effects, [], {}
     if screen and context.screen_hz is not None:
-        kept, rest = _screened(context, candidate, effects, exclude)
+        kept, rest, ranks = _screened(context, candidate, effects, exclude)
     correlations = shared_correlations(context.signals, candidate, context.nsi)
     scored = score_effects(
         context.signals, candidate, kept, context.nsi, context.evidence, exclude=exclude,
         execution=context.execution, correlations=correlations,
     )
+    scored = [_with_screen(entry, ranks) for entry in scored]
     n_tries = context.options.n_tries
-    head = [
-        refine_gap(context.signals, candidate, entry, effects, context.nsi, context.evidence, correlations=correlations)
+    head = [  # a refined clearance keeps the screen rank of the grid gap it was refined from
+        _with_screen(refine_gap(context.signals, candidate, entry, effects, context.nsi, context.evidence,
+                                correlations=correlations), ranks, entry.term.name)
         if np.isfinite(entry.log_evidence) and entry.effect.gap is not None
         else entry
         for entry in scored[:n_tries]

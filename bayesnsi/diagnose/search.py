@@ -241,7 +241,7 @@ def _step(context: LoopContext, state: LoopState) -> bool:
     """One search from the current model; True when something was added (search again)."""
     options = context.options
     scored = rank_effects(context, state.current.candidate, state.added)
-    state.record_scores(scored)
+    search = state.record_scores(scored, state.log_z)
     tried = [s for s in scored if not math.isnan(s.log_evidence)]  # NaN: left out by the screen
     if tried and not any(np.isfinite(s.log_evidence) for s in tried):
         reasons = sorted({s.error for s in tried if s.error}) or ["no reason recorded"]
@@ -259,7 +259,7 @@ def _step(context: LoopContext, state: LoopState) -> bool:
     for entry in scored[: options.n_tries]:
         if not np.isfinite(entry.log_evidence):
             break
-        verdict = check_effect(context, entry, baseline, state.next_seed(), state.half_cache, accepted)
+        verdict = check_effect(context, entry, baseline, state.next_seed(), state.half_cache, accepted, search=search)
         state.steps.append(verdict.step)
         if verdict.step.accepted:
             step = documented(verdict.step, state.current, entry.result, context.signals)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -52,6 +52,13 @@ class Baseline:
     nrmse: float
 
 
+def _imag_ratio(result) -> float:
+    """Quality index of the last (the added effect's) coefficient of ``result``; NaN without one."""
+    if result is None or not result.coefficients:
+        return float("nan")
+    return float(result.coefficients[-1].imag_ratio)
+
+
 def _seed_stream(seed: int) -> Iterator[np.random.SeedSequence]:
     """Children of ``SeedSequence(seed)``, one at a time, as many as needed."""
     sequence = np.random.SeedSequence(seed)
@@ -95,9 +102,17 @@ class LoopState:
         """The seed of the next effect checked (one per check, in order)."""
         return next(self._seeds)
 
-    def record_scores(self, scored) -> None:
-        """Keep a search's scores (without the identified models)."""
-        self.scores.append(tuple(EffectScore(s.effect, s.log_evidence, s.nrmse) for s in scored))
+    def record_scores(self, scored, log_z: float) -> int:
+        """Keep a search's scores (without the identified models); returns the search's index.
+
+        ``log_z`` is the Laplace log-evidence of the model the search started from (each
+        score's ``log_bayes_factor``); the quality index is read from each enlarged model.
+        """
+        self.scores.append(tuple(
+            replace(s, result=None, log_bayes_factor=float(s.log_evidence - log_z), imag_ratio=_imag_ratio(s.result))
+            for s in scored
+        ))
+        return len(self.scores) - 1
 
     def replace_step(self, old: LoopStep, new: LoopStep) -> LoopStep:
         """Put ``new`` in the place of ``old`` (same object) in :attr:`steps`; returns ``new``."""

@@ -11,7 +11,6 @@ import math
 from dataclasses import replace
 
 import numpy as np
-from scipy import signal as _signal
 
 from ._sampled import as_columns, check_fs, check_int, poly_detrend
 from .exceptions import InputDataError
@@ -96,6 +95,7 @@ def decimate(signals, factor: int):
 
 
 def _decimate(x: np.ndarray, factor: int) -> np.ndarray:
+    from scipy import signal as _signal  # when needed: 0.4 s to import
     if factor == 1:
         return np.array(x, dtype=float, copy=True)
     return np.ascontiguousarray(_signal.decimate(x, factor, ftype="fir", zero_phase=True, axis=0))

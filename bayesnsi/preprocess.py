@@ -20,9 +20,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import fft as _fft
-from scipy import signal as _signal
-from scipy.integrate import cumulative_trapezoid
 
 from ._resample import decimate, detrend, select_segment, upsample
 from ._sampled import as_columns, check_band, check_fs, check_int, check_taper, poly_detrend
@@ -225,6 +222,8 @@ def band_filter(
 
 
 def _frequency_filter(a, fs, band, taper, pad_s, powers):
+    from scipy import fft as _fft  # when needed: 0.1 s to import
+
     n = a.shape[0]
     lo = band[0]
     if pad_s is None:
@@ -251,6 +250,9 @@ def _frequency_filter(a, fs, band, taper, pad_s, powers):
 
 
 def _time_integrate(a, fs, band, order, detrend_order):
+    from scipy import signal as _signal  # when needed: 0.4 s to import
+    from scipy.integrate import cumulative_trapezoid  # 0.1 s to import
+
     dt = 1.0 / fs
     check_int(order, "filter_order", 1)
     check_int(detrend_order, "detrend_order", 0)
@@ -266,6 +268,7 @@ def _time_integrate(a, fs, band, order, detrend_order):
 
 
 def _butter_band(s, fs, band, order):
+    from scipy import signal as _signal  # when needed: 0.4 s to import
     check_int(order, "filter_order", 1)
     out = np.array(s, dtype=float, copy=True)
     if band[0] > 0:
@@ -279,4 +282,5 @@ def _butter_band(s, fs, band, order):
 
 def _filtfilt(sos, x):
     # forward-backward (zero phase), scipy's default odd-extension padding at the ends
+    from scipy import signal as _signal  # when needed: 0.4 s to import
     return _signal.sosfiltfilt(sos, x, axis=0)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import errno
+import os
 import signal
 import sys
 import traceback
@@ -74,9 +75,10 @@ def main(argv=None) -> int:
     """
     parser = build_parser()
     args = parser.parse_args(argv)
-    import matplotlib  # after parsing: `bayesnsi --help` stays fast
-
-    matplotlib.use("Agg")  # reports are written to files; no display is needed
+    if "matplotlib" in sys.modules:  # reports are written to files; no display is needed
+        sys.modules["matplotlib"].use("Agg")
+    else:  # not imported here: a command without figures (--no-figures) never imports it
+        os.environ["MPLBACKEND"] = "Agg"
     with _sigterm_raises(), contextlib.ExitStack() as args.resources:
         try:
             return int(args.run(args) or 0)

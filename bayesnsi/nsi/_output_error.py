@@ -12,7 +12,6 @@ independent of N.
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal as _signal
 from scipy.linalg import blas as _blas
 
 from ._noise import white_noise_std
@@ -137,6 +136,7 @@ def _pole_basis_gram(lam, refine, u, y, skip):
     filtered once more (``∂F/∂λ = F/(z - λ)``) and ``k λ_p^{k-1}``. Samples ``skip`` from either
     end are left out (transients of the band-pass prefilter).
     """
+    from scipy import signal as _signal  # when needed: 0.4 s to import
     n_samples, m = u.shape
     complex_mode = np.abs(lam.imag) > 0
     s_cols, col = [], 0
@@ -262,6 +262,7 @@ def refine_poles(
         ``NSIOptions(c_method="prediction-error")`` re-fits C (measurements in
         ``docs/measurements.md``).
     """
+    from scipy import signal as _signal  # when needed: 0.4 s to import
     u = np.asarray(u, dtype=float)
     y = np.asarray(y, dtype=float)
     lo, hi = (float(b) for b in band_hz)

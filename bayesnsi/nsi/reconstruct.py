@@ -5,10 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal as _signal
 
 from ..exceptions import UnstableModelError
 from ..signals import Signals
+from ._recursion import delayed_first_order
 from .statespace import StateSpaceModel
 
 _FIXED_POINT_ITERATIONS = 4
@@ -120,7 +120,8 @@ def initial_state(model: StateSpaceModel, inputs: np.ndarray, outputs: np.ndarra
     # Σ_k λ_p^k r_k · C v_p by Horner backwards, one mode of each conjugate pair (real data)
     lam_half, vec_half, vinv_half, weight = model._modal_half()
     projected = residual[::-1] @ (model.C @ vec_half)
-    weighted = np.array([_signal.lfilter([1.0], [1.0, -lp], projected[:, p])[-1] for p, lp in enumerate(lam_half)])
+    # the last output of lfilter([1], [1, -λ]) is the final state of the delayed recursion
+    weighted = np.array([delayed_first_order(lp, projected[:, p])[1][0] for p, lp in enumerate(lam_half)])
     rhs = (vinv_half.T @ (weighted * weight)).real
     return np.linalg.lstsq(normal, rhs, rcond=None)[0]
 

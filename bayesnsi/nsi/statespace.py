@@ -2,9 +2,9 @@
 
 ``x_{k+1} = A x_k + B u_k``, ``y_k = C x_k + D u_k`` with sampling interval ``dt``.
 Frequency responses and simulations use the eigendecomposition ``A = V Λ V⁻¹``: the FRF costs
-O(n) per frequency and a simulation is one compiled recursive filter (``scipy.signal.lfilter``) per
-mode: a real second-order recursion for each complex-conjugate pair (:func:`modal_filter`), so long
-records are cheap (timings in ``docs/measurements.md``).
+O(n) per frequency and a simulation is one compiled first-order recursion per mode, one of each
+complex-conjugate pair (:func:`modal_filter`, a LAPACK banded triangular solve), so long records
+are cheap (timings in ``docs/measurements.md``).
 """
 
 from __future__ import annotations
@@ -12,21 +12,20 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal as _signal
 
 from ..exceptions import UnstableModelError
+from ._recursion import delayed_first_order
 
 __all__ = ["StateSpaceModel", "modal_filter", "modal_filter_step", "modal_parameters_from_poles"]
 
 
 def modal_filter(eigenvalue: complex, signal: np.ndarray):
-    """``z_{k+1} = λ z_k + u_k``, ``z_0 = 0`` for a real signal (along axis 0), in real arithmetic.
+    """``z_{k+1} = λ z_k + u_k``, ``z_0 = 0`` for a real signal (along axis 0).
 
-    ``1/(z - λ) = (z⁻¹ - λ̄ z⁻²) / (1 - 2 Re λ z⁻¹ + |λ|² z⁻²)``: one real second-order
-    recursion ``w`` gives ``Re z_k = w_{k-1} - Re λ w_{k-2}`` and ``Im z_k = Im λ w_{k-2}``,
-    about 4× faster than the complex first-order recursion (``scipy.signal.lfilter``). Near
-    ``z = 1`` (``|1 - λ| < 1e-3``) the second-order form loses digits (1e-10 at 1e-3), so the complex
-    recursion is used there.
+    The first-order recursion is a banded triangular solve (LAPACK ``ztbtrs``,
+    :mod:`bayesnsi.nsi._recursion`): faster than ``scipy.signal.lfilter``'s complex recursion and
+    than its real second-order form (which also lost digits near ``z = 1``), and no import of
+    ``scipy.signal`` (0.3-0.7 s at the start of a command).
 
     Parameters
     ----------
@@ -62,26 +61,10 @@ def modal_filter_step(lam: complex, u: np.ndarray, state):
     state : object
         To pass with the next chunk.
     """
-    if lam.imag == 0.0 or abs(1.0 - lam) < 1e-3:
-        real = lam.imag == 0.0
-        coef = lam.real if real else lam
-        data = u if real else u.astype(complex)
-        zi = np.zeros((1,) + u.shape[1:], dtype=data.dtype) if state is None else state
-        out, zf = _signal.lfilter([0.0, 1.0], [1.0, -coef], data, axis=0, zi=zi)
-        return out, zf
-    denominator = [1.0, -2.0 * lam.real, abs(lam) ** 2]
-    if state is None:
-        zi = np.zeros((2,) + u.shape[1:])
-        previous = np.zeros((2,) + u.shape[1:])  # w_{-2}, w_{-1}
-    else:
-        zi, previous = state
-    w, zf = _signal.lfilter([1.0, 0.0, 0.0], denominator, u, axis=0, zi=zi)
-    extended = np.concatenate([previous, w], axis=0)  # w_{-2}, w_{-1}, w_0, ...
-    n = len(u)
-    out = np.empty(u.shape, dtype=complex)
-    out.real = extended[1 : n + 1] - lam.real * extended[:n]
-    out.imag = lam.imag * extended[:n]
-    return out, (zf, extended[-2:].copy())
+    real = lam.imag == 0.0
+    coef = lam.real if real else lam
+    zi = np.zeros((1,) + u.shape[1:], dtype=float if real else complex) if state is None else state
+    return delayed_first_order(coef, u, zi)  # lfilter([0, 1], [1, -coef]), without importing scipy.signal
 
 
 def modal_parameters_from_poles(poles_continuous: np.ndarray):
@@ -226,7 +209,8 @@ class StateSpaceModel:
             drive_im = np.asfortranarray(u @ modal_b.imag.T)
             basis = np.empty((u.shape[0], 2 * k), order="F")  # [Re z, Im z] of the modal states
             for p, lp in enumerate(lam):
-                from_re, from_im = modal_filter(lp, drive_re[:, p]), modal_filter(lp, drive_im[:, p])
+                both = modal_filter(lp, np.stack([drive_re[:, p], drive_im[:, p]], axis=1))  # one solve, 2 columns
+                from_re, from_im = both[:, 0], both[:, 1]
                 basis[:, p] = from_re.real - (from_im.imag if np.iscomplexobj(from_im) else 0.0)
                 basis[:, k + p] = (from_re.imag if np.iscomplexobj(from_re) else 0.0) + from_im.real
             y = basis @ np.vstack([cm.real.T, -cm.imag.T]) + u @ self.D.T
@@ -329,6 +313,6 @@ class StateSpaceModel:
         states = np.empty_like(drive, dtype=complex)
         zi0 = np.zeros(len(lam), dtype=complex) if x0 is None else vinv @ np.asarray(x0, dtype=float)
         for p, lp in enumerate(lam):
-            zp, _ = _signal.lfilter([0.0, 1.0], [1.0, -lp], drive[:, p], zi=[zi0[p]])
+            zp, _ = delayed_first_order(lp, drive[:, p], [zi0[p]])
             states[:, p] = zp
         return (states @ vec.T).real

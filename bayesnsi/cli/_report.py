@@ -8,6 +8,8 @@ arranges and words them.
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 
 from ..io import versions
@@ -32,6 +34,19 @@ _RESIDUAL_TEXT = {
 }
 _LIKELIHOOD_TEXT = {"white": "white Gaussian", "ar1": "AR(1) Gaussian", "arP": "AR(P) Gaussian"}
 _RECONSTRUCTION_SAMPLES = 400  # samples shown in the measured-vs-model overlays
+
+
+@contextlib.contextmanager
+def held_figures():
+    """A report's figures stay open until it is written (each is closed as it is rendered).
+
+    Matplotlib warns past 20 open figures; a ``diagnose`` report with posteriors of many
+    candidates holds more, on purpose, so the warning is off inside this block only.
+    """
+    import matplotlib
+
+    with matplotlib.rc_context({"figure.max_open_warning": 0}):
+        yield
 
 
 def report_units(config) -> ChannelUnits:

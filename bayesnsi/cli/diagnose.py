@@ -39,7 +39,7 @@ def run(args) -> int:
     from ..options import ExecutionOptions
     from ..validation import validate
     from ._loop_report import loop_sections
-    from ._report import identification_report, report_units, selection_sections
+    from ._report import held_figures, identification_report, report_units, selection_sections
 
     config, out, signals = start_run(args)
     names = [c.name for c in config.candidates]
@@ -115,15 +115,16 @@ def run(args) -> int:
     payload["posterior_files"] = write_posteriors(out, posteriors, selection.likelihood)
     payload["loop_scores"] = [loop.search_records(k) for k in range(len(loop.scores))]
     if not args.no_figures:
-        units = report_units(config)
-        report = identification_report(
-            config, signals, results, payload["candidates"], f"bayesnsi diagnose - {config.path.name}", units=units
-        )
-        loop_sections(report, signals, loop, payload, units, has_validation=bool(validation),
-                      final_evidence=final_evidence)
-        role = "Starting model" if start != selection.selected else "Starting model, the one selected"
-        selection_sections(report, signals, selection, start, units, role)
-        progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
+        with held_figures():
+            units = report_units(config)
+            report = identification_report(
+                config, signals, results, payload["candidates"], f"bayesnsi diagnose - {config.path.name}", units=units
+            )
+            loop_sections(report, signals, loop, payload, units, has_validation=bool(validation),
+                          final_evidence=final_evidence)
+            role = "Starting model" if start != selection.selected else "Starting model, the one selected"
+            selection_sections(report, signals, selection, start, units, role)
+            progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
     path = atomic_write_json(out / RESULTS_FILENAME, payload)  # last: a complete folder, or a rerun resumes
     progress(f"wrote {path}", args.quiet)
     return 0

@@ -24,19 +24,20 @@ def run(args) -> int:
     """Execute the command."""
     from ..io import RESULTS_FILENAME, atomic_write_json, identification_payload
     from ..run import run_candidates
-    from ._report import identification_answer, identification_report, report_units
+    from ._report import held_figures, identification_answer, identification_report, report_units
 
     config, out, signals = start_run(args)
     with execution(args, out, config) as options:
         outcomes = run_candidates(signals, config.candidates, config.nsi, execution=options)
     payload = identification_payload(outcomes, "identify", config)
     if not args.no_figures:
-        results = {o.name: o.result for o in outcomes if o.result is not None}
-        title = f"bayesnsi identify - {config.path.name}"
-        units = report_units(config)
-        report = identification_report(config, signals, results, payload["candidates"], title, units=units)
-        identification_answer(report, signals, results, payload["candidates"], units)
-        progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
+        with held_figures():
+            results = {o.name: o.result for o in outcomes if o.result is not None}
+            title = f"bayesnsi identify - {config.path.name}"
+            units = report_units(config)
+            report = identification_report(config, signals, results, payload["candidates"], title, units=units)
+            identification_answer(report, signals, results, payload["candidates"], units)
+            progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
     path = atomic_write_json(out / RESULTS_FILENAME, payload)  # last: a complete folder, or a rerun resumes
     progress(f"wrote {path}", args.quiet)
     refuse_if_nothing_identified(outcomes, path)

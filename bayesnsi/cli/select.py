@@ -29,20 +29,21 @@ def run(args) -> int:
     """Execute the command."""
     from ..io import RESULTS_FILENAME, atomic_write_json, selection_payload
     from ..io.posterior import write_posteriors
-    from ._report import identification_report, report_units, selection_sections
+    from ._report import held_figures, identification_report, report_units, selection_sections
 
     config, out, signals = start_run(args)
     selection = run_selection(config, signals, args, out)
     payload = selection_payload(selection, "select", config)
     payload["posterior_files"] = write_posteriors(out, selection.evidences, selection.likelihood)
     if not args.no_figures:
-        units = report_units(config)
-        report = identification_report(
-            config, signals, selection.results, payload["candidates"], f"bayesnsi select - {config.path.name}",
-            units=units,
-        )
-        selection_sections(report, signals, selection, selection.selected, units)
-        progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
+        with held_figures():
+            units = report_units(config)
+            report = identification_report(
+                config, signals, selection.results, payload["candidates"], f"bayesnsi select - {config.path.name}",
+                units=units,
+            )
+            selection_sections(report, signals, selection, selection.selected, units)
+            progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
     path = atomic_write_json(out / RESULTS_FILENAME, payload)  # last: a complete folder, or a rerun resumes
     progress(f"wrote {path}", args.quiet)
     refuse_if_nothing_identified(selection.outcomes, path)

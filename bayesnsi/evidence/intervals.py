@@ -1,4 +1,4 @@
-"""Intervals that carry the uncertainty of the identified linear part (issue 15, SPEC 11).
+"""Intervals that carry the uncertainty of the identified linear part (issue 15, docs/method.md §11).
 
 The coefficient posterior of :func:`~bayesnsi.evidence.marginal_evidence` conditions on the
 identified underlying linear model (A, C and, with them, B, D) as if it were exact; on the

@@ -1,4 +1,4 @@
-"""Frequency-domain subspace identification of the extended-input system (SPEC 11, FNSI).
+"""Frequency-domain subspace identification of the extended-input system (docs/method.md §11, FNSI).
 
 McKelvey, Akçay and Ljung (IEEE TAC 41, 1996) with the noise weighting of Pintelon (2002), on
 the lines of a periodic record (Noël and Kerschen, MSSP 40, 2013). In periodic steady state a
@@ -267,7 +267,7 @@ def stabilise_continuous(Ac: np.ndarray):
 
 
 def refine(data: LineData, Ac: np.ndarray, C: np.ndarray, zero_feedthrough: bool, max_nfev: int = 200):
-    """Weighted least-squares refinement of A_c, C on the lines (variable projection, SPEC 11).
+    """Weighted least-squares refinement of A_c, C on the lines (variable projection, docs/method.md §11).
 
     A_c in real modal form, each pair ``σ ± jω`` parametrised by ``log(-σ)`` and ``ω`` (so the
     refined model stays stable), C free; B and D are solved by weighted linear least squares

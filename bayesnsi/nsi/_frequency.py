@@ -1,4 +1,4 @@
-"""The frequency route of :func:`bayesnsi.nsi.identify` (``NSIOptions.domain = "frequency"``; SPEC 11).
+"""The frequency route of :func:`bayesnsi.nsi.identify` (``NSIOptions.domain = "frequency"``; docs/method.md §11).
 
 Frequency-domain NSI (FNSI, Noël and Kerschen 2013) on a periodic record: the extended input
 ``[F; -N]`` and the outputs averaged over the periods, fitted on the excited lines inside
@@ -208,7 +208,7 @@ def _order(options: NSIOptions, singular_values: np.ndarray, n_out: int, block_r
 
 
 def _coefficients(Ac, Bc, Cc, Dc, signals: Signals, terms, band) -> tuple[CoefficientEstimate, ...]:
-    """λ_i as the band mean of Re λ_i(ω) of the continuous model, with its quality index (SPEC 4)."""
+    """λ_i as the band mean of Re λ_i(ω) of the continuous model, with its quality index (docs/method.md §4)."""
     if not terms:
         return ()
     freqs = np.linspace(band[0], band[1], _BAND_POINTS)

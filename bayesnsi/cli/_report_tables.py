@@ -49,11 +49,12 @@ def decision_frame(decision, selected: str):
         zip(frame.index, frame["log_bayes_factor"], frame["log_bayes_factor_se"])
     ]
     frame["log_evidence"] = [_with_error(v, e, 1) for v, e in zip(frame["log_evidence"], frame["log_evidence_se"])]
+    frame["strength"] = ["—" if name == selected else word for name, word in zip(frame.index, frame["strength"])]
     columns = {
         "probability": "P(model | data)",
         "log_evidence": "log evidence [nat]",
         "log_bayes_factor": f"log Bayes factor, {selected} against it [nat]",
-        "strength": "evidence for the selected model",
+        "strength": f"evidence for {selected}",
         "delta_log_likelihood_plain": "Δ log likelihood, paper's plain ranking [nat]",
     }
     frame = frame[[c for c in columns if c in frame.columns]].rename(columns=columns)

@@ -31,13 +31,14 @@ def evidence_strength(log_bayes_factor: float) -> str:
     Returns
     -------
     str
-        E.g. ``"strong"``; ``"none (not selected)"`` for a negative value, ``""`` for NaN.
+        E.g. ``"strong"``; ``"none: the data favour this candidate"`` for a negative value (the
+        reference is not the most probable one, e.g. the loop's starting model), ``""`` for NaN.
     """
     value = float(log_bayes_factor)
     if np.isnan(value):
         return ""
     if value < 0:
-        return "none (not selected)"
+        return "none: the data favour this candidate"
     return next(word for bound, word in STRENGTH_NAT if value < bound or np.isinf(bound))
 
 

@@ -56,7 +56,7 @@ def plot_bayes_factors(decision, selected: str, ax=None):
     ax.set_xscale("symlog", linthresh=10.0)
     ax.set_xlim(min(0.0, float(np.min(values[finite], initial=0.0)) * 1.15), top)
     ax.set_xlabel(f"log Bayes factor of {selected} against each candidate [nat]")
-    ax.set_title("How sure: evidence for the selected model", fontsize=10)
+    ax.set_title(f"How sure: evidence for {selected}", fontsize=10)
     ax.legend(fontsize=7, loc="lower right", framealpha=0.9, title="Kass and Raftery", title_fontsize=7)
     return fig
 

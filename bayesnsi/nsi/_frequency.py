@@ -23,7 +23,7 @@ from ..signals import Signals
 from . import _fnsi
 from .order import select_order
 from .periodic import best_linear_approximation
-from .physics import CoefficientEstimate, coefficient_spectrum, default_band, split_poles
+from .physics import CoefficientEstimate, band_coefficients, coefficient_spectrum, default_band, split_poles
 from .result import NSIResult
 from .statespace import StateSpaceModel
 
@@ -216,13 +216,4 @@ def _coefficients(Ac, Bc, Cc, Dc, signals: Signals, terms, band) -> tuple[Coeffi
     resolvent = 1.0 / (2j * np.pi * freqs[:, None] - lam[None])
     frf = np.einsum("on,fn,ni->foi", Cc @ vec, resolvent, np.linalg.solve(vec, Bc)) + Dc[None]
     spectrum = coefficient_spectrum(frf, signals.input_dofs, signals.output_dofs, terms)
-    return tuple(
-        CoefficientEstimate(
-            term=term,
-            value=float(np.mean(spectrum[:, k].real)),
-            imag_ratio=float(np.mean(np.abs(spectrum[:, k].imag)) / abs(np.mean(spectrum[:, k].real))),
-            band_hz=band,
-            spread=float(np.std(spectrum[:, k].real)),
-        )
-        for k, term in enumerate(terms)
-    )
+    return band_coefficients(spectrum, terms, band)

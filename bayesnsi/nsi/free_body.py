@@ -37,7 +37,6 @@ __all__ = [
     "auto_stiffness",
     "free_frf",
     "free_model",
-    "has_rigid_body_pole",
     "is_free_body",
     "physical_parameters",
     "rigid_body_poles",
@@ -167,25 +166,6 @@ def rigid_body_poles(poles_discrete, dt: float, n_samples: int) -> np.ndarray:
     real = np.abs(z.imag) <= 1e-9 * np.maximum(np.abs(z), 1e-300)
     rigid = real & (z.real > 0) & ((np.abs(s) < limit) | (np.abs(z) >= 1.0))
     return s[rigid]
-
-
-def has_rigid_body_pole(poles_discrete, dt: float, n_samples: int) -> bool:
-    """Whether the identified discrete poles hold a rigid-body pole (see :func:`rigid_body_poles`).
-
-    Parameters
-    ----------
-    poles_discrete : array_like of complex
-        Eigenvalues of the discrete A.
-    dt : float
-        Sampling interval [s].
-    n_samples : int
-        Record length in samples.
-
-    Returns
-    -------
-    bool
-    """
-    return bool(len(rigid_body_poles(poles_discrete, dt, n_samples)))
 
 
 def free_model(model: StateSpaceModel, stiffness: float, input_dofs, output_dofs) -> StateSpaceModel:

@@ -26,7 +26,14 @@ from ._stabilise import pole_text, reflect_out_of_band
 from .feedback import as_candidate, extended_input, resolve_input_hold, working_signals
 from .free_body import auto_stiffness, free_model, rigid_body_poles, stabilise
 from .order import oblique_decomposition, scaled_stack, select_order
-from .physics import CoefficientEstimate, coefficient_spectrum, default_band, identification_routes, split_poles
+from .physics import (
+    CoefficientEstimate,
+    band_coefficients,
+    coefficient_spectrum,
+    default_band,
+    identification_routes,
+    split_poles,
+)
 from .result import HankelCorrelations, NSIResult, correlation_key
 from .statespace import StateSpaceModel
 
@@ -327,13 +334,4 @@ def _coefficients(model: StateSpaceModel, signals: Signals, terms, band) -> tupl
         at_dc = coefficient_spectrum(model.frf([0.0]), signals.input_dofs, signals.output_dofs, terms)
         constant = [t.expr.is_constant for t in terms]
         spectrum[:, constant] = at_dc[:, constant]
-    return tuple(
-        CoefficientEstimate(
-            term=term,
-            value=float(np.mean(spectrum[:, k].real)),
-            imag_ratio=float(np.mean(np.abs(spectrum[:, k].imag)) / abs(np.mean(spectrum[:, k].real))),
-            band_hz=band,
-            spread=float(np.std(spectrum[:, k].real)),
-        )
-        for k, term in enumerate(terms)
-    )
+    return band_coefficients(spectrum, terms, band)

@@ -15,6 +15,7 @@ __all__ = [
     "Mode",
     "CoefficientEstimate",
     "coefficient_spectrum",
+    "band_coefficients",
     "split_poles",
     "default_band",
 ]
@@ -217,3 +218,31 @@ def identification_routes(terms, input_dofs, output_dofs) -> list[str]:
                 "measure the response at the term's DOFs or move the term"
             )
     return routes
+
+
+def band_coefficients(spectrum: np.ndarray, terms, band) -> tuple[CoefficientEstimate, ...]:
+    """Each term's λ_i as the band mean of Re λ_i(ω), with its quality index (docs/method.md §4).
+
+    Parameters
+    ----------
+    spectrum : ndarray, shape (n_freq, n_terms)
+        λ_i(ω) on a grid over ``band`` (:func:`coefficient_spectrum`).
+    terms : sequence of Term
+    band : (float, float)
+        The averaging band [Hz].
+
+    Returns
+    -------
+    tuple of CoefficientEstimate
+        Mean real part, mean |Im|/|Re| (the quality index) and the spread of the real part.
+    """
+    return tuple(
+        CoefficientEstimate(
+            term=term,
+            value=float(np.mean(spectrum[:, k].real)),
+            imag_ratio=float(np.mean(np.abs(spectrum[:, k].imag)) / abs(np.mean(spectrum[:, k].real))),
+            band_hz=band,
+            spread=float(np.std(spectrum[:, k].real)),
+        )
+        for k, term in enumerate(terms)
+    )

@@ -197,7 +197,7 @@ def final_coefficients_frame(records):
     ----------
     records : list of dict
         ``term``, ``value``, ``imag_ratio`` and, when computed, ``estimate``, ``sd``, ``ci95``,
-        ``ci50``, ``ci95_posterior`` and ``interval``.
+        ``ci50`` (centred on the NSI value), ``posterior_mean``, ``ci95_posterior`` and ``interval``.
 
     Returns
     -------
@@ -210,7 +210,7 @@ def final_coefficients_frame(records):
         row = {"coefficient λ (NSI)": r["value"], "|Im|/|Re|": r["imag_ratio"]}
         if "ci95" in r:
             row.update({
-                "posterior mean": r["estimate"], "sd": r["sd"], "95 % interval": _pair(r["ci95"]),
+                "posterior mean": r.get("posterior_mean", math.nan), "sd": r["sd"], "95 % interval": _pair(r["ci95"]),
                 "50 % interval": _pair(r["ci50"]),
                 "95 % posterior only (given the linear part)": _pair(r.get("ci95_posterior", (math.nan, math.nan))),
                 "interval": "windows + posterior" if r["interval"] == "segments" else "posterior only",

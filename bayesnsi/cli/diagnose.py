@@ -147,7 +147,8 @@ def _final_evidence(loop, signals, selection, start):
 
 def _final_coefficients(loop, intervals, posterior) -> list:
     """The final coefficients for results.json: NSI value, quality index and, as in select's, ``ci95``/``ci50``/
-    ``sd`` (linear-part uncertainty included, ``interval`` says how) and ``ci95_posterior`` (given the linear part)."""
+    ``sd`` (linear-part uncertainty included, ``interval`` says how; centred on ``estimate``, the NSI value),
+    ``posterior_mean`` and ``ci95_posterior`` (given the linear part)."""
     ci95 = [] if posterior is None else list(posterior.ci95)
     records = []
     for k, c in enumerate(loop.final.coefficients):
@@ -155,7 +156,7 @@ def _final_coefficients(loop, intervals, posterior) -> list:
         if intervals is not None and k < len(intervals.coefficients):
             iv = intervals.coefficients[k]
             record.update(estimate=iv.estimate, ci95=list(iv.ci95), ci50=list(iv.ci50), sd=iv.sd,
-                          interval=intervals.method)
+                          interval=intervals.method, posterior_mean=iv.posterior_mean)
             if k < len(ci95):
                 record["ci95_posterior"] = [float(ci95[k][0]), float(ci95[k][1])]
         records.append(record)

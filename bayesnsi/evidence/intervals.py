@@ -14,8 +14,13 @@ sub-records (moving-block subsampling, a delete-a-block jackknife):
   the full-record estimate has variance ``σ²/b - σ²/N``, so the variance of the full-record
   estimate is ``σ²/N = b/(N - b) · mean_w (θ_w - θ_N)²`` (the delete-d jackknife factor);
 * coefficients: total variance = posterior variance + that variance, interval centred on the
-  posterior mean; natural frequencies and damping ratios: that variance, centred on the
-  full-record mode (each full-record mode is matched to the window mode nearest in frequency).
+  reported estimate, the full-record NSI coefficient (the value the model holds and the windows
+  scatter about; the posterior mean is kept beside it, and a note says when it falls outside the
+  95 % interval: the evidence's estimator and NSI then disagree by more than their scatter, as on
+  a free body whose posterior is that of the inverse model); natural frequencies and damping
+  ratios: that variance, centred on the full-record mode (each full-record mode is matched to the
+  window mode nearest in frequency). The posterior-only intervals are the posterior's quantiles
+  shifted by ``NSI value - posterior mean``: its spread about the reported estimate.
 
 Normal quantiles give the 50 % and 95 % intervals. Measured coverage and widths are in
 ``benchmarks/calibration_intervals.py`` and the README. What this does not carry: a bias shared
@@ -54,7 +59,8 @@ class ParameterInterval:
     name : str
         Coefficient name, ``f<k>`` (natural frequency of mode k [Hz]) or ``zeta<k>`` (damping ratio).
     estimate : float
-        Centre of the intervals: posterior mean (coefficients) or full-record estimate (modes).
+        The reported estimate the intervals are centred on: the full-record NSI coefficient
+        (coefficients) or the full-record mode (modes).
     sd : float
         Total standard deviation.
     posterior_sd : float
@@ -63,6 +69,8 @@ class ParameterInterval:
         Standard deviation from the sub-record scatter (NaN with ``method = "posterior"``).
     ci50, ci95 : tuple of float
         Central 50 % and 95 % intervals.
+    posterior_mean : float
+        Mean of the coefficient posterior (NaN for modal parameters).
     """
 
     name: str
@@ -72,6 +80,7 @@ class ParameterInterval:
     segment_sd: float
     ci50: tuple[float, float]
     ci95: tuple[float, float]
+    posterior_mean: float = math.nan
 
     def to_dict(self) -> dict:
         """JSON-ready record.
@@ -84,6 +93,7 @@ class ParameterInterval:
         return {
             "name": self.name, "estimate": self.estimate, "sd": self.sd, "posterior_sd": self.posterior_sd,
             "segment_sd": self.segment_sd, "ci50": list(self.ci50), "ci95": list(self.ci95),
+            "posterior_mean": self.posterior_mean,
         }
 
 
@@ -105,7 +115,8 @@ class Intervals:
     segment_samples : int
         Samples per sub-record (0 when none was used).
     notes : tuple of str
-        Why the method fell back, which sub-records failed.
+        Why the method fell back, which sub-records failed, which posterior means lie outside the
+        95 % interval of the reported estimate.
     """
 
     method: str
@@ -210,13 +221,27 @@ def _shortest_window(result) -> int:
     return -(-needed // max(int(result.upsample), 1)) + 1
 
 
-def _interval(name: str, centre: float, posterior_sd: float, segment_sd: float) -> ParameterInterval:
+def _interval(
+    name: str, centre: float, posterior_sd: float, segment_sd: float, posterior_mean: float = math.nan
+) -> ParameterInterval:
     centre, posterior_sd, segment_sd = float(centre), float(posterior_sd), float(segment_sd)
     parts = [s for s in (posterior_sd, segment_sd) if math.isfinite(s)]
     sd = math.sqrt(sum(s * s for s in parts)) if parts else math.nan
     return ParameterInterval(
         name=name, estimate=float(centre), sd=sd, posterior_sd=float(posterior_sd), segment_sd=float(segment_sd),
         ci50=(centre - _Z50 * sd, centre + _Z50 * sd), ci95=(centre - _Z95 * sd, centre + _Z95 * sd),
+        posterior_mean=float(posterior_mean),
+    )
+
+
+def _disagreements(coefficients) -> tuple[str, ...]:
+    """A note per coefficient whose posterior mean lies outside the 95 % interval of the reported estimate."""
+    return tuple(
+        f"{p.name}: the posterior mean {p.posterior_mean:.4g} lies outside the 95 % interval "
+        f"[{p.ci95[0]:.4g}, {p.ci95[1]:.4g}] of the NSI estimate {p.estimate:.4g}: the evidence's estimator "
+        "and NSI disagree by more than their scatter (a bias neither interval carries)"
+        for p in coefficients
+        if math.isfinite(p.posterior_mean) and not p.ci95[0] <= p.posterior_mean <= p.ci95[1]
     )
 
 
@@ -262,8 +287,11 @@ def candidate_intervals(result, signals, evidence_result, options=None, nsi_opti
     draws = draws.reshape(int(np.prod(draws.shape[:-1])), draws.shape[-1])  # also with no coefficient
     post_mean, post_sd = draws.mean(axis=0), draws.std(axis=0)
     names = tuple(evidence_result.coefficient_names)
+    # the reported estimate: the NSI coefficient the model holds (the posterior mean where it has none)
+    value = np.asarray(result.coefficient_values, dtype=float).reshape(-1)
+    centres = value if value.shape == post_mean.shape else post_mean
     if options.interval == "posterior":
-        return _posterior_only(names, draws, ())
+        return _posterior_only(names, draws, centres, ())
     n = signals.n_samples
     samples, coefs, freqs, zetas, failures = segment_estimates(
         result, signals, nsi_options, options.n_segments, options.segment_fraction
@@ -275,32 +303,39 @@ def candidate_intervals(result, signals, evidence_result, options=None, nsi_opti
             "the identified linear part, and too narrow: use a longer record or a larger segment_fraction"
         )
         warnings.warn(note, IntervalWarning, stacklevel=2)
-        return _posterior_only(names, draws, (note,))
+        return _posterior_only(names, draws, centres, (note,))
     coef_sd = _scatter_sd(coefs, result.coefficient_values, samples, n)
     f_full = np.array([m.frequency_hz for m in result.modes])
     z_full = np.array([m.damping_ratio for m in result.modes])
     f_sd = _scatter_sd(freqs, f_full, samples, n)
     z_sd = _scatter_sd(zetas, z_full, samples, n)
+    coefficients = tuple(
+        _interval(nm, c, s, g, pm) for nm, c, s, g, pm in zip(names, centres, post_sd, coef_sd, post_mean)
+    )
     return Intervals(
         method="segments",
-        coefficients=tuple(_interval(nm, c, s, g) for nm, c, s, g in zip(names, post_mean, post_sd, coef_sd)),
+        coefficients=coefficients,
         frequencies=tuple(_interval(f"f{k + 1}", f, math.nan, s) for k, (f, s) in enumerate(zip(f_full, f_sd))),
         damping_ratios=tuple(
             _interval(f"zeta{k + 1}", z, math.nan, s) for k, (z, s) in enumerate(zip(z_full, z_sd))
         ),
         n_segments=len(coefs),
         segment_samples=samples,
-        notes=tuple(failures),
+        notes=tuple(failures) + _disagreements(coefficients),
     )
 
 
-def _posterior_only(names, draws: np.ndarray, notes) -> Intervals:
+def _posterior_only(names, draws: np.ndarray, centres, notes) -> Intervals:
+    """The posterior's quantiles shifted onto the reported estimates (its spread about them)."""
     coefficients = []
     for k, name in enumerate(names):
         column = draws[:, k]
-        q = np.quantile(column, [0.025, 0.25, 0.75, 0.975])
+        mean, shift = float(column.mean()), float(centres[k]) - float(column.mean())
+        q = np.quantile(column, [0.025, 0.25, 0.75, 0.975]) + shift
         coefficients.append(ParameterInterval(
-            name=name, estimate=float(column.mean()), sd=float(column.std()), posterior_sd=float(column.std()),
+            name=name, estimate=float(centres[k]), sd=float(column.std()), posterior_sd=float(column.std()),
             segment_sd=math.nan, ci50=(float(q[1]), float(q[2])), ci95=(float(q[0]), float(q[3])),
+            posterior_mean=mean,
         ))
-    return Intervals(method="posterior", coefficients=tuple(coefficients), notes=tuple(notes))
+    found = tuple(coefficients)
+    return Intervals(method="posterior", coefficients=found, notes=tuple(notes) + _disagreements(found))

@@ -283,7 +283,7 @@ EVIDENCE_RESULT = _Struct(EvidenceResult, {
 
 _PARAMETER_INTERVALS = _Sequence(_Struct(ParameterInterval, {
     "name": STR, "estimate": FLOAT, "sd": FLOAT, "posterior_sd": FLOAT, "segment_sd": FLOAT, "ci50": FLOATS,
-    "ci95": FLOATS,
+    "ci95": FLOATS, "posterior_mean": FLOAT,
 }))
 
 INTERVALS = _Struct(Intervals, {

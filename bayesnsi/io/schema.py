@@ -144,7 +144,8 @@ def _intervals(outcome, primary) -> dict[str, Any]:
         record = {**coefficient, "ci95": [float(ci[0]), float(ci[1])], "ci95_posterior": [float(ci[0]), float(ci[1])]}
         if intervals is not None and k < len(intervals.coefficients):
             iv = intervals.coefficients[k]
-            record.update(ci95=list(iv.ci95), ci50=list(iv.ci50), sd=iv.sd, interval=intervals.method)
+            record.update(ci95=list(iv.ci95), ci50=list(iv.ci50), sd=iv.sd, interval=intervals.method,
+                          posterior_mean=iv.posterior_mean)
         coefficients.append(record)
     out: dict[str, Any] = {"coefficients": coefficients}
     if intervals is not None and intervals.frequencies:

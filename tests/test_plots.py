@@ -105,7 +105,7 @@ def test_traces_show_trace_and_density_of_each_coefficient_for_six_walkers():
     try:
         assert isinstance(fig, Figure)
         assert len(fig.axes) == 4  # (density, trace) per coefficient
-        traces = [ax for ax in fig.axes if ax.get_xlabel() == "Draw"]
+        traces = [ax for ax in fig.axes if ax.get_xlabel().startswith("draw")]
         assert len(traces) == 2 and all(len(ax.lines) == 6 for ax in traces)
     finally:
         plt.close(fig)

@@ -152,12 +152,44 @@ def test_restoring_force_view_of_a_loop_step_carries_units():
     assert {"residual force before [N]", "force after [N]"} <= set(ylabels)
 
 
+def _named_posterior(names):
+    """Draws of the test posterior under real term names (``expr@location``, as the evidence names them)."""
+    import dataclasses
+
+    posterior = _posterior(len(names))
+    return dataclasses.replace(
+        posterior, coefficient_names=tuple(names), param_names=tuple(names) + posterior.param_names[len(names):]
+    )
+
+
 def test_posterior_figures_name_their_parameters():
     xlabels, _ = _labelled(plot_traces(_posterior(2)))
-    assert any("term 0" in x for x in xlabels) and "Draw" in xlabels
+    assert any("term 0" in x for x in xlabels) and "draw (emcee step after burn-in)" in xlabels
     fig = plot_posterior_pairs(_posterior(2))
     texts = [ax.get_xlabel() + ax.get_ylabel() + ax.get_title() for ax in fig.axes]
     assert any("term 0" in t for t in texts) and any("term 1" in t for t in texts)
+
+
+def test_posterior_figures_label_each_coefficient_with_its_unit():
+    names = ("x1**3@1", "v1*abs(v1)@1")
+    cubic, damping = "λ of x1**3@1 [N/m^3]", "λ of v1*abs(v1)@1 [N/(m/s)^2]"  # term_unit of each expression
+    posterior = _named_posterior(names)
+    # traces (arviz-plots plot_trace_dist): density and trace of each coefficient, both axes named
+    xlabels, ylabels = _labelled(plot_traces(posterior, units=SI))
+    assert xlabels == [cubic, "draw (emcee step after burn-in)", damping, "draw (emcee step after burn-in)"]
+    assert ylabels == ["posterior density", cubic, "posterior density", damping]
+    # pairs (arviz-plots plot_pair): densities on the diagonal, the scatter in the coefficients' units
+    fig = plot_posterior_pairs(posterior, units=SI)
+    xlabels, ylabels = _labelled(fig)
+    assert set(xlabels) == {cubic, damping} and set(ylabels) == {"posterior density", damping}
+    scatter = next(ax for ax in fig.axes if ax.get_subplotspec().rowspan.start == 1
+                   and ax.get_subplotspec().colspan.start == 0)
+    assert (scatter.get_xlabel(), scatter.get_ylabel()) == (cubic, damping)
+    # one coefficient: its marginal alone, labelled (not titled); volts where the data are in volts
+    lone = plot_posterior_pairs(_named_posterior(names[:1]), units=VOLTS)
+    assert _labelled(lone) == (["λ of x1**3@1 [V/V^3]"], ["posterior density"]) and not lone.axes[0].get_title()
+    # no units stated: the axes say so
+    assert _labelled(plot_traces(_named_posterior(names[:1])))[0][0] == "λ of x1**3@1 [data units]"
 
 
 def test_report_figures_are_written_at_150_dpi():

@@ -143,7 +143,7 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
         fig.set_label(f"Measured {name} against the starting and the final model (open loop), with the errors")
         section.append(fig)
     if final_evidence is not None:
-        _final_posterior(report, loop, final_evidence)
+        _final_posterior(report, loop, final_evidence, units)
     for step in added:
         fig = plot_effect_force(step, signals, units=units)
         fig.set_label(
@@ -154,7 +154,7 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
         section.append(fig)
 
 
-def _final_posterior(report, loop, evidence) -> None:
+def _final_posterior(report, loop, evidence, units=None) -> None:
     """The final model's coefficient posterior, first in the posterior section."""
     from ..plots import plot_posterior_pairs, plot_traces
     from ._report import POSTERIOR
@@ -168,10 +168,10 @@ def _final_posterior(report, loop, evidence) -> None:
     for message in evidence.warnings:
         post.append(("warning", message))
     if evidence.posterior.coefficients.shape[-1]:
-        fig = plot_posterior_pairs(evidence.posterior)
+        fig = plot_posterior_pairs(evidence.posterior, units=units)
         fig.set_label("Posterior of the coefficients, final model of the loop (arviz-plots)")
         post.append(fig)
-        fig = plot_traces(evidence.posterior)
+        fig = plot_traces(evidence.posterior, units=units)
         fig.set_label("Traces of six walkers, final model of the loop (arviz-plots)")
         post.append(fig)
     post.append("The candidates of the config, as selected before the loop:")

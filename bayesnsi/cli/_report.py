@@ -292,10 +292,10 @@ def selection_sections(report, signals, selection, selected, units=None, role: s
         if ev.posterior.coefficients.shape[-1]:
             from ..plots import plot_posterior_pairs, plot_traces
 
-            fig = plot_posterior_pairs(ev.posterior)
+            fig = plot_posterior_pairs(ev.posterior, units=units)
             fig.set_label(f"Posterior of the coefficients, {name} (arviz-plots)")
             post.append(fig)
-            fig = plot_traces(ev.posterior)
+            fig = plot_traces(ev.posterior, units=units)
             fig.set_label(f"Traces of six walkers, {name} (arviz-plots)")
             post.append(fig)
     return report

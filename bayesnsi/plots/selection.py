@@ -7,7 +7,7 @@ import numpy as np
 
 from ..curves import effect_curve
 from ..exceptions import InputDataError
-from ..io.units import ChannelUnits
+from ..io.units import ChannelUnits, term_unit
 
 __all__ = [
     "plot_model_probabilities",
@@ -87,7 +87,7 @@ def plot_reconstruction_errors(reconstructions, fs: float, channel: int = 0, max
     return fig
 
 
-def plot_posterior_pairs(posterior, max_params: int = 4):
+def plot_posterior_pairs(posterior, max_params: int = 4, units=None):
     """Pair plot of the coefficient posterior (arviz-plots ``plot_pair``; all walkers pooled).
 
     Parameters
@@ -96,12 +96,16 @@ def plot_posterior_pairs(posterior, max_params: int = 4):
         Draws of :func:`bayesnsi.evidence.candidate_evidence` (``EvidenceResult.posterior``).
     max_params : int
         Show the first ``max_params`` coefficients.
+    units : ChannelUnits, optional
+        Units of the data, for the unit of each λ (:func:`bayesnsi.io.units.term_unit`);
+        "data units" when not given.
 
     Returns
     -------
     matplotlib.figure.Figure
-        Marginal densities on the diagonal and pairwise scatter below it; with one coefficient,
-        its marginal density alone.
+        Marginal densities on the diagonal ("posterior density") and pairwise scatter below it;
+        with one coefficient, its marginal density alone. Coefficient axes read ``λ of <term>
+        [<unit>]``.
 
     Raises
     ------
@@ -112,15 +116,21 @@ def plot_posterior_pairs(posterior, max_params: int = 4):
 
     terms = _coefficient_terms(posterior, max_params)
     size = 2.4 * len(terms) + 0.6
-    common = dict(var_names=["coefficient"], coords={"term": terms}, backend="matplotlib")
+    common: dict = dict(var_names=["coefficient"], coords={"term": terms}, backend="matplotlib")
     if len(terms) == 1:  # a pair plot needs two variables
         plot = arviz_plots.plot_dist(posterior.to_datatree(), figure_kwargs=_figure_kwargs(5.0, 3.4), **common)
     else:
         plot = arviz_plots.plot_pair(posterior.to_datatree(), figure_kwargs=_figure_kwargs(size, size), **common)
-    return plot.viz["figure"].item()
+    fig = plot.viz["figure"].item()
+    _coefficient_labels(fig, terms, units)
+    for ax in fig.axes:  # the diagonal (and a lone marginal) shows densities, whatever arviz names its rows
+        spec = ax.get_subplotspec()
+        if ax.has_data() and (len(terms) == 1 or spec.rowspan.start == spec.colspan.start):
+            ax.set_ylabel("posterior density")
+    return fig
 
 
-def plot_traces(posterior, max_params: int = 4, max_chains: int = 6):
+def plot_traces(posterior, max_params: int = 4, max_chains: int = 6, units=None):
     """Trace and per-walker density of each coefficient (arviz-plots ``plot_trace_dist``).
 
     Parameters
@@ -131,6 +141,9 @@ def plot_traces(posterior, max_params: int = 4, max_chains: int = 6):
         Show the first ``max_params`` coefficients, one row each.
     max_chains : int
         Show the first ``max_chains`` walkers.
+    units : ChannelUnits, optional
+        Units of the data, for the unit of each λ (:func:`bayesnsi.io.units.term_unit`);
+        "data units" when not given.
 
     Returns
     -------
@@ -154,9 +167,12 @@ def plot_traces(posterior, max_params: int = 4, max_chains: int = 6):
         figure_kwargs=_figure_kwargs(8.0, 1.9 * len(terms) + 0.6),
     )
     fig = plot.viz["figure"].item()
-    for ax in fig.axes:  # arviz leaves the density panels' y axis unnamed
+    _coefficient_labels(fig, terms, units)
+    for ax in fig.axes:  # arviz leaves the density panels' y axis unnamed, and names the draws "Draw"
         if ax.has_data() and not ax.get_ylabel():
-            ax.set_ylabel("density")
+            ax.set_ylabel("posterior density")
+        if ax.get_xlabel() == "Draw":
+            ax.set_xlabel("draw (emcee step after burn-in)")
     return fig
 
 
@@ -164,6 +180,23 @@ def _coefficient_terms(posterior, max_params: int) -> list:
     if not posterior.coefficient_names:
         raise InputDataError("the candidate has no nonlinear coefficient to plot")
     return list(posterior.coefficient_names)[: max(1, int(max_params))]
+
+
+def _coefficient_labels(fig, terms, units) -> None:
+    """Axis labels and titles arviz writes as ``coefficient\\n<term>`` become ``λ of <term> [<unit>]``."""
+    units = units or ChannelUnits()
+    names = {}
+    for term in terms:
+        unit = term_unit(str(term).rsplit("@", 1)[0], units)
+        names[f"coefficient\n{term}"] = f"λ of {term} [{unit or 'data units'}]"
+    for ax in fig.axes:
+        for get, put in ((ax.get_xlabel, ax.set_xlabel), (ax.get_ylabel, ax.set_ylabel)):
+            if get() in names:
+                put(names[get()])
+        title = ax.get_title()
+        if title in names:  # a lone marginal is titled, not labelled
+            ax.set_title("")
+            ax.set_xlabel(names[title])
 
 
 def _figure_kwargs(width: float, height: float) -> dict:

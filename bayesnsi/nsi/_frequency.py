@@ -61,11 +61,13 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
     Ac, C = _fnsi.continuous_ac(*_fnsi.system_ac(left, order, n_out, y_scale), omega0)
     Ac, reflected = _fnsi.stabilise_continuous(Ac)
     reflected = reflected[reflected.imag >= 0]  # one of each conjugate pair
-    Ac, C = _fnsi.refine(data, Ac, C, options.zero_feedthrough)
-    jw = 2j * np.pi * data.freqs_hz
-    Ac, C = _better_of_warm_start(signals, cand, options, data, (Ac, C), jw)
+    zf = options.zero_feedthrough
+    Ac, C, fit = _better_of_warm_start(signals, cand, options, data, _fnsi.refine(data, Ac, C, zf))
+    if cand.terms and _at_noise_level(fit[2]):  # the basis again from the model's (less noisy) output
+        data = data.with_smoothed_basis(data.outputs - fit[2] * data.output_std)
+        Ac, C, fit = _fnsi.refine(data, Ac, C, zf)
+    Bc, Dc, residual = fit
     dt = 1.0 / signals.fs
-    Bc, Dc, residual = _fnsi.input_matrices(data, Ac, C, options.zero_feedthrough, jw)
     upsample = int(options.upsample)
     dt_model = dt / upsample  # the stored discrete model; its FRF nears the continuous one as (ωΔt)²
     A = np.real(scipy.linalg.expm(Ac * dt_model))
@@ -138,6 +140,7 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
     )
 
 
+_NOISE_FIT = 1.5  # a weighted line misfit below this many times the number of complex residuals is at noise level
 _WARM: dict = {}  # (data, terms, settings) -> refined continuous (A_c, C) of identified candidates
 _WARM_SIZE = 64
 
@@ -147,23 +150,27 @@ def _warm_key(signals: Signals, terms, options: NSIOptions) -> tuple:
     return signals_fingerprint(signals), tuple(t.name for t in terms), repr(settings)
 
 
-def _line_cost(data, Ac, C, zero_feedthrough: bool, jw) -> float:
-    return float(np.sum(np.abs(_fnsi.input_matrices(data, Ac, C, zero_feedthrough, jw)[2]) ** 2))
+def _at_noise_level(residual: np.ndarray) -> bool:
+    """The weighted misfit on the lines is at most ``_NOISE_FIT`` per complex residual."""
+    return float(np.sum(np.abs(residual) ** 2)) <= _NOISE_FIT * residual.size
 
 
-def _better_of_warm_start(signals: Signals, cand, options: NSIOptions, data, fitted, jw):
-    """``fitted`` (A_c, C), or the refinement started from the poles of ``cand`` without its last term.
+def _better_of_warm_start(signals: Signals, cand, options: NSIOptions, data, fitted):
+    """``fitted`` (A_c, C, its B, D fit), or the refinement started from the poles of ``cand`` without
+    its last term (the same triple, :func:`._fnsi.refine`).
 
     A candidate with one more term than a model identified before on the same data and settings
     (the loop's current model) is also refined from that model's A_c, C: there, B and D gain one
     column, so the weighted misfit on the lines can only fall. The extended-input subspace
     estimate alone may start the refinement in a worse local minimum, which makes the ranking of
     effects flat or wrong (docs/method.md §11: A, C re-estimated and refined for every candidate).
-    The lower weighted misfit wins. The smaller model is identified first when it was not (cached
-    per data and settings), so the result does not depend on what was identified before (up to the
-    refinement's tolerance along poorly determined directions).
+    The lower weighted misfit wins. Not tried when ``fitted`` already fits the lines to the noise
+    level (weighted misfit below ``_NOISE_FIT`` per complex residual): no start can gain there.
+    The smaller model is identified first when it was not (cached per data and settings), so the
+    result does not depend on what was identified before (up to the refinement's tolerance along
+    poorly determined directions).
     """
-    if not cand.terms:
+    if not cand.terms or _at_noise_level(fitted[2][2]):
         return fitted
     key = _warm_key(signals, cand.terms[:-1], options)
     if key not in _WARM:  # identify the smaller model first: the result never depends on what ran before
@@ -177,9 +184,7 @@ def _better_of_warm_start(signals: Signals, cand, options: NSIOptions, data, fit
     if start is None or start[0].shape != fitted[0].shape or start[1].shape != fitted[1].shape:
         return fitted
     warm = _fnsi.refine(data, start[0].copy(), start[1].copy(), options.zero_feedthrough)
-    zf = options.zero_feedthrough
-    better = _line_cost(data, warm[0], warm[1], zf, jw) < _line_cost(data, fitted[0], fitted[1], zf, jw)
-    return warm if better else fitted
+    return warm if np.sum(np.abs(warm[2][2]) ** 2) < np.sum(np.abs(fitted[2][2]) ** 2) else fitted
 
 
 def _unexcited_ratio(signals: Signals) -> dict | None:

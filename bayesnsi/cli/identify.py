@@ -24,13 +24,14 @@ def run(args) -> int:
     """Execute the command."""
     from ..io import RESULTS_FILENAME, atomic_write_json, identification_payload
     from ..run import run_candidates
-    from ._report import held_figures, identification_answer, identification_report, report_units
 
     config, out, signals = start_run(args)
     with execution(args, out, config) as options:
         outcomes = run_candidates(signals, config.candidates, config.nsi, execution=options)
     payload = identification_payload(outcomes, "identify", config)
     if not args.no_figures:
+        from ._report import held_figures, identification_answer, identification_report, report_units
+
         with held_figures():
             results = {o.name: o.result for o in outcomes if o.result is not None}
             title = f"bayesnsi identify - {config.path.name}"

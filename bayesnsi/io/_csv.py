@@ -17,7 +17,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from .._limits import check_allocation
 from ..exceptions import InputDataError
@@ -109,8 +108,12 @@ def read_csv_columns(path: str | os.PathLike, columns) -> CSVColumns:
     n_lines = _scan_lines(path)
     check_allocation(_BYTES_PER_VALUE * len(wanted) * n_lines, f"{path}: {len(wanted)} column(s) of {n_lines} lines")
     positions = [header.index(c) for c in wanted]
-    frame = _read_frame(path, positions, skip)
-    values = {c: _numeric(frame[p], c, path, skip + 1) for c, p in zip(wanted, positions)}
+    plain = _read_plain(path, positions, skip)
+    if plain is not None:
+        values = {c: np.ascontiguousarray(plain[:, k]) for k, c in enumerate(wanted)}
+    else:
+        frame = _read_frame(path, positions, skip)
+        values = {c: _numeric(frame[p], c, path, skip + 1) for c, p in zip(wanted, positions)}
     return CSVColumns(path=path, names=tuple(header), values=values, units=units, first_line=skip + 1)
 
 
@@ -231,7 +234,27 @@ def _units(header: list[str], first_row: list[str]) -> dict[str, str]:
     return {name: cell for name, cell in zip(header, cells) if name}
 
 
-def _read_frame(path: Path, positions: list[int], skip: int) -> pd.DataFrame:
+def _read_plain(path: Path, positions: list[int], skip: int) -> np.ndarray | None:
+    """The columns of a plain numeric file (every cell a number), by numpy's C reader; None otherwise.
+
+    A third of the time of pandas' reader with its import (issue 16: 0.1 s of a 27 MB file against
+    0.07 s + 0.2 s to import pandas). Anything else - an empty or quoted cell, a word, a short
+    row, a comment - returns None, and :func:`_read_frame` reads the file as before, with its
+    messages.
+    """
+    try:
+        values = np.loadtxt(
+            path, delimiter=",", skiprows=skip, usecols=positions, ndmin=2, comments=None, encoding="utf-8",
+            dtype=float,
+        )
+    except (ValueError, UnicodeDecodeError, IndexError):
+        return None
+    return values if values.shape[0] > 0 else None
+
+
+def _read_frame(path: Path, positions: list[int], skip: int):
+    import pandas as pd  # only for files numpy's reader does not take (empty or non-numeric cells)
+
     try:
         return pd.read_csv(
             path, header=None, skiprows=skip, usecols=positions, index_col=False, skipinitialspace=True,
@@ -255,7 +278,9 @@ def _parser_problem(exc: Exception) -> str:
     return text if len(text) <= 120 and set(text) <= allowed else type(exc).__name__
 
 
-def _numeric(series: pd.Series, name: str, path: Path, first_line: int) -> np.ndarray:
+def _numeric(series, name: str, path: Path, first_line: int) -> np.ndarray:
+    import pandas as pd
+
     if series.dtype.kind in "fiu":
         return series.to_numpy(dtype=float)
     coerced = pd.to_numeric(series, errors="coerce")

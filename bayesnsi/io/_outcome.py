@@ -15,7 +15,6 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
-import pandas as pd
 
 from ..evidence import BridgeEstimate, ConvergenceReport, EvidenceResult, Intervals, ParameterInterval, PosteriorSamples
 from ..exceptions import BayesNSIError
@@ -46,6 +45,19 @@ class _Typed:
             expected = "/".join(t.__name__ for t in self.types)
             raise EntryError(f"{where}: expected {expected}, got {type(value).__name__}")
         return value
+
+
+class _Frame(_Typed):
+    """A pandas DataFrame (pandas imported when one is read: a command that reads none skips its 0.2 s)."""
+
+    def __init__(self):
+        super().__init__()
+
+    def decode(self, plain: Any, arrays: Mapping, where: str) -> Any:
+        import pandas as pd
+
+        self.types = (pd.DataFrame,)
+        return super().decode(plain, arrays, where)
 
 
 class _Array(_Typed):
@@ -264,7 +276,7 @@ EVIDENCE_RESULT = _Struct(EvidenceResult, {
         "mode_covariance": _Array("float64", 2),
         "settings": _Typed(dict),
     }, check=_check_posterior),
-    "summary": _Typed(pd.DataFrame),
+    "summary": _Frame(),
     "convergence": _Struct(ConvergenceReport, {
         "rhat_max": FLOAT, "ess_bulk_min": FLOAT, "ess_tail_min": FLOAT, "worst_rhat": STR, "worst_ess": STR,
         "rhat_threshold": FLOAT, "ess_threshold": FLOAT, "n_chains": INT, "n_draws": INT,
@@ -283,7 +295,7 @@ EVIDENCE_RESULT = _Struct(EvidenceResult, {
 
 _PARAMETER_INTERVALS = _Sequence(_Struct(ParameterInterval, {
     "name": STR, "estimate": FLOAT, "sd": FLOAT, "posterior_sd": FLOAT, "segment_sd": FLOAT, "ci50": FLOATS,
-    "ci95": FLOATS, "posterior_mean": FLOAT,
+    "ci95": FLOATS, "posterior_mean": FLOAT, "bias": FLOAT,
 }))
 
 INTERVALS = _Struct(Intervals, {

@@ -158,10 +158,15 @@ def reconstruct(result, signals: Signals, closed_loop: bool = False, n_init: int
     u = result.extended_input(work, on_grid=True)
     y_work = np.asarray(work.displacement)
     init = len(y_work) if n_init is None and not closed_loop else min((n_init or 50) * factor, len(y_work))
-    x0 = initial_state(model, u[:init], y_work[:init])
-    if not closed_loop:
-        predicted = model.simulate(u, x0)
+    if not closed_loop:  # one simulation: the forced response serves the initial state and the prediction
+        forced = model.simulate(u)
+        x0 = initial_state(model, u[:init], y_work[:init], forced=forced[:init])
+        with np.errstate(over="ignore", invalid="ignore"):
+            predicted = forced + model.initial_response(x0, len(u))
+        if not np.all(np.isfinite(predicted)):
+            raise UnstableModelError("simulation diverged: the model is unstable")
     else:
+        x0 = initial_state(model, u[:init], y_work[:init])
         free = _measured_grid(result, signals) if result.virtual_stiffness else work
         predicted = _closed_loop(result, free, x0)
     y = np.asarray(signals.displacement)

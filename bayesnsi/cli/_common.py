@@ -195,15 +195,17 @@ def _backend_text(options) -> str:
 
 
 def _outcome_text(outcome, likelihood) -> str:
+    """One line per finished candidate (a failure says why on that line; results.json keeps the full text)."""
     origin = "cached" if outcome.cached else f"{outcome.seconds:.1f} s"
+    error = " ".join(str(outcome.error).split())  # a multi-line message on one line
     if outcome.result is None:
-        return f"{outcome.name}: failed - {outcome.error} ({origin})"
+        return f"{outcome.name}: failed - {error} ({origin})"
     text = f"{outcome.name}: order {outcome.result.order}, NRMSE {outcome.nrmse:.4f}"
     if outcome.evidences:
         primary = outcome.evidences[likelihood]
         text += f", log Z ({primary.likelihood}) = {primary.log_evidence:.2f} ± {primary.log_evidence_se:.2f}"
     elif outcome.error is not None:
-        text += f", evidence failed - {outcome.error}"
+        text += f", evidence failed - {error}"
     return f"{text} ({origin})"
 
 

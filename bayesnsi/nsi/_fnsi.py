@@ -21,7 +21,6 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.linalg
-import scipy.ndimage
 
 from ..exceptions import BlockRowsError, InputDataError
 from ..signals import Signals
@@ -266,6 +265,8 @@ def _rms(a: np.ndarray) -> np.ndarray:
 
 def _smoothed(var: np.ndarray) -> np.ndarray:
     """Running median over neighbouring lines (a variance from few periods scatters by χ²)."""
+    import scipy.ndimage  # here: 0.07 s to import, and the time route never needs it (issue 16)
+
     out = scipy.ndimage.median_filter(var, size=(_SMOOTH_LINES, 1), mode="nearest")
     positive = out[out > 0]
     floor = 1e-12 * (np.max(positive) if positive.size else 1.0)

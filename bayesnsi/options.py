@@ -203,8 +203,12 @@ class EvidenceOptions(_Options):
     seed: int = _option(0, "root seed of every random draw (emcee walkers, Monte-Carlo errors)", kind="int",
                         low=0, high=2**63 - 1)
     interval: str = _option(
-        "segments", "intervals of coefficients and modes: the posterior given the linear part, or widened by the "
-        "scatter of the identification over sub-records (segments)", kind="choice", choices=("posterior", "segments"))
+        "noise", "intervals of coefficients and modes: the posterior given the linear part, widened by the "
+        "scatter of the identification over sub-records (segments), or the scatter and errors-in-variables bias "
+        "over copies of the record with added sensor noise (noise)", kind="choice",
+        choices=("posterior", "segments", "noise"))
+    n_replicates: int = _option(16, "noisy copies of the record re-identified for the noise interval", kind="int",
+                                low=2, high=1000)
     n_segments: int = _option(8, "sub-records re-identified for the segments interval", kind="int", low=2, high=1000)
     segment_fraction: float = _option(
         0.7, "length of a sub-record as a fraction of the record (segments interval)", kind="float", low=0.05,

@@ -40,18 +40,18 @@ def loop_run(tmp_path_factory):
     return tomllib.loads(config.read_text()), json.loads((out / "results.json").read_text()), out
 
 
-def test_results_json_final_coefficients_carry_segment_intervals(loop_run):
+def test_results_json_final_coefficients_carry_honest_intervals(loop_run):
     _, results, _ = loop_run
     assert results["loop"], "the loop should add v|v| on this case"
     (coefficient,) = results["final_coefficients"]
-    assert coefficient["interval"] == "segments"
+    assert coefficient["interval"] == "noise"  # the default
     lo, hi = coefficient["ci95"]
     plo, phi = coefficient["ci95_posterior"]
     assert lo < coefficient["estimate"] < hi and hi - lo > phi - plo  # linear-part uncertainty widens it
     clo, chi = coefficient["ci50"]
     assert lo < clo < chi < hi
     record = results["final_intervals"]
-    assert record["method"] == "segments" and record["n_segments"] >= 2
+    assert record["method"] == "noise" and record["n_segments"] >= 2
     assert record["coefficients"][0]["ci95"] == coefficient["ci95"]
     assert len(record["frequencies"]) >= 1 and "ci95" in record["damping_ratios"][0]
 
@@ -74,4 +74,4 @@ def test_loop_report_table_shows_the_final_intervals(loop_run):
     html = report.to_html()
     coefficient = results["final_coefficients"][0]
     assert _pair(coefficient["ci95"]) in html and _pair(coefficient["ci95_posterior"]) in html
-    assert _pair(coefficient["ci50"]) in html and "windows + posterior" in html
+    assert _pair(coefficient["ci50"]) in html and "noise replicates + posterior" in html

@@ -46,7 +46,7 @@ def windows(monkeypatch):
 
 def test_segment_interval_is_centred_on_the_reported_nsi_value(windows):
     result, signals, evidence = _inputs()
-    iv = candidate_intervals(result, signals, evidence, EvidenceOptions())
+    iv = candidate_intervals(result, signals, evidence, EvidenceOptions(interval="segments"))
     (p,) = iv.coefficients
     assert iv.method == "segments"
     assert p.estimate == NSI_VALUE
@@ -72,5 +72,5 @@ def test_posterior_only_interval_is_the_posterior_spread_about_the_nsi_value():
 def test_no_note_when_the_estimators_agree(windows):
     result, signals, evidence = _inputs()
     result = SimpleNamespace(coefficient_values=np.array([POSTERIOR_MEAN + 0.1]), modes=())
-    iv = candidate_intervals(result, signals, evidence, EvidenceOptions())
+    iv = candidate_intervals(result, signals, evidence, EvidenceOptions(interval="segments"))
     assert not iv.notes

@@ -22,6 +22,7 @@ from bayesnsi.run import run_candidates
 from bayesnsi.simulate import simulate_case, simulate_cases
 
 FAST = EvidenceOptions(n_steps=200, n_burn=50, likelihood="white", compare=())
+SEG = FAST.replace(interval="segments")
 
 
 @pytest.fixture(scope="module")
@@ -76,7 +77,7 @@ def two_dof_evidence():
 
 def test_segments_widen_the_posterior(two_dof_evidence):
     case, result, evidence = two_dof_evidence
-    intervals = candidate_intervals(result, case.signals, evidence, FAST, case.recommended)
+    intervals = candidate_intervals(result, case.signals, evidence, SEG, case.recommended)
     assert intervals.method == "segments" and intervals.n_segments == 8
     (alpha,) = intervals.coefficients
     posterior = evidence.ci95[0]
@@ -93,7 +94,7 @@ def test_segments_widen_the_posterior(two_dof_evidence):
 def test_windows_are_lengthened_to_what_the_block_rows_need(two_dof_evidence):
     """30 % of 1000 samples is below the 599 that 60 block rows need: the windows grow to 600."""
     case, result, evidence = two_dof_evidence
-    intervals = candidate_intervals(result, case.signals, evidence, FAST.replace(segment_fraction=0.3),
+    intervals = candidate_intervals(result, case.signals, evidence, SEG.replace(segment_fraction=0.3),
                                     case.recommended)
     assert intervals.method == "segments" and intervals.segment_samples == 600 and intervals.n_segments == 8
 
@@ -105,7 +106,7 @@ def test_too_short_record_warns_and_falls_back():
     result = identify(short, case.candidates[0], case.recommended)
     evidence = candidate_evidence(result, short, FAST, np.random.SeedSequence(1), warn=False)["white"]
     with pytest.warns(IntervalWarning, match="too narrow"):
-        intervals = candidate_intervals(result, short, evidence, FAST, case.recommended)
+        intervals = candidate_intervals(result, short, evidence, SEG, case.recommended)
     assert intervals.method == "posterior" and len(intervals.notes) == 1
 
 
@@ -114,7 +115,7 @@ def test_results_record_and_cache_carry_the_intervals():
 
     case = simulate_case("two-dof", seed=0)
     (outcome,) = run_candidates(case.signals, case.candidates[:1], case.recommended, FAST)
-    assert outcome.intervals is not None and outcome.intervals.method == "segments"
+    assert outcome.intervals is not None and outcome.intervals.method == "noise"  # the default
     record = json.loads(json.dumps(_intervals(outcome, outcome.evidences["white"]), allow_nan=True))
     coefficient = record["coefficients"][0]
     assert coefficient["ci95"] == list(outcome.intervals.coefficients[0].ci95)

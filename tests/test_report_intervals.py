@@ -21,7 +21,7 @@ FAST = EvidenceOptions(n_steps=200, n_burn=50, likelihood="white", compare=())
 def outcome():
     case = simulate_case("two-dof", seed=0)
     (found,) = run_candidates(case.signals, case.candidates[:1], case.recommended, FAST)
-    assert found.intervals is not None and found.intervals.method == "segments"
+    assert found.intervals is not None and found.intervals.method == "noise"  # the default
     return found
 
 
@@ -44,7 +44,7 @@ def test_report_contains_the_honest_interval_values(outcome):
     posterior = outcome.evidences["white"].ci95[0]
     assert _pair(honest.ci95) in html and _pair(honest.ci50) in html
     assert _pair(posterior) in html and "posterior only" in html
-    assert "linear part" in html and "windows" in html
+    assert "linear part" in html and "copies of the record" in html and "errors-in-variables bias" in html
     # the honest interval is the wider one (it adds the linear part's scatter to the posterior)
     assert honest.ci95[1] - honest.ci95[0] > posterior[1] - posterior[0]
     for f, z in zip(outcome.intervals.frequencies, outcome.intervals.damping_ratios):
@@ -81,6 +81,6 @@ def test_select_report_shows_the_intervals_of_results_json(tmp_path, capsys):
     (record,) = results["candidates"]
     html = (tmp_path / "out" / "report.html").read_text()
     coefficient = record["coefficients"][0]
-    assert coefficient["interval"] == "segments"
+    assert coefficient["interval"] == "noise"  # the default
     assert _pair(coefficient["ci95"]) in html and _pair(coefficient["ci95_posterior"]) in html
     assert _pair(record["modes"][0]["frequency_ci95"]) in html

@@ -11,8 +11,8 @@ from __future__ import annotations
 import math
 
 __all__ = [
-    "INTERVAL_TEXT", "coefficient_intervals_frame", "mode_intervals_frame", "interval_text", "interval_sections",
-    "final_coefficients_frame", "format_interval",
+    "INTERVAL_TEXT", "NOISE_TEXT", "coefficient_intervals_frame", "mode_intervals_frame", "interval_text",
+    "interval_sections", "final_coefficients_frame", "format_interval",
 ]
 
 INTERVAL_TEXT = (
@@ -22,6 +22,16 @@ INTERVAL_TEXT = (
     "identified linear part as if it were exact and is too narrow (issue 15). A bias shared by every window "
     "(e.g. errors-in-variables bias) is not included."
 )
+NOISE_TEXT = (
+    "95 % and 50 % intervals include the uncertainty of the identified linear part: the whole identification is "
+    "repeated on {n} copies of the record with fresh sensor noise added at the level estimated from the data; their "
+    "scatter gives the sd (Student-t quantiles, {dof} degrees of freedom) and their mean shift the errors-in-variables "
+    "bias, removed from the interval's centre (SIMEX); each interval is stretched to hold the reported NSI estimate. "
+    "The posterior-only interval beside it conditions on the identified linear part as if it were exact and is too "
+    "narrow (issue 15). Error that does not come from the sensor noise (discretisation, a structure outside the model, "
+    "coloured or force-side noise) is not included."
+)
+_LABELS = {"segments": "windows + posterior", "noise": "noise replicates + posterior"}
 _POSTERIOR_TEXT = (
     "The intervals are the coefficient posterior's alone, given the identified linear part as if it were exact: "
     "they do not include the linear part's uncertainty and are too narrow."
@@ -69,6 +79,8 @@ def interval_text(outcomes) -> str:
             continue
         if iv.method == "segments":
             return INTERVAL_TEXT.format(n=iv.n_segments, samples=iv.segment_samples)
+        if iv.method == "noise":
+            return NOISE_TEXT.format(n=iv.n_segments, dof=iv.n_segments - 1)
         return _POSTERIOR_TEXT + (" " + " ".join(iv.notes) if iv.notes else "")
     return ""
 
@@ -105,7 +117,7 @@ def coefficient_intervals_frame(outcomes, likelihood: str):
                 "95 % interval": _pair(p.ci95),
                 "50 % interval": _pair(p.ci50),
                 "95 % posterior only (given the linear part)": _pair(posterior[k]) if k < len(posterior) else "—",
-                "interval": "windows + posterior" if iv.method == "segments" else "posterior only",
+                "interval": _LABELS.get(iv.method, "posterior only"),
             })
     if not rows:
         return None
@@ -171,11 +183,12 @@ def interval_sections(report, outcomes, selected, likelihood: str, answer: list,
         parts = []
         for k, p in enumerate(iv.coefficients):
             text = f"{p.name} = {p.estimate:.4g}, 95 % interval {_pair(p.ci95)}"
-            if iv.method == "segments" and k < len(posterior):
+            if iv.method in _LABELS and k < len(posterior):
                 text += f" (posterior only, given the linear part: {_pair(posterior[k])})"
             parts.append(text)
-        what = "linear-part uncertainty from the record windows + posterior" if iv.method == "segments" else (
-            "posterior only, given the linear part: too narrow")
+        what = {"segments": "linear-part uncertainty from the record windows + posterior",
+                "noise": "linear-part uncertainty and errors-in-variables bias from noise replicates + posterior"}.get(
+            iv.method, "posterior only, given the linear part: too narrow")
         answer.append(f"Coefficients of {selected}: " + "; ".join(parts) + f". Intervals include: {what}.")
     coefficients, modes = coefficient_intervals_frame(outcomes, likelihood), mode_intervals_frame(outcomes)
     if coefficients is None and modes is None:
@@ -186,7 +199,7 @@ def interval_sections(report, outcomes, selected, likelihood: str, answer: list,
         section.append(coefficients)
     if modes is not None:
         section.append("Natural frequencies and damping ratios of each candidate's underlying linear model with the "
-                       "intervals from the scatter over the record windows.")
+                       "intervals from the scatter of the identification (noise replicates or record windows).")
         section.append(modes)
 
 
@@ -213,7 +226,7 @@ def final_coefficients_frame(records):
                 "posterior mean": r.get("posterior_mean", math.nan), "sd": r["sd"], "95 % interval": _pair(r["ci95"]),
                 "50 % interval": _pair(r["ci50"]),
                 "95 % posterior only (given the linear part)": _pair(r.get("ci95_posterior", (math.nan, math.nan))),
-                "interval": "windows + posterior" if r["interval"] == "segments" else "posterior only",
+                "interval": _LABELS.get(r["interval"], "posterior only"),
             })
         rows[r["term"]] = row
     return pd.DataFrame(rows).T.rename_axis("term")

@@ -3,8 +3,9 @@
 The loop decides with Laplace evidences and samples only the effects it accepts; their credible
 intervals condition on the identified linear part. :func:`final_intervals` gives the final model
 the intervals of ``bayesnsi select`` (:func:`bayesnsi.evidence.candidate_intervals`): the
-posterior widened by the scatter of the whole identification over record windows, re-identified
-with the settings the final model was identified with (``settings["final_nsi"]``, upsampled for
+posterior widened by the scatter (and errors-in-variables bias) of the whole identification over
+noisy copies of the record (default ``interval = "noise"``) or record windows, re-identified with
+the settings the final model was identified with (``settings["final_nsi"]``, upsampled for
 velocity-switching terms).
 """
 

@@ -7,7 +7,7 @@ Usage::
 Reads ``workflows/emps/emps.toml`` (the data at ``../shared/data/emps`` relative to the repository:
 ``DATA_EMPS.mat`` for estimation, ``DATA_EMPS_PULSES.mat`` for validation only). It runs
 
-1. ``select`` with the linear / Coulomb / Coulomb + v|v| / cubic candidates of the config (default
+1. ``select`` with the linear / Coulomb / Coulomb + offset / Coulomb + v|v| / cubic candidates of the config (default
    settings): the ranking by evidence;
 2. the loop from the linear model (:func:`bayesnsi.diagnose.close_the_loop`, default settings):
    the effects added, in order;

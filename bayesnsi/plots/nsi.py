@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.ticker import MaxNLocator, MultipleLocator
+from matplotlib.ticker import MaxNLocator, MultipleLocator, NullLocator
 
 from ..io.units import ChannelUnits, term_unit
 
@@ -42,6 +42,8 @@ def plot_singular_values(result, ax=None, max_shown: int = 60):
     fig, ax = _axes(ax, (6.0, 3.2))
     s = result.singular_values[:max_shown]
     ax.semilogy(np.arange(1, len(s) + 1), s, "o-", ms=3)
+    ax.yaxis.set_minor_locator(NullLocator())  # decades ticked and gridded (minor ticks: half the drawing time)
+    ax.grid(True, which="major", axis="y", color="0.88", lw=0.6)
     ax.axvline(result.order + 0.5, color="C3", ls="--", label=f"order n = {result.order}")
     ax.set_xlabel("index")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
@@ -148,15 +150,19 @@ def plot_frf(results, freqs_hz, output_index=None, input_index=None, exact=None,
             label = labels[k] if labels else res.candidate.name
             mag.semilogy(freqs_hz, np.abs(h[:, o, i]), lw=1.2, label=label)
             phase.plot(freqs_hz, np.degrees(np.unwrap(np.angle(h[:, o, i]))), lw=1.0)
+        # decades ticked and gridded; minor ticks off: 8 per decade on 8 panels cost 0.3 s of drawing (issue 16)
+        mag.yaxis.set_minor_locator(NullLocator())
+        mag.grid(True, which="major", axis="y", color="0.88", lw=0.6)
         pair = f"H{first.output_dofs[o]},{first.input_dofs[i]}"
         mag.set_ylabel(f"|{pair}| {units.label('frf')}")
         mag.set_title(f"output x{first.output_dofs[o]}, force at DOF {first.input_dofs[i]}", fontsize=9)
         phase.set_ylabel(f"∠{pair} [deg]")
         low, high = phase.get_ylim()
-        phase.yaxis.set_major_locator(MultipleLocator(90 if high - low <= 540 else 360))
+        steps = max(1.0, (high - low) / 360)  # 90, 180, 360, 720, ... degrees: at most 5 ticks
+        phase.yaxis.set_major_locator(MultipleLocator(90 * 2 ** int(np.ceil(np.log2(steps)))))
         phase.set_xlabel("frequency [Hz]")
     fig.axes[0].legend(fontsize=8)
-    fig.suptitle("Underlying linear FRF", fontsize=11)
+    fig.suptitle("Underlying linear FRF", fontsize=11, y=1 - 0.1 / height, va="top")  # above the first title
     return fig
 
 

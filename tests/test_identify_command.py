@@ -2,7 +2,7 @@
 
 The command reads plain numeric CSV files with numpy's reader (pandas only for files it does not
 take), imports neither pandas, matplotlib nor scipy.signal with ``--no-figures``, and simulates
-each candidate once for its reconstruction.
+each candidate once for its reconstruction. And `diagnose` checks ``--start`` before any work.
 """
 
 from __future__ import annotations
@@ -80,3 +80,20 @@ def test_identify_without_figures_imports_no_pandas_matplotlib_or_scipy_signal(t
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
     assert (tmp_path / "o" / "results.json").is_file()
+
+
+def test_diagnose_refuses_an_unknown_start_before_any_work(tmp_path, capsys, monkeypatch):
+    import bayesnsi.cli.diagnose as diagnose_cli
+    from bayesnsi.cli import main
+
+    csv = tmp_path / "qd.csv"
+    assert main(["simulate", "quadratic-damping", "--seed", "0", "--duration", "5", "--out", str(csv), "--quiet"]) == 0
+
+    def no_selection(*args, **kwargs):  # the selection is the first work: it must not start
+        raise AssertionError("the selection ran before --start was checked")
+
+    monkeypatch.setattr(diagnose_cli, "run_selection", no_selection)
+    out = tmp_path / "o"
+    assert main(["diagnose", str(csv.with_suffix(".toml")), "--out", str(out), "--quiet", "--start", "nope"]) == 2
+    assert "--start 'nope' is not a candidate of the config; choose one of" in capsys.readouterr().err
+    assert not (out / "results.json").exists() and not (out / ".cache").exists()

@@ -130,6 +130,17 @@ def test_docstrings_and_help_cite_no_private_spec():
     assert cited and all(f"## §{k} " in method for k in cited), sorted(cited)
 
 
+def test_documents_cite_no_private_spec():
+    """README, docs/, workflows/ and notebooks/ guides point to docs/method.md, not to a spec users do not have."""
+    import re
+
+    root = Path(__file__).resolve().parents[1]
+    pages = [root / "README.md", *sorted((root / "docs").glob("*.md")), root / "workflows" / "README.md",
+             root / "notebooks" / "README.md"]
+    offenders = [p.name for p in pages if p.is_file() and re.search(r"\bSPEC\b", p.read_text(encoding="utf-8"))]
+    assert not offenders, offenders
+
+
 def test_loop_settings_are_command_line_flags():
     from bayesnsi.cli import build_parser
     from bayesnsi.cli._common import option_overrides

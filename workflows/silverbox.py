@@ -10,7 +10,7 @@ For each starting model ("linear", "cubic" of ``workflows/silverbox/silverbox.to
 open-loop NRMSE and RMS error [mV] on the estimation data, and the closed-loop simulation RMS error
 [mV] and NRMSE on the benchmark's three test sets (the first 50 samples fix the initial state;
 test data are never used for any decision), beside the published reference figures of
-``../shared/data/silverbox/README.md`` and the independent prototype of SPEC 8.4.
+the benchmark (Champneys et al. 2024) and of an independent prototype made before this package.
 Writes ``OUT/silverbox_loops.md`` and ``OUT/results.json`` (atomically).
 """
 

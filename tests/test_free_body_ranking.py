@@ -110,3 +110,21 @@ def test_emps_direction_dependent_damping_beats_the_symmetric_curvature():
     }
     assert scores["Coulomb + v+"] > scores["Coulomb + v|v|"] + 100  # 185 nat measured
     assert scores["Coulomb + v|v|"] > scores["Coulomb"] + 20  # 62 nat measured: the issue's acceptance 3 not met
+
+
+def test_free_body_is_scored_on_the_profiled_force_residual_whatever_the_residual_option():
+    """The documented default: every residual option gives the IDIM force residual with [a, v, x, 1] profiled."""
+    from bayesnsi.evidence import candidate_affine
+    from bayesnsi.nsi import force_affine
+
+    signals = _carriage(seed=2, duration=30.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = identify(signals, [("sign(v1)", 1)], NSIOptions(block_rows=20, order=2, upsample=2))
+    profiled = force_affine(result, signals, profile=True)
+    for residual in ("innovations", "reconstruction", "force"):
+        affine = candidate_affine(result, signals, residual)
+        np.testing.assert_array_equal(affine.measured, profiled.measured)
+        np.testing.assert_array_equal(affine.signatures, profiled.signatures)
+    # profiled: the measured force holds nothing along the inverse model's linear part, the offset included
+    assert abs(float(np.mean(profiled.measured))) < 1e-9 * float(np.std(profiled.measured))

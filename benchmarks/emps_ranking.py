@@ -20,7 +20,9 @@ like with like (same data span, samples, linear part and noise model on both sid
    ``sign(v) exp(-(v/vs)²)`` beside sign(v), direction-dependent viscous friction ``v+`` and
    Coulomb friction ``sign(v)+`` (the dictionary's asymmetric types), and v³.
 3. **The friction law on the six velocity plateaus** (±0.042, ±0.083, ±0.125 m/s): the mean of
-   ``f - M a`` at steady speed against the published law, and a straight line per direction.
+   ``f - M a`` at steady speed against the published law, and a straight line per direction; the
+   travel each plateau covers and how much its friction changes along it (a position-dependent
+   friction would show there, not as a difference between directions).
 4. **Closed position loop**: the coefficients by least squares and by instrumental variables
    (IDIM-IV: instruments = the regressors of the motion simulated in closed loop from ``qg``
    with the published model and the drive's controller fitted on the record,
@@ -228,8 +230,12 @@ def main() -> int:
         vm, fm = float(base["v"][mask].mean()), float(friction[mask].mean())
         law = PUBLISHED[1] * vm + PUBLISHED[2] * np.sign(vm) + PUBLISHED[3]
         plateaus.append((vm, fm))
+        x = base["x"]
+        mid = float(np.median(x[mask]))
+        halves = float(friction[mask & (x >= mid)].mean() - friction[mask & (x < mid)].mean())
         print(f"   v = {vm:+.4f} m/s  samples {mask.sum():5d}  friction {fm:8.3f} N  published law {law:8.3f} N  "
-              f"difference {fm - law:+.3f} N")
+              f"difference {fm - law:+.3f} N  (x {x[mask].min():.3f}-{x[mask].max():.3f} m, upper - lower half "
+              f"of that travel {halves:+.2f} N)")
     for sign, name in ((1, "forwards"), (-1, "backwards")):
         vs, fs_ = np.array([p for p in plateaus if np.sign(p[0]) == sign]).T
         slope, intercept = np.polyfit(vs, fs_, 1)

@@ -128,3 +128,15 @@ def test_free_body_is_scored_on_the_profiled_force_residual_whatever_the_residua
         np.testing.assert_array_equal(affine.signatures, profiled.signatures)
     # profiled: the measured force holds nothing along the inverse model's linear part, the offset included
     assert abs(float(np.mean(profiled.measured))) < 1e-9 * float(np.std(profiled.measured))
+
+
+def test_noise_intervals_accept_a_model_without_modes():
+    """A free body has no oscillatory mode: the replicates' moments of zero parameters are empty, not an error
+    (every EMPS candidate failed with 'cannot reshape array of size 0 into shape (0)')."""
+    from bayesnsi.evidence.perturbation import replicate_moments
+
+    sd, bias, count = replicate_moments(np.zeros(0), np.zeros((16, 0)))
+    assert sd.shape == bias.shape == count.shape == (0,)
+    sd, bias, count = replicate_moments([1.0], [[0.9], [1.1], [np.nan]])
+    assert count.tolist() == [2] and sd[0] == pytest.approx(np.std([0.9, 1.1], ddof=1))
+    assert bias[0] == pytest.approx(0.0)

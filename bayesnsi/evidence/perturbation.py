@@ -149,7 +149,8 @@ def replicate_moments(full, replicates) -> tuple[np.ndarray, np.ndarray, np.ndar
         Replicates per parameter (the sd has ``count - 1`` degrees of freedom).
     """
     full = np.asarray(full, dtype=float).reshape(-1)
-    reps = np.asarray(replicates, dtype=float).reshape(-1, len(full))
+    reps = np.asarray(replicates, dtype=float)
+    reps = reps.reshape(len(reps), len(full))  # not (-1, p): a model without modes (a free body) has p = 0
     ok = np.isfinite(reps)
     count = ok.sum(axis=0)
     safe = np.where(ok, reps, 0.0)

@@ -110,9 +110,14 @@ def bridge_sampling(
     ``f₁ = p/(s₁p + s₂g)`` on proposal draws, ``f₂ = g/(s₁p + s₂g)`` on posterior draws,
     ``τ_{f₂}`` the integrated autocorrelation time of ``f₂`` along the walkers. ``se = sqrt(RE²)``.
     """
-    rng = np.random.default_rng(rng)
     target = Target.build(stats, priors, posterior.likelihood)
-    draws = posterior.samples
+    return _bridge(target.log_posterior, posterior.samples, rng, proposal, df, tol, max_iter)
+
+
+def _bridge(log_posterior, draws: np.ndarray, rng=None, proposal: str = "normal", df: float = 10.0,
+            tol: float = 1e-10, max_iter: int = 1000) -> BridgeEstimate:
+    """:func:`bridge_sampling` of any vectorised unnormalised ``log_posterior`` on (chain, draw, d) ``draws``."""
+    rng = np.random.default_rng(rng)
     if draws.shape[0] < 4:
         raise InputDataError(f"bridge sampling needs at least 4 chains (walkers), got {draws.shape[0]}")
     fit = draws[0::2].reshape(-1, draws.shape[-1])
@@ -144,8 +149,8 @@ def bridge_sampling(
         )
 
     flat = held.reshape(-1, dim)
-    l1 = target.log_posterior(flat) - log_g(flat)
-    l2 = target.log_posterior(prop) - log_g(prop)
+    l1 = log_posterior(flat) - log_g(flat)
+    l2 = log_posterior(prop) - log_g(prop)
     tau1 = _tau(l1.reshape(n_chain, n_draw))
     n1_eff = n1 / tau1
     log_s1 = np.log(n1_eff / (n1_eff + n2))

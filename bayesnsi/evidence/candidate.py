@@ -166,7 +166,8 @@ def candidate_evidence(
     out = {}
     for lik, child in zip(likelihoods, seed_sequence.spawn(len(likelihoods))):
         ar_order = 0 if lik == "white" else int(lik[2:])
-        n_params = len(affine.names) + affine.measured.shape[1] * (1 + ar_order)
+        # white and AR(1): the noise parameters are integrated out and emcee samples the coefficients alone
+        n_params = len(affine.names) + (0 if ar_order <= 1 else affine.measured.shape[1] * (1 + ar_order))
         n_walkers = max(options.n_walkers, 2 * n_params + 2)  # emcee needs >= 2 x parameters
         out[lik] = marginal_evidence(
             affine,

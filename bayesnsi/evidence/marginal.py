@@ -24,9 +24,11 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..exceptions import ConvergenceWarning
+from ._collapsed_run import collapsed_summary, sample_collapsed
 from ._target import Target, parse_likelihood
 from .analytic import _laplace, closed_form_log_evidence
-from .bridge import BridgeEstimate, bridge_sampling
+from .bridge import BridgeEstimate, _bridge, bridge_sampling
+from .collapsed import collapsible
 from .convergence import ConvergenceReport, convergence_report, posterior_summary
 from .likelihood import SufficientStatistics, _beta, sufficient_statistics
 from .priors import Priors
@@ -147,6 +149,7 @@ def marginal_evidence(
     n_burn: int = 300,
     closed_form: bool | str = "auto",
     warn: bool = True,
+    collapse: bool = True,
 ) -> EvidenceResult:
     """Marginal evidence of one candidate from its affine reconstruction (docs/method.md §6).
 
@@ -167,6 +170,9 @@ def marginal_evidence(
     warn : bool
         Issue :class:`~bayesnsi.exceptions.ConvergenceWarning` (the messages are kept in the
         result either way).
+    collapse : bool
+        Integrate the noise parameters out and sample the coefficients alone (white and AR(1);
+        see :func:`evidence_from_statistics`).
 
     Returns
     -------
@@ -184,7 +190,7 @@ def marginal_evidence(
     t_stats = time.perf_counter() - t0
     result = evidence_from_statistics(
         stats, priors, likelihood, rng, n_walkers=n_walkers, n_steps=n_steps, n_burn=n_burn, closed_form=closed_form,
-        warn=warn,
+        warn=warn, collapse=collapse,
     )
     return replace(result, settings={**result.settings, "time_statistics_s": t_stats})
 
@@ -194,7 +200,7 @@ def evidence_from_statistics(
     n_walkers: int = 32, n_steps: int = 1500, n_burn: int = 300, start=None, moves: str = "mixed",
     closed_form: bool | str = "auto", proposal: str = "normal",
     rhat_threshold: float = 1.01, ess_threshold: float = 400.0, disagreement_tol: float = DISAGREEMENT_NAT,
-    warn: bool = True,
+    warn: bool = True, collapse: bool = True,
 ) -> EvidenceResult:
     """Evidence, posterior and diagnostics from precomputed sufficient statistics.
 
@@ -223,6 +229,12 @@ def evidence_from_statistics(
     warn : bool
         Issue :class:`~bayesnsi.exceptions.ConvergenceWarning` (the messages are kept in the
         result either way).
+    collapse : bool
+        ``True`` (default): for white and AR(1) residuals integrate ``σ`` and ``ρ`` out in closed form
+        and by quadrature (docs/method.md §6, Eq. 6.4; :mod:`bayesnsi.evidence.collapsed`), sample ``λ``
+        alone with emcee and bridge-sample its evidence; ``σ`` and ``ρ`` are drawn from their
+        posterior given each draw. ``False``: emcee and bridge sampling over all of
+        ``θ = (λ, log σ[, ρ])`` (the estimator before issue 15; always used for AR(P), P > 1).
 
     Returns
     -------
@@ -231,12 +243,23 @@ def evidence_from_statistics(
     seed = int(rng) if isinstance(rng, (int, np.integer)) else None
     rng = np.random.default_rng(rng)
     target = Target.build(stats, priors, likelihood)
+    collapsed = collapse and collapsible(target)
     t0 = time.perf_counter()
-    posterior = _sample(target, rng, n_walkers, n_steps, n_burn, start, moves)
+    if collapsed:
+        posterior, reduced = sample_collapsed(target, rng, n_walkers, n_steps, n_burn, start, moves)
+    else:
+        posterior = _sample(target, rng, n_walkers, n_steps, n_burn, start, moves)
     t_sample = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    bridge = bridge_sampling(posterior, stats, priors, rng=rng, proposal=proposal)
+    if not collapsed:
+        bridge = bridge_sampling(posterior, stats, priors, rng=rng, proposal=proposal)
+    elif target.q:
+        bridge = _bridge(reduced.log_posterior, posterior.samples[..., : target.q], rng, proposal)
+    else:  # nothing left to sample: the integral is the value
+        n_draws = posterior.samples.shape[0] * posterior.samples.shape[1]
+        bridge = BridgeEstimate(float(reduced.log_posterior(np.zeros((1, 0)))[0]), 0.0, n_draws, 0, float(n_draws),
+                                0, True, "none (closed form)")
     laplace, _, _ = _laplace(target, start)
     exact = None
     dim = target.l * (1 + target.order)
@@ -245,11 +268,12 @@ def evidence_from_statistics(
     t_evidence = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    tree = posterior.to_datatree()
-    summary = posterior_summary(tree, ci_prob=0.95)
-    report = convergence_report(
-        summary, rhat_threshold, ess_threshold, n_chains=posterior.samples.shape[0], n_draws=posterior.samples.shape[1]
-    )
+    if collapsed:  # diagnostics of the sampled coefficients; σ, ρ drawn exactly given them
+        summary, report = collapsed_summary(posterior, rhat_threshold, ess_threshold)
+    else:
+        summary = posterior_summary(posterior.to_datatree(), ci_prob=0.95)
+        report = convergence_report(summary, rhat_threshold, ess_threshold, n_chains=posterior.samples.shape[0],
+                                    n_draws=posterior.samples.shape[1])
     q = target.q
     rows = [f"coefficient[{name}]" for name in stats.names]
     ci95 = summary.loc[rows, ["hdi95_lb", "hdi95_ub"]].to_numpy() if q else np.zeros((0, 2))
@@ -289,6 +313,7 @@ def evidence_from_statistics(
             "likelihood": likelihood,
             "n_samples": n,
             "proposal": proposal,
+            "estimator": "collapsed" if collapsed else "joint",
             "time_statistics_s": 0.0,
             "time_sampling_s": t_sample,
             "time_evidence_s": t_evidence,

@@ -1,0 +1,132 @@
+"""The collapsed evidence estimator (issue 15, item 4): noise parameters integrated out, λ sampled.
+
+References are independent of the collapsed formulas: the joint log posterior of
+:class:`~bayesnsi.evidence._target.Target` integrated over (log σ, ρ) by brute-force Gauss-Legendre
+quadrature at fixed λ; the closed-form evidence of the affine model (itself checked against brute
+force in tests/test_evidence.py); and the joint emcee + bridge estimator the collapsed one replaced.
+"""
+
+import numpy as np
+import pytest
+from scipy.special import logsumexp
+
+from bayesnsi.evidence import (
+    ARPrior,
+    CoefficientPrior,
+    NoisePrior,
+    Priors,
+    closed_form_log_evidence,
+    evidence_from_statistics,
+    sufficient_statistics,
+)
+from bayesnsi.evidence._target import Target
+from bayesnsi.evidence.collapsed import CollapsedTarget
+
+from .conftest import base_seed
+from .test_evidence import make_affine, make_priors
+
+QUICK = {"n_walkers": 32, "n_steps": 600, "n_burn": 100}
+
+
+def _brute_force(target: Target, lam: np.ndarray, nodes: int = 400, rho_halfwidth: float = 0.2) -> float:
+    """log ∫ exp(joint log posterior) over (log σ[, ρ]) of one channel at fixed λ, on a dense box."""
+    q = target.q
+    mode = target.find_mode(target.initial_theta(lam))[0]  # centres the box on the innovation level
+    theta0 = np.concatenate([lam, mode[q:]])
+    lo_u, hi_u = np.log(target.priors.noise.lower[0]), np.log(target.priors.noise.upper[0])
+    x, w = np.polynomial.legendre.leggauss(nodes)
+    centre = float(np.clip(theta0[q], lo_u, hi_u))  # the mode may lie beyond the prior's lower end
+    u_lo, u_hi = max(lo_u, centre - 0.5), min(hi_u, centre + 0.5)
+    u = 0.5 * (u_hi - u_lo) * x + 0.5 * (u_hi + u_lo)
+    wu = 0.5 * (u_hi - u_lo) * w
+    if not target.order:
+        theta = np.tile(theta0, (nodes, 1))
+        theta[:, q] = u
+        return float(logsumexp(target.log_posterior(theta) + np.log(wu)))
+    r_lo = max(target.priors.ar.lower, theta0[q + 1] - rho_halfwidth)
+    r_hi = min(target.priors.ar.upper, theta0[q + 1] + rho_halfwidth)
+    r = 0.5 * (r_hi - r_lo) * x + 0.5 * (r_hi + r_lo)
+    wr = 0.5 * (r_hi - r_lo) * w
+    theta = np.tile(theta0, (nodes, nodes, 1))
+    theta[..., q] = u[:, None]
+    theta[..., q + 1] = r[None, :]
+    return float(logsumexp(target.log_posterior(theta) + np.log(wu)[:, None] + np.log(wr)[None, :]))
+
+
+@pytest.mark.parametrize(
+    ("likelihood", "rho", "noise_range"),
+    [
+        ("white", 0.0, (1e-4, 10.0)),
+        ("ar1", 0.5, (1e-4, 10.0)),
+        ("ar1", -0.7, (1e-4, 10.0)),
+        ("ar1", 0.995, (1e-4, 10.0)),  # ρ̂ within 8 sd of the prior bound 0.9999: Gauss-Legendre branch
+        ("white", 0.0, (0.9, 10.0)),  # σ̂ (0.5 of std) below the prior's lower end: the tail series
+        ("ar1", 0.3, (0.9, 10.0)),  # σ held at that end widens ρ's posterior to sd ≈ 0.17: the box spans (-1, 1)
+    ],
+)
+def test_noise_integral_equals_brute_force_quadrature(likelihood, rho, noise_range):
+    rng = np.random.default_rng(base_seed() + 301)
+    affine = make_affine(1000, 1, 2, rng, sigma=0.5, rho=rho, smooth=True)
+    std = affine.measured.std(axis=0)
+    priors = Priors(
+        coefficients=CoefficientPrior(affine.names, np.full(2, 3.0)),
+        noise=NoisePrior(noise_range[0] * std * 0.5, noise_range[1] * std),
+        ar=ARPrior(),
+    )
+    stats = sufficient_statistics(affine, ar_order=1)
+    target = Target.build(stats, priors, likelihood)
+    collapsed = CollapsedTarget(target)
+    for shift in (0.0, 0.02):
+        lam = stats.center + shift
+        reference = _brute_force(target, lam, rho_halfwidth=2.0 if noise_range[0] > 0.1 else 0.2)
+        assert collapsed.log_posterior(lam[None])[0] == pytest.approx(reference, abs=1e-6)
+
+
+@pytest.mark.parametrize(("likelihood", "n_channels", "rho"), [("white", 3, 0.0), ("ar1", 1, 0.9)])
+def test_collapsed_posterior_integrates_to_the_closed_form(likelihood, n_channels, rho):
+    """∫ p̃(λ) dλ by quadrature over λ (q = 1) equals the closed-form evidence."""
+    rng = np.random.default_rng(base_seed() + 302)
+    affine = make_affine(5000, n_channels, 1, rng, rho=rho, smooth=True)
+    priors = make_priors(affine)
+    stats = sufficient_statistics(affine, ar_order=1)
+    target = Target.build(stats, priors, likelihood)
+    mode, _, hess, _ = target.find_mode(target.initial_theta())
+    sd = float(np.sqrt(np.linalg.inv(-hess)[0, 0]))
+    x, w = np.polynomial.legendre.leggauss(200)
+    lam = mode[0] + 15 * sd * x
+    value = logsumexp(CollapsedTarget(target).log_posterior(lam[:, None]) + np.log(15 * sd * w))
+    assert value == pytest.approx(closed_form_log_evidence(stats, priors, likelihood), abs=1e-4)
+
+
+@pytest.mark.parametrize("likelihood", ["white", "ar1"])
+def test_collapsed_and_joint_estimators_agree(likelihood):
+    """Two channels, AR(1) noise: the same log Z and the same posterior of λ, σ and ρ as the joint sampler."""
+    rng = np.random.default_rng(base_seed() + 303)
+    affine = make_affine(20_000, 2, 2, rng, rho=0.6, smooth=True)
+    priors = make_priors(affine)
+    stats = sufficient_statistics(affine, ar_order=1)
+    new = evidence_from_statistics(stats, priors, likelihood, rng=1, warn=False, **QUICK)
+    old = evidence_from_statistics(stats, priors, likelihood, rng=1, warn=False, collapse=False, **QUICK)
+    assert new.settings["estimator"] == "collapsed" and old.settings["estimator"] == "joint"
+    assert abs(new.log_evidence - old.log_evidence) <= max(0.02, 4 * np.hypot(new.log_evidence_se, old.log_evidence_se))
+    assert new.log_evidence_se <= old.log_evidence_se
+    assert new.convergence.converged
+    a, b = new.posterior.samples.reshape(-1, new.posterior.samples.shape[-1]), old.posterior.samples
+    b = b.reshape(-1, b.shape[-1])
+    np.testing.assert_allclose(a.mean(axis=0), b.mean(axis=0), atol=0.1 * b.std(axis=0).max() + 1e-12)
+    np.testing.assert_allclose(a.std(axis=0), b.std(axis=0), rtol=0.1)
+    assert list(new.summary.index) == list(old.summary.index)
+    np.testing.assert_allclose(new.summary["mean"], old.summary["mean"], rtol=1e-3, atol=1e-3)
+
+
+def test_linear_candidate_has_nothing_to_sample():
+    """q = 0: the evidence is the closed form itself; σ and ρ are drawn independently."""
+    rng = np.random.default_rng(base_seed() + 304)
+    affine = make_affine(3000, 1, 0, rng, rho=0.4)
+    priors = make_priors(affine)
+    stats = sufficient_statistics(affine, ar_order=1)
+    result = evidence_from_statistics(stats, priors, "ar1", rng=2, warn=False, closed_form=True, **QUICK)
+    assert result.log_evidence == pytest.approx(result.closed_form_log_evidence, abs=1e-6)
+    assert result.log_evidence_se == 0.0 and result.convergence.converged
+    assert result.summary.loc["rho[y0]", "mean"] == pytest.approx(0.4, abs=0.05)
+    assert result.posterior.samples.shape == (32, 500, 2)

@@ -8,6 +8,7 @@ import numpy as np
 
 from ..exceptions import UnstableModelError
 from ..signals import Signals
+from . import _harmonic
 from ._recursion import delayed_first_order
 from .statespace import StateSpaceModel
 
@@ -137,7 +138,9 @@ def reconstruct(result, signals: Signals, closed_loop: bool = False, n_init: int
     closed_loop : bool
         Open loop (default): the model driven by ``[f, -n_i(y_measured)]``. Closed loop: the
         nonlinear inputs evaluated on the model's own simulated displacements and velocities
-        (velocity output ``C A_c x``), needed for validation data.
+        (velocity output ``C A_c x``), needed for validation data; for a frequency-route model
+        on whole periods, the periodic steady state on the fitted lines (harmonic balance,
+        :mod:`._harmonic`; no initial state).
     n_init : int, optional
         Samples used to estimate the initial state (default: all for open loop, 50 for closed
         loop, as in the Silverbox benchmark rules).
@@ -153,6 +156,11 @@ def reconstruct(result, signals: Signals, closed_loop: bool = False, n_init: int
         When the closed-loop simulation diverges (a wrong model can be unstable in feedback).
     """
     model = result.model
+    if closed_loop and _harmonic.applies(result, signals):  # periodic record, frequency route: steady state
+        predicted = _harmonic.periodic_closed_loop(result, signals)
+        per, overall = nrmse(np.asarray(signals.displacement), predicted)
+        return Reconstruction(measured=np.asarray(signals.displacement), predicted=predicted, closed_loop=True,
+                              x0=np.zeros(model.order), nrmse_per_channel=per, nrmse=overall)
     factor = result.upsample  # identified on a finer grid: work there, compare at the data's samples
     work = result.working_signals(signals)
     u = result.extended_input(work, on_grid=True)

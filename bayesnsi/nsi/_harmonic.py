@@ -1,0 +1,166 @@
+"""Closed-loop prediction of a periodic record by harmonic balance (docs/method.md §11).
+
+A frequency-route model was fitted on the lines of its band; on a periodic record in steady state
+its closed-loop response is the periodic solution of
+
+    X(k) = G_F(ω_k) F(k) + G_N(ω_k) U_N(k),   U_N = DFT of -n(x(t), ẋ(t)) over one period,
+
+on those lines, with x(t) the inverse DFT of X (the other lines empty, in prediction as in the
+fitted model) and ẋ its exact spectral derivative, the basis evaluated as in identification
+(:func:`bayesnsi.nsi.feedback.extended_input`, point values). No initial state is estimated and
+nothing is integrated in time: a time simulation of the black-box model from a state fixed on a
+few samples diverged within the first samples on the simulated ground vibration test for every
+friction model, while this solution is what the test measured after its transient periods. The
+equation is solved by a damped fixed-point iteration (the step halved when the residual grows,
+grown again after successes), then by Newton-Krylov where that stalls.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.optimize
+
+from ..exceptions import UnstableModelError
+from ..signals import Signals
+from .feedback import extended_input
+from .periodic import period_dft
+
+__all__ = ["applies", "periodic_closed_loop"]
+
+_FIXED_POINT_STEPS = 60
+_NEWTON_STEPS = 30
+_TOLERANCE = 1e-9  # relative residual ||T(X) - X|| / ||X|| accepted as converged
+_ACCEPT = 1e-3  # a discontinuous basis (sign) may cycle: a residual below this is still a steady state
+
+
+def applies(result, signals: Signals) -> bool:
+    """A frequency-route result and a record of whole periods: the closed loop is solved on the lines.
+
+    Parameters
+    ----------
+    result : NSIResult
+    signals : Signals
+
+    Returns
+    -------
+    bool
+    """
+    period = signals.period
+    return (
+        result.settings.get("domain") == "frequency"
+        and period is not None
+        and signals.n_samples % period == 0
+        and not result.virtual_stiffness
+    )
+
+
+def periodic_closed_loop(result, signals: Signals) -> np.ndarray:
+    """Periodic steady-state closed-loop response of ``result`` to the forces of ``signals``.
+
+    Parameters
+    ----------
+    result : NSIResult
+        Identified by the frequency route (``settings["fit_band_hz"]`` are the fitted lines).
+    signals : Signals
+        Whole periods of a periodic record (``period`` set).
+
+    Returns
+    -------
+    ndarray, shape (n_samples, l)
+        Displacements at the output DOFs, one period repeated, nonzero only on the fitted band's lines.
+
+    Raises
+    ------
+    UnstableModelError
+        When no periodic solution is found (the iteration diverges or does not settle).
+    """
+    period = int(signals.period or 0)
+    fit = result.settings.get("fit_band_hz") or result.band_hz
+    freqs = np.fft.rfftfreq(period, 1.0 / signals.fs)
+    lines = np.flatnonzero((freqs >= fit[0]) & (freqs <= fit[1]) & (freqs > 0))
+    force = period_dft(signals.force, period).mean(axis=0)
+    G = result.frf(freqs[lines])  # (K, l, m + q) of the inputs [f; -n]
+    m = force.shape[1]
+    force_time = np.fft.irfft(force * period, period, axis=0)  # one period of the mean force (the basis ignores it)
+    linear = np.einsum("kom,km->ko", G[:, :, :m], force[lines])
+    n_out = linear.shape[1]
+    omega = 2 * np.pi * freqs
+
+    def time_of(X):
+        spectrum = np.zeros((len(freqs), n_out), dtype=complex)
+        spectrum[lines] = X
+        x = np.fft.irfft(spectrum * period, period, axis=0)
+        spectrum *= 1j * omega[:, None]
+        return x, np.fft.irfft(spectrum * period, period, axis=0)
+
+    def update(X):
+        x, v = time_of(X)
+        one = Signals(force=force_time, displacement=x, velocity=v, fs=signals.fs,
+                      input_dofs=result.input_dofs, output_dofs=result.output_dofs)
+        u_n = np.fft.rfft(extended_input(one, result.terms, "fourth", "sample")[:, m:], axis=0)[lines] / period
+        return linear + np.einsum("koq,kq->ko", G[:, :, m:], u_n)
+
+    X = linear
+    if result.terms:
+        X = _solve(update, linear, result.candidate.name)
+    x, _ = time_of(X)
+    return np.tile(x, (signals.n_samples // period, 1))
+
+
+def _solve(update, start: np.ndarray, name: str) -> np.ndarray:
+    """``X = update(X)``: damped fixed point, then Newton-Krylov from its best point when it stalls (a
+    linearised loop gain with real part above one, e.g. a strong hardening, repels every damped step)."""
+    X, step = start, 1.0
+    mapped = update(X)
+    residual = float(np.linalg.norm(mapped - X))
+    for _ in range(_FIXED_POINT_STEPS):
+        if residual <= _TOLERANCE * _size(X):
+            return X
+        trial = X + step * (mapped - X)
+        with np.errstate(over="ignore", invalid="ignore"):
+            trial_mapped = update(trial)
+            trial_residual = float(np.linalg.norm(trial_mapped - trial))
+        if np.isfinite(trial_residual) and trial_residual < residual:
+            X, mapped, residual = trial, trial_mapped, trial_residual
+            step = min(1.0, 1.5 * step)
+        else:
+            step *= 0.5
+            if step < 1e-4:
+                break
+    if residual > _TOLERANCE * _size(X):
+        X, residual = _newton(update, X, residual)
+    if residual <= _ACCEPT * _size(X):
+        return X
+    raise UnstableModelError(
+        f"closed loop of {name!r}: no periodic steady state on the fitted lines (harmonic balance residual "
+        f"{residual / _size(X):.2g} of the response): the model is unstable in feedback"
+    )
+
+
+def _size(X: np.ndarray) -> float:
+    return max(float(np.linalg.norm(X)), 1e-300)
+
+
+def _newton(update, X: np.ndarray, residual: float):
+    """Newton-Krylov on the real and imaginary parts; the better of its result and ``X``."""
+    shape = X.shape
+
+    def unpack(z):
+        return (z[: z.size // 2] + 1j * z[z.size // 2 :]).reshape(shape)
+
+    def function(z):
+        Z = unpack(z)
+        with np.errstate(over="ignore", invalid="ignore"):
+            d = update(Z) - Z
+        return np.concatenate([d.real.ravel(), d.imag.ravel()])
+
+    try:
+        z = scipy.optimize.newton_krylov(function, np.concatenate([X.real.ravel(), X.imag.ravel()]),
+                                         f_tol=_TOLERANCE * np.linalg.norm(X) / np.sqrt(2 * X.size),
+                                         maxiter=_NEWTON_STEPS, method="lgmres")
+    except (scipy.optimize.NoConvergence, ValueError, np.linalg.LinAlgError) as err:
+        z = err.args[0] if isinstance(err, scipy.optimize.NoConvergence) and err.args else None
+    if z is None:
+        return X, residual
+    found = float(np.linalg.norm(function(z)))
+    return (unpack(z), found) if np.isfinite(found) and found < residual else (X, residual)

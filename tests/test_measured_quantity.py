@@ -148,6 +148,9 @@ def test_results_json_says_the_quantity_of_open_loop_and_validation_errors(accel
     expected = measured_errors(selection.results[result.candidate.name], signals)
     assert record["open_loop"]["quantity"] == "acceleration"
     assert record["open_loop"]["nrmse"] == pytest.approx(expected.nrmse, rel=1e-9)
+    # the candidate's own nrmse is in the measured quantity too (not in the integrated displacement)
+    assert record["nrmse"] == pytest.approx(expected.nrmse, rel=1e-9)
+    assert record["nrmse"] != pytest.approx(selection.results[result.candidate.name].reconstruct(signals).nrmse)
     assert len(record["open_loop"]["nrmse_per_channel"]) == 2
     (segment,) = record["validation"]
     assert segment["quantity"] == "acceleration" and len(segment["nrmse_per_channel"]) == 2
@@ -157,3 +160,19 @@ def result_options(result):
     from bayesnsi.options import NSIOptions
 
     return NSIOptions(domain="frequency", order=4)
+
+
+def test_loop_step_errors_are_in_the_measured_quantity(accel_case):
+    """A loop step's open- and closed-loop NRMSE on acceleration data: in accelerations, labelled so."""
+    from bayesnsi.diagnose.guards import _closed_loop_nrmse
+    from bayesnsi.diagnose.state import measured_nrmse
+
+    signals, _, result, _ = accel_case
+    rec = result.reconstruct(signals)
+    assert measured_nrmse(rec, signals) == pytest.approx(measured_errors(result, signals).nrmse, rel=1e-12)
+    assert measured_nrmse(rec, signals) != pytest.approx(rec.nrmse)
+    closed = result.reconstruct(signals, closed_loop=True)
+    assert _closed_loop_nrmse(result, signals) == pytest.approx(measured_nrmse(closed, signals), rel=1e-12)
+    on_displacement = Signals(force=signals.force, displacement=signals.displacement, fs=signals.fs,
+                              input_dofs=signals.input_dofs, output_dofs=signals.output_dofs, period=signals.period)
+    assert measured_nrmse(rec, on_displacement) == rec.nrmse

@@ -34,7 +34,7 @@ from .forces import residual_force
 from .results import EffectScore, LoopStep
 from .scoring import shared_correlations
 from .separable import shared_fraction
-from .state import Baseline, LoopContext
+from .state import Baseline, LoopContext, measured_nrmse
 
 __all__ = ["TOO_SHORT", "Verdict", "check_effect", "documented", "half_block_rows", "half_coefficients", "without"]
 
@@ -236,20 +236,28 @@ def check_effect(
         half_note=note,
         log_bayes_factor=float(log_bf),
         nrmse_before=baseline.nrmse,
-        nrmse_after=float(entry.nrmse) if np.isfinite(entry.nrmse) else trial.reconstruct(signals).nrmse,
+        nrmse_after=_nrmse_after(entry, trial, signals),
         candidate=trial.candidate,
-        error_quantity="force" if is_free_body(trial) else "displacement",
+        error_quantity="force" if is_free_body(trial) else getattr(signals, "measured", "displacement"),
         search=search,
     )
     return Verdict(step, float(entry.log_evidence), intervals, quality_only)
 
 
+def _nrmse_after(entry: EffectScore, trial, signals) -> float:
+    """The enlarged model's open-loop NRMSE (the measured quantity; the force's for a free body)."""
+    in_displacement = getattr(signals, "measured", "displacement") == "displacement"
+    if np.isfinite(entry.nrmse) and (is_free_body(trial) or in_displacement):
+        return float(entry.nrmse)
+    return measured_nrmse(trial.reconstruct(signals), signals)
+
+
 def _closed_loop_nrmse(result, signals) -> float:
-    """Closed-loop NRMSE on the estimation data, NaN when the simulation diverges."""
+    """Closed-loop NRMSE on the estimation data (measured quantity), NaN when the simulation diverges."""
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", BayesNSIWarning)
-            return float(result.reconstruct(signals, closed_loop=True).nrmse)
+            return measured_nrmse(result.reconstruct(signals, closed_loop=True), signals)
     except (BayesNSIError, np.linalg.LinAlgError, FloatingPointError):
         return float("nan")
 

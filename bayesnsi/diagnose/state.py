@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from .._measured import measured_error
 from ..nsi import is_free_body, nrmse
 from ..options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions
 from .results import EffectScore, LoopStep
@@ -130,4 +131,26 @@ class LoopState:
 
             affine = force_affine(self.current, signals)
             return Baseline(self.log_z, float(nrmse(affine.measured, affine.predict(affine.estimate))[1]))
-        return Baseline(self.log_z, self.current.reconstruct(signals).nrmse)
+        return Baseline(self.log_z, measured_nrmse(self.current.reconstruct(signals), signals))
+
+
+def measured_nrmse(reconstruction, signals) -> float:
+    """NRMSE of a reconstruction in the quantity the sensors measured (``Signals.measured``).
+
+    Displacements: the paper's NRMSE of the reconstruction itself. Velocities or accelerations
+    (integrated by ``[data] integrate``): both displacements differentiated back alike
+    (:func:`bayesnsi._measured.measured_error`), so a loop step's errors read in the measured units.
+
+    Parameters
+    ----------
+    reconstruction : Reconstruction
+        Open- or closed-loop reconstruction of ``signals``.
+    signals : Signals
+
+    Returns
+    -------
+    float
+    """
+    if getattr(signals, "measured", "displacement") == "displacement":
+        return float(reconstruction.nrmse)
+    return measured_error(reconstruction.measured, reconstruction.predicted, signals).nrmse

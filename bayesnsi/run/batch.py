@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from .._dispatch import dispatch
+from .._measured import measured_error
 from ..exceptions import BayesNSIError, ConfigError
 from ..models import CandidateModel
 from ..nsi import identify
@@ -141,6 +142,9 @@ def candidate_task(
             reconstruction = result.reconstruct(signals)
             found["nrmse"] = float(reconstruction.nrmse)
             found["nrmse_per_channel"] = tuple(float(v) for v in reconstruction.nrmse_per_channel)
+            if getattr(signals, "measured", "displacement") != "displacement":  # in the measured quantity
+                measured = measured_error(reconstruction.measured, reconstruction.predicted, signals)
+                found["nrmse"], found["nrmse_per_channel"] = measured.nrmse, measured.nrmse_per_channel
             if evidence is not None:
                 stage = "evidence"
                 from ..evidence import candidate_evidence

@@ -33,7 +33,7 @@ import numpy as np
 
 from ..exceptions import BayesNSIError, SpuriousPoleWarning
 
-__all__ = ["noise_replicates", "replicate_moments", "match_modes"]
+__all__ = ["noise_replicates", "replicate_moments", "match_modes", "velocity_noise_std"]
 
 _MODE_MATCH = 0.1  # a replicate mode farther than 10 % in frequency from every full-record mode is not matched
 
@@ -101,7 +101,8 @@ def noise_replicates(result, signals, options=None, n_replicates: int = 16, seed
     y = np.asarray(signals.displacement, dtype=float)
     y_std = white_noise_std(y)
     v = None if signals.velocity is None else np.asarray(signals.velocity, dtype=float)
-    v_std = white_noise_std(v) if v is not None else np.zeros(0)
+    lowest = min((m.frequency_hz for m in result.modes), default=0.0)
+    v_std = velocity_noise_std(y, v, signals.fs, y_std, lowest) if v is not None else np.zeros(0)
     f_full = np.array([m.frequency_hz for m in result.modes], dtype=float)
     coefficients, freqs, zetas, failures = [], [], [], []
     for k in range(int(n_replicates)):
@@ -127,6 +128,52 @@ def noise_replicates(result, signals, options=None, n_replicates: int = 16, seed
         np.array(zetas, dtype=float).reshape(len(zetas), m),
         failures,
     )
+
+
+def velocity_noise_std(displacement, velocity, fs: float, displacement_std, lowest_hz: float) -> np.ndarray:
+    """Noise std of measured velocities: the smaller of two estimates that signal can only inflate.
+
+    High-order differences (:func:`bayesnsi.nsi.white_noise_std`) see the velocity's own broadband
+    content as noise (a driven DOF's velocity is not small near Nyquist: 0.13 for a 2 % noise on the
+    two-DOF chain's driven DOF). The mismatch with the measured displacement, R = V - jωX on
+    Hann-windowed DFT lines below 0.8 x the lowest mode (where the displacement is precise and the
+    derivative relation exact), has power σ_v² + ω² σ_x² per line once the window's own derivative
+    is put back (d(wx)/dt = wv + w'x, so R + DFT(w'x) holds the noise alone); its mean minus the
+    known displacement part estimates σ_v² there.
+
+    Parameters
+    ----------
+    displacement, velocity : ndarray, shape (n_samples, n_channels)
+        Measured displacements and velocities of the same DOFs.
+    fs : float
+        Sampling frequency [Hz].
+    displacement_std : ndarray, shape (n_channels,)
+        Noise std of the displacements.
+    lowest_hz : float
+        Lowest natural frequency of the identified model [Hz] (0: differences only).
+
+    Returns
+    -------
+    ndarray, shape (n_channels,)
+    """
+    from ..nsi import white_noise_std
+
+    x, v = np.asarray(displacement, dtype=float), np.asarray(velocity, dtype=float)
+    by_differences = white_noise_std(v)
+    n = len(v)
+    lines = np.arange(5, int(0.8 * lowest_hz * n / fs) + 1)  # 5 bins clear of the window's DC leakage
+    if len(lines) < 8:
+        return by_differences
+    window = np.hanning(n)
+    omega = 2 * np.pi * np.fft.rfftfreq(n, 1.0 / fs)[lines]
+    X = np.fft.rfft(window[:, None] * (x - x.mean(axis=0)), axis=0)[lines]
+    V = np.fft.rfft(window[:, None] * (v - v.mean(axis=0)), axis=0)[lines]
+    k = np.arange(n)
+    slope = 0.5 * (2 * np.pi / (n - 1)) * np.sin(2 * np.pi * k / (n - 1)) * fs  # d/dt of np.hanning(n)
+    W = np.fft.rfft(slope[:, None] * (x - x.mean(axis=0)), axis=0)[lines]
+    power = np.mean(np.abs(V - 1j * omega[:, None] * X + W) ** 2, axis=0) / np.sum(window**2)
+    by_mismatch = np.sqrt(np.maximum(power - np.mean(omega**2) * np.asarray(displacement_std) ** 2, 0.0))
+    return np.minimum(by_differences, by_mismatch)
 
 
 def replicate_moments(full, replicates) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

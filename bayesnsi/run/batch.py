@@ -31,7 +31,7 @@ import numpy as np
 
 from .._dispatch import dispatch
 from .._measured import measured_error
-from ..exceptions import BayesNSIError, ConfigError
+from ..exceptions import BayesNSIError, ConfigError, IntervalWarning
 from ..models import CandidateModel
 from ..nsi import identify
 from ..options import EvidenceOptions, ExecutionOptions, NSIOptions
@@ -150,11 +150,7 @@ def candidate_task(
                 from ..evidence import candidate_evidence
 
                 found["evidences"] = candidate_evidence(result, signals, evidence, seed_sequence, candidate)
-                from ..evidence import candidate_intervals
-
-                found["intervals"] = candidate_intervals(
-                    result, signals, found["evidences"][evidence.likelihood], evidence, nsi
-                )
+                found["intervals"] = _intervals_or_warning(result, signals, found["evidences"], evidence, nsi)
         except (BayesNSIError, np.linalg.LinAlgError) as err:
             found.update(error=f"{type(err).__name__}: {err}", failed_stage=stage)
         except Exception as err:  # noqa: BLE001 - a bug in one candidate must not lose the others
@@ -168,6 +164,26 @@ def candidate_task(
         warnings=tuple(str(w.message) for w in caught),
         seconds=time.perf_counter() - start,
     )
+
+
+def _intervals_or_warning(result, signals, evidences, evidence: EvidenceOptions, nsi: NSIOptions):
+    """Intervals of one candidate, or None with an :class:`IntervalWarning` when they fail.
+
+    The evidence that succeeded is kept: a failure of the intervals (e.g. record windows too short for
+    the block rows) is not a failure of the candidate.
+    """
+    from ..evidence import candidate_intervals
+
+    try:
+        return candidate_intervals(result, signals, evidences[evidence.likelihood], evidence, nsi)
+    except (BayesNSIError, np.linalg.LinAlgError) as err:
+        warnings.warn(
+            f"intervals not computed ({type(err).__name__}: {err}); the evidence is kept - see"
+            " [evidence] interval / n_segments",
+            IntervalWarning,
+            stacklevel=2,
+        )
+        return None
 
 
 def candidate_seeds(seed: int, n_candidates: int) -> list[np.random.SeedSequence]:

@@ -1,7 +1,5 @@
 """A failure of the intervals is not a failure of the candidate: the evidence is kept (nothing is lost)."""
 
-import pytest
-
 import bayesnsi.evidence
 from bayesnsi.exceptions import BlockRowsError
 from bayesnsi.options import EvidenceOptions

@@ -156,7 +156,7 @@ def _final_coefficients(loop, intervals, posterior) -> list:
         if intervals is not None and k < len(intervals.coefficients):
             iv = intervals.coefficients[k]
             record.update(estimate=iv.estimate, ci95=list(iv.ci95), ci50=list(iv.ci50), sd=iv.sd,
-                          interval=intervals.method, posterior_mean=iv.posterior_mean)
+                          interval=intervals.method, posterior_mean=iv.posterior_mean, bias=iv.bias)
             if k < len(ci95):
                 record["ci95_posterior"] = [float(ci95[k][0]), float(ci95[k][1])]
         records.append(record)

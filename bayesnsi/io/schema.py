@@ -145,7 +145,7 @@ def _intervals(outcome, primary) -> dict[str, Any]:
         if intervals is not None and k < len(intervals.coefficients):
             iv = intervals.coefficients[k]
             record.update(ci95=list(iv.ci95), ci50=list(iv.ci50), sd=iv.sd, interval=intervals.method,
-                          posterior_mean=iv.posterior_mean)
+                          posterior_mean=iv.posterior_mean, bias=iv.bias)
         coefficients.append(record)
     out: dict[str, Any] = {"coefficients": coefficients}
     if intervals is not None and intervals.frequencies:

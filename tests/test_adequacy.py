@@ -9,6 +9,7 @@ import json
 import math
 import warnings
 
+import numpy as np
 import pytest
 
 from bayesnsi.exceptions import AdequacyWarning
@@ -112,3 +113,26 @@ def test_command_line_prints_the_warnings(tmp_path, capsys):
     assert "warning: no candidate is adequate" in err
     results = json.loads((tmp_path / "out" / "results.json").read_text())
     assert any("no candidate is adequate" in w for w in results["warnings"])
+
+
+def test_periodic_records_take_the_noise_from_the_period_to_period_scatter():
+    """Coloured noise on a periodic response: the scatter between periods is the noise (reference: the
+    noise added, computed directly); high-order differences see only its part near Nyquist."""
+    from scipy.signal import butter, lfilter
+
+    from bayesnsi.nsi import white_noise_std
+    from bayesnsi.run.adequacy import sensor_noise_std
+    from bayesnsi.signals import Signals
+
+    rng = np.random.default_rng(5)
+    period, n_periods = 512, 8
+    t = np.arange(period * n_periods)
+    clean = np.sin(2 * np.pi * 3 * t / period) + 0.3 * np.sin(2 * np.pi * 17 * t / period)
+    noise = lfilter(*butter(4, 0.2), 0.05 * rng.standard_normal((len(t), 2)), axis=0)  # band-limited noise
+    x = clean[:, None] + noise
+    force = np.tile(rng.standard_normal(period), n_periods)[:, None]
+    periodic = Signals(force=force, displacement=x, fs=100.0, input_dofs=(1,), output_dofs=(1, 2), period=period)
+    np.testing.assert_allclose(sensor_noise_std(periodic), noise.std(axis=0), rtol=0.05)
+    assert np.all(white_noise_std(x) < 0.5 * noise.std(axis=0))
+    plain = Signals(force=force, displacement=x, fs=100.0, input_dofs=(1,), output_dofs=(1, 2))
+    np.testing.assert_array_equal(sensor_noise_std(plain), white_noise_std(x))

@@ -168,21 +168,23 @@ class CollapsedTarget:
         reach = 8.0 * scale * np.sqrt(nu / max(nu - 2.0, 1.0))
         closest = np.where(np.abs(rho_hat) <= reach, 0.0, np.abs(rho_hat) - reach)
         log_env = 0.5 * np.log1p(-np.minimum(closest, 1.0 - 1e-16) ** 2)
-        todo = np.ones(rho.shape, dtype=bool)
-        for _ in range(500):  # vectorised over the rows still to draw
-            k = int(todo.sum())
-            if not k:
+        flat = [np.ravel(v) for v in (rho_hat, scale, C, m, log_env)]
+        lo2, hi2 = (np.ravel(np.broadcast_to(v, rho.shape)) for v in (self.lo2, self.hi2))
+        out = rho.reshape(-1)  # a copy: rho came from np.clip
+        pending = np.arange(out.size)
+        for _ in range(500):  # rejection rounds over the draws still pending
+            if not pending.size:
                 break
-            prop = rho_hat[todo] + scale[todo] * rng.standard_t(nu, size=k)
-            s = C[todo] * (prop - rho_hat[todo]) ** 2 + m[todo]
+            r_hat, sc, c2, m2, env = (v[pending] for v in flat)
+            prop = r_hat + sc * rng.standard_t(nu, size=pending.size)
+            s = c2 * (prop - r_hat) ** 2 + m2
             with np.errstate(divide="ignore", invalid="ignore"):
                 log_acc = 0.5 * np.log1p(-np.minimum(prop**2, 1.0)) + _log_mass(
-                    0.5 * self.n, 0.5 * s / np.broadcast_to(self.hi2, todo.shape)[todo],
-                    0.5 * s / np.broadcast_to(self.lo2, todo.shape)[todo])
-            ok = (prop > lower) & (prop < upper) & (np.log(rng.uniform(size=k)) < log_acc - log_env[todo])
-            idx = np.flatnonzero(todo)[ok]
-            rho.flat[idx] = prop[ok]
-            todo.flat[idx] = False
+                    0.5 * self.n, 0.5 * s / hi2[pending], 0.5 * s / lo2[pending])
+            ok = (prop > lower) & (prop < upper) & (np.log(rng.uniform(size=pending.size)) < log_acc - env)
+            out[pending[ok]] = prop[ok]
+            pending = pending[~ok]
+        rho = out.reshape(rho.shape)  # draws still pending after 500 rounds (a σ far outside its prior) stay at ρ̂
         s = C * (rho - rho_hat) ** 2 + m
         return self._draw_log_sigma(s, rng), rho[..., None]
 

@@ -40,7 +40,10 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
     cand : CandidateModel
     options : NSIOptions
         ``block_rows`` (r, block rows of the frequency-domain data matrices; lowered to
-        ``M/(m+q+l)`` for M lines), ``order``,
+        ``M/(m+q+l)`` for M lines; for the linear model at a given order also 1.25, 1.5 and 2 r
+        within that bound, each start refined and the lowest weighted misfit kept, since the
+        refinement of a many-mode model ends in the local minimum its start leads to; the
+        candidates with terms are refined from that model too), ``order``,
         ``max_order``, ``band_hz`` (fitted lines and λ band), ``zero_feedthrough``,
         ``velocity_method`` (only when the basis needs velocities and none are measured:
         spectral differentiation is used instead, exact for periodic data).
@@ -55,14 +58,26 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
     points, omega0 = _fnsi.bilinear_points(excited.freqs_hz)
     # r(m+q+l) real rows against 2M columns: at most half of them, so that the projection off the
     # inputs keeps room for the outputs (at the bound the fit fails: k3 24x off on 74 lines)
-    block_rows = min(int(options.block_rows), len(excited.lines) // (data.inputs.shape[1] + n_out))
-    left, singular_values, (_, y_scale) = _fnsi.subspace(excited, block_rows, points)
-    order = _order(options, singular_values, n_out, block_rows)
-    Ac, C = _fnsi.continuous_ac(*_fnsi.system_ac(left, order, n_out, y_scale), omega0)
-    Ac, reflected = _fnsi.stabilise_continuous(Ac)
-    reflected = reflected[reflected.imag >= 0]  # one of each conjugate pair
+    cap = len(excited.lines) // (data.inputs.shape[1] + n_out)
+    block_rows = min(int(options.block_rows), cap)
     zf = options.zero_feedthrough
-    Ac, C, fit = _better_of_warm_start(signals, cand, options, data, _fnsi.refine(data, Ac, C, zf))
+    starts = [block_rows]
+    if not cand.terms and options.order != "auto":  # the linear model: every candidate is refined from it too
+        starts += [r for r in (int(1.25 * block_rows), int(1.5 * block_rows), 2 * block_rows) if r <= cap]
+    best: tuple | None = None
+    for rows in dict.fromkeys(starts):
+        left, values, (_, y_scale) = _fnsi.subspace(excited, rows, points)
+        order = _order(options, values, n_out, rows)
+        Ac, C = _fnsi.continuous_ac(*_fnsi.system_ac(left, order, n_out, y_scale), omega0)
+        Ac, poles = _fnsi.stabilise_continuous(Ac)
+        refined = _fnsi.refine(data, Ac, C, zf)
+        cost = float(np.sum(np.abs(refined[2][2]) ** 2))
+        if best is None or cost < best[0]:
+            best = (cost, rows, values, order, poles, refined)
+    assert best is not None  # starts is never empty
+    _, block_rows, singular_values, order, reflected, refined = best
+    reflected = reflected[reflected.imag >= 0]  # one of each conjugate pair
+    Ac, C, fit = _better_of_warm_start(signals, cand, options, data, refined)
     if cand.terms and _at_noise_level(fit[2]):  # the basis again from the model's (less noisy) output
         data = data.with_smoothed_basis(data.outputs - fit[2] * data.output_std)
         Ac, C, fit = _fnsi.refine(data, Ac, C, zf)

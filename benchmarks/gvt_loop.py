@@ -17,21 +17,22 @@ Per level of :func:`bayesnsi.simulate.gvt_records` (0.1, 1, 8 N; the configs of
 
     OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/gvt_loop.py [--level 2 1 0]
 
-Measured (seed 0, 2026-11-26; 45-60 s per level on one core): localisation - the pair 7-8 leads
+Measured (seed 0, 2026-11-26; 15-45 s per level on one core): localisation - the pair 7-8 leads
 every other location by 8x (0.1 N: 0.0047 vs 0.0006), 3.4x (1 N: 0.0100 vs 0.0029) and 3.6x (8 N:
-0.038 vs 0.011). 8 N: adds (x7-x8)**3 first (1.87e7 N/m³, true 2e7; |Im|/|Re| 0.15, log BF 3533),
+0.038 vs 0.011). 8 N: adds (x7-x8)**3 first (1.87e7 N/m³, true 2e7; |Im|/|Re| 0.15, log BF 3321),
 then nothing ((x7-x8)|x7-x8| 1.29, sign(v7-v8) 8.5, (v7-v8)**3 4.8, v7|v7| 0.73 fail the quality
-index); validation in accelerations level 1: 0.316 -> 0.199 (-37 %), level 0: 0.562 -> 0.735
-(+31 %), the other 8 N realisation 0.416 -> 0.391 (displacements alike to 3 digits). 1 N: adds
-nothing: sign(v7-v8) 0.075 N (true 0.1) fails the quality index (0.43; (v7-v8)**3 1.09,
-(x7-x8)**3 5.3). There the joint is mostly Coulomb friction (0.094 N rms of 0.1 tanh(v/ε),
+index); validation in accelerations level 1: 0.320 -> 0.199 (-38 %), level 0: 0.565 -> 0.735
+(+30 %), the other 8 N realisation 0.419 -> 0.391 (displacements alike to 3 digits). 1 N: adds
+nothing: sign(v7-v8) 0.075 N (true 0.1) fails the quality index (0.43; (v7-v8)**3 1.09;
+(x7-x8)**3 log Bayes factor 0.8); the linear model predicts the other 1 N realisation at 0.085.
+There the joint is mostly Coulomb friction (0.094 N rms of 0.1 tanh(v/ε),
 |v7-v8| > ε 88 % of the time; the hardening 0.011 N rms), and even the true basis
 tanh((v7-v8)/0.002) gets |Im|/|Re| 0.34 (order 18) to 0.42 (order 20): λ(ω) is not flat (≈ 0.27
 below 4 Hz, 0.05-0.08 above 6 Hz); sign(v) has no periodic steady state where the joint sticks
 (the harmonic balance does not settle), while the true tanh term, had it been added, cuts the
-validation error in accelerations at 0.1 N from 0.571 to 0.136 and on the other 1 N realisation
-from 0.115 to 0.069. 0.1 N: adds nothing (the joint effects are tried first and fail the quality
-index).
+validation error in accelerations at 0.1 N from 0.571 to 0.136 (the linear model from one start:
+measured before the multi-start refinement). 0.1 N: adds nothing (the joint effects are tried
+first and fail the quality index); its linear model predicts the other 0.1 N realisation at 0.032.
 """
 
 import os

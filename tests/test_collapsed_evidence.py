@@ -130,3 +130,18 @@ def test_linear_candidate_has_nothing_to_sample():
     assert result.log_evidence_se == 0.0 and result.convergence.converged
     assert result.summary.loc["rho[y0]", "mean"] == pytest.approx(0.4, abs=0.05)
     assert result.posterior.samples.shape == (32, 500, 2)
+
+
+def test_emcee_samples_the_collapsed_posterior_when_asked():
+    """moves = "de": emcee over λ alone gives the evidence of the independence chain."""
+    rng = np.random.default_rng(base_seed() + 305)
+    affine = make_affine(5000, 2, 2, rng, rho=0.3, smooth=True)
+    priors = make_priors(affine)
+    stats = sufficient_statistics(affine, ar_order=1)
+    de = evidence_from_statistics(stats, priors, "ar1", rng=3, warn=False, moves="de", **QUICK)
+    chain = evidence_from_statistics(stats, priors, "ar1", rng=3, warn=False, **QUICK)
+    assert de.settings["sampler"] == "collapsed: emcee (de moves)"
+    assert chain.settings["sampler"] == "collapsed: independence Metropolis-Hastings"
+    assert chain.settings["acceptance_mean"] > 0.5
+    tolerance = max(0.01, 4 * np.hypot(de.log_evidence_se, chain.log_evidence_se))
+    assert abs(de.log_evidence - chain.log_evidence) <= tolerance

@@ -215,7 +215,9 @@ def evidence_from_statistics(
     n_walkers, n_steps, n_burn : int
         emcee settings (see :func:`~bayesnsi.evidence.sample_posterior`; defaults 32, 1500, 300).
     moves : {"mixed", "stretch", "de"}
-        emcee moves (see :func:`~bayesnsi.evidence.sample_posterior`).
+        emcee moves (see :func:`~bayesnsi.evidence.sample_posterior`). With ``collapse``, ``"mixed"``
+        runs the independence chain of :mod:`bayesnsi.evidence._collapsed_run` (emcee's mixed moves
+        where its acceptance is below 0.25); the others run emcee over the coefficients.
     start : array_like, shape (q,), optional
         Coefficients where the mode search starts (default: NSI estimate).
     closed_form : {"auto", True, False}

@@ -15,7 +15,7 @@ k3 error [%], the larger natural-frequency error [%], identify() wall time [ms] 
 the seeds and the ratio of the two routes' times (measured in the same run, interleaved).
 
 Measured (seeds 0-9, 2026-11-26): frequency route 9/10 (max |k3| 0.48 %, the 7.5 Hz mode of seed 7
-0.024 % off), time route 0/10; frequency/time time ratio median 0.8. The miss is the noise, not a
+0.024 % off), time route 0/10; frequency/time time ratio median 0.74 (max 0.83). The miss is the noise, not a
 bias: over seeds 0-19 the 7.5 Hz mode's error has mean -0.003 % and sd 0.013 %, and the linearised
 covariance of the weighted fit (0.5 (JᵀJ)⁻¹ at the optimum of the refinement) predicts 0.015-0.018 %
 for it; the same fit with the basis built from the noise-free response (no errors in variables)

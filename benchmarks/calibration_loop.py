@@ -76,6 +76,13 @@ def one_seed(case_name: str, seed: int, opts) -> dict:
     return out
 
 
+def _write(path: str, records: list[dict]) -> None:
+    import json
+
+    with open(path, "w") as fh:
+        json.dump(records, fh, indent=1)
+
+
 def main(argv=None) -> int:
     from bayesnsi import EvidenceOptions
 
@@ -85,7 +92,14 @@ def main(argv=None) -> int:
     ap.add_argument("--cases", nargs="+", default=list(CASE_NAMES), choices=CASE_NAMES)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--json", default=None, help="write the per-seed records here")
+    ap.add_argument("--tables", default=None, help="print the tables of records written by --json, and stop")
     args = ap.parse_args(argv)
+    if args.tables:
+        import json
+
+        with open(args.tables) as fh:
+            _print_tables(json.load(fh), args.cases)
+        return 0
     opts = EvidenceOptions()
     print("bayesnsi loop interval calibration (issue 15)")
     print(f"python {platform.python_version()}, numpy {np.__version__}, {os.cpu_count()} CPUs, {args.workers} workers")
@@ -97,9 +111,18 @@ def main(argv=None) -> int:
         futures = [pool.submit(one_seed, *t) for t in tasks]
         for k, fut in enumerate(as_completed(futures), 1):
             records.append(fut.result())
+            if args.json:  # as they come, so a long study interrupted still leaves its seeds
+                _write(args.json, records)
             print(f"  [{k}/{len(tasks)}] {time.perf_counter() - start:.0f} s", file=sys.stderr, flush=True)
     print(f"wall time {time.perf_counter() - start:.0f} s")
-    for name in args.cases:
+    _print_tables(records, args.cases)
+    if args.json:
+        _write(args.json, records)
+    return 0
+
+
+def _print_tables(records: list[dict], cases) -> None:
+    for name in cases:
         mine = sorted((r for r in records if r["case"] == name), key=lambda r: r["seed"])
         wrong = [r for r in mine if "params" in r and not r["true_model"]]
         for r in wrong:
@@ -108,12 +131,6 @@ def main(argv=None) -> int:
         times = [r["seconds"] for r in mine if "seconds" in r]
         if times:
             print(f"  loop + final intervals: median {np.median(times):.1f} s per seed")
-    if args.json:
-        import json
-
-        with open(args.json, "w") as fh:
-            json.dump(records, fh, indent=1)
-    return 0
 
 
 if __name__ == "__main__":

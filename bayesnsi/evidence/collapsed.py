@@ -172,7 +172,7 @@ class CollapsedTarget:
         lo2, hi2 = (np.ravel(np.broadcast_to(v, rho.shape)) for v in (self.lo2, self.hi2))
         out = rho.reshape(-1)  # a copy: rho came from np.clip
         pending = np.arange(out.size)
-        for _ in range(500):  # rejection rounds over the draws still pending
+        for _ in range(40):  # rejection rounds over the draws still pending
             if not pending.size:
                 break
             r_hat, sc, c2, m2, env = (v[pending] for v in flat)
@@ -184,9 +184,28 @@ class CollapsedTarget:
             ok = (prop > lower) & (prop < upper) & (np.log(rng.uniform(size=pending.size)) < log_acc - env)
             out[pending[ok]] = prop[ok]
             pending = pending[~ok]
-        rho = out.reshape(rho.shape)  # draws still pending after 500 rounds (a σ far outside its prior) stay at ρ̂
+        for start in range(0, pending.size, 4096):  # σ̂ far outside its prior: the t misses; inverse CDF on a grid
+            rows = pending[start : start + 4096]
+            out[rows] = self._grid_rho(flat[0][rows], flat[2][rows], flat[3][rows], lo2[rows], hi2[rows], rng)
+        rho = out.reshape(rho.shape)
         s = C * (rho - rho_hat) ** 2 + m
         return self._draw_log_sigma(s, rng), rho[..., None]
+
+    def _grid_rho(self, rho_hat, C, m, lo2, hi2, rng, nodes: int = 512) -> np.ndarray:
+        """Draws of ρ from its density given λ tabulated on ``ρ̂ ± 12 sd`` (sd with σ held in its prior range)."""
+        lower, upper = self.priors.ar.lower, self.priors.ar.upper
+        sd = np.sqrt(np.clip(m / self.n, lo2, hi2) / C)
+        lo_edge = np.maximum(lower, np.minimum(rho_hat, upper) - 12.0 * sd)
+        hi_edge = np.minimum(upper, np.maximum(rho_hat, lower) + 12.0 * sd)
+        grid = lo_edge[:, None] + (hi_edge - lo_edge)[:, None] * np.linspace(0.0, 1.0, nodes)
+        s = C[:, None] * (grid - rho_hat[:, None]) ** 2 + m[:, None]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            h = 0.5 * np.log1p(-np.minimum(grid**2, 1.0)) + self._log_sigma_integral(s, lo2[:, None], hi2[:, None])
+        w = np.exp(h - np.max(h, axis=1, keepdims=True))
+        cdf = np.cumsum(0.5 * (w[:, 1:] + w[:, :-1]), axis=1)  # trapezoid cells
+        u = rng.uniform(size=len(grid)) * cdf[:, -1]
+        cell = np.minimum(np.sum(cdf < u[:, None], axis=1), nodes - 2)
+        return grid[np.arange(len(grid)), cell] + rng.uniform(size=len(grid)) * (grid[:, 1] - grid[:, 0])
 
     def _draw_log_sigma(self, s: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """``log σ`` with ``S/(2σ²) ~ Gamma(n/2)`` truncated to the prior range."""

@@ -83,7 +83,7 @@ def main() -> int:
     print(f"python {platform.python_version()}, numpy {np.__version__}, {platform.machine()}; N = 1e5 samples")
     print("estimator: collapsed = noise levels and AR coefficients integrated out, the coefficients sampled "
           "(docs/method.md §6, Eq. 6.4); joint = emcee over all parameters (before issue 15)")
-    head = (f"{'l':>3} {'likelihood':>10} {'estimator':>9} {'params':>6} | {'residual':>8} {'emcee':>6} {'bridge':>6} "
+    head = (f"{'l':>3} {'likelihood':>10} {'estimator':>9} {'params':>6} | {'residual':>8} {'sample':>6} {'bridge':>6} "
             f"{'summary':>7} {'evid. s':>7} | {'SE nat':>7} {'br-lap':>7} {'new-old':>8}")
     print(head)
     print("-" * len(head))

@@ -126,7 +126,8 @@ def candidate_affine(result, signals, residual: str = "innovations"):
 
 
 def candidate_evidence(
-    result, signals, options: EvidenceOptions | None = None, seed_sequence=None, candidate=None, *, warn: bool = True
+    result, signals, options: EvidenceOptions | None = None, seed_sequence=None, candidate=None, *, warn: bool = True,
+    reconstruction=None,
 ):
     """Marginal evidence of one identified candidate under each requested likelihood.
 
@@ -143,6 +144,9 @@ def candidate_evidence(
         Carries per-term prior scales (default ``result.candidate``).
     warn : bool
         Warn when a chain did not converge (:func:`marginal_evidence`).
+    reconstruction : Reconstruction, optional
+        ``result.reconstruct(signals)`` when the caller has it already (the paper's plain
+        likelihood is read from it; computed here otherwise).
 
     Returns
     -------
@@ -160,7 +164,7 @@ def candidate_evidence(
         # the paper's plain ranking (Eq. 4) always scores the open-loop reconstruction residual
         from .likelihood import plain_log_likelihood
 
-        reconstruction = result.reconstruct(signals)
+        reconstruction = reconstruction if reconstruction is not None else result.reconstruct(signals)
         plain = plain_log_likelihood(reconstruction.measured - reconstruction.predicted)
     likelihoods = options.likelihoods
     out = {}

@@ -149,7 +149,8 @@ def candidate_task(
                 stage = "evidence"
                 from ..evidence import candidate_evidence
 
-                found["evidences"] = candidate_evidence(result, signals, evidence, seed_sequence, candidate)
+                found["evidences"] = candidate_evidence(result, signals, evidence, seed_sequence, candidate,
+                                                        reconstruction=reconstruction)
                 found["intervals"] = _intervals_or_warning(result, signals, found["evidences"], evidence, nsi)
         except (BayesNSIError, np.linalg.LinAlgError) as err:
             found.update(error=f"{type(err).__name__}: {err}", failed_stage=stage)

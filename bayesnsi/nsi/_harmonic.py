@@ -13,6 +13,10 @@ few samples diverged within the first samples on the simulated ground vibration 
 friction model, while this solution is what the test measured after its transient periods. The
 equation is solved by a damped fixed-point iteration (the step halved when the residual grows,
 grown again after successes), then by Newton-Krylov where that stalls.
+
+:func:`periodic_affine` is the open-loop counterpart that the evidence scores: the measured
+response on the same lines against the model driven by each period's force and by the basis
+spectra of the period-averaged response (docs/method.md §11).
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ from ..signals import Signals
 from .feedback import extended_input
 from .periodic import period_dft
 
-__all__ = ["applies", "periodic_closed_loop"]
+__all__ = ["applies", "periodic_affine", "periodic_closed_loop"]
 
 _FIXED_POINT_STEPS = 60
 _NEWTON_STEPS = 30
@@ -164,3 +168,59 @@ def _newton(update, X: np.ndarray, residual: float):
         return X, residual
     found = float(np.linalg.norm(function(z)))
     return (unpack(z), found) if np.isfinite(found) and found < residual else (X, residual)
+
+
+def periodic_affine(result, signals: Signals) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Open-loop reconstruction of a frequency-route ``result`` on the lines it was fitted on.
+
+    The model holds only on the fitted lines of its band (docs/method.md §11); a time simulation of
+    its nonlinear-input channels driven by the broadband basis spectra (all lines, out-of-band gain
+    arbitrary) is an error the data never informed. Here, period by period: the measured response
+    on the fitted lines, the linear response ``G_F(ω_k) F_p(k)`` to each period's force, and per unit
+    coefficient ``G_N(ω_k) / λ̂ · U_N(k)``, ``U_N`` the DFT of ``-n`` evaluated, as in identification,
+    on the period-averaged displacement and its exact spectral derivative.
+
+    Parameters
+    ----------
+    result : NSIResult
+        Identified by the frequency route (:func:`applies`).
+    signals : Signals
+        Whole periods of a periodic record.
+
+    Returns
+    -------
+    measured, baseline : ndarray, shape (n_samples, l)
+        Measured response and the response to the forces, both on the fitted lines only.
+    signatures : ndarray, shape (n_samples, l, q)
+        Response to ``-n_i`` per unit coefficient, on the fitted lines only.
+    """
+    period = int(signals.period or 0)
+    fit = result.settings.get("fit_band_hz") or result.band_hz
+    freqs = np.fft.rfftfreq(period, 1.0 / signals.fs)
+    lines = np.flatnonzero((freqs >= fit[0]) & (freqs <= fit[1]) & (freqs > 0))
+    force = period_dft(signals.force, period)  # (p, k, m)
+    response = period_dft(signals.displacement, period)
+    m, n_periods = force.shape[2], force.shape[0]
+    G = result.frf(freqs[lines])
+
+    def time_of(spectra):  # (p, K, ...) on the lines -> (p * P, ...)
+        full = np.zeros((spectra.shape[0], len(freqs)) + spectra.shape[2:], dtype=complex)
+        full[:, lines] = spectra
+        return np.fft.irfft(full * period, period, axis=1).reshape((-1,) + spectra.shape[2:])
+
+    measured = time_of(response[:, lines])
+    baseline = time_of(np.einsum("kom,pkm->pko", G[:, :, :m], force[:, lines]))
+    if not result.terms:
+        return measured, baseline, np.zeros(measured.shape + (0,))
+    x_mean = response.mean(axis=0)
+    v_spec = 1j * 2 * np.pi * freqs[:, None] * x_mean
+    if period % 2 == 0:
+        v_spec[-1] = 0.0
+    one = Signals(force=np.fft.irfft(force.mean(axis=0) * period, period, axis=0),
+                  displacement=np.fft.irfft(x_mean * period, period, axis=0),
+                  velocity=np.fft.irfft(v_spec * period, period, axis=0), fs=signals.fs,
+                  input_dofs=result.input_dofs, output_dofs=result.output_dofs)
+    u_n = np.fft.rfft(extended_input(one, result.terms, "fourth", "sample")[:, m:], axis=0)[lines] / period
+    per_unit = G[:, :, m:] / result.coefficient_values[None, None, :] * u_n[:, None, :]  # (K, l, q)
+    signatures = time_of(np.broadcast_to(per_unit, (n_periods,) + per_unit.shape))
+    return measured, baseline, signatures

@@ -305,6 +305,10 @@ def affine_reconstruction(result, signals: Signals) -> AffineReconstruction:
     estimate = result.coefficient_values
     if np.any(estimate == 0):
         raise NotIdentifiableError("a coefficient estimate is exactly zero; its per-unit signature is undefined")
+    if _harmonic.applies(result, signals):  # frequency route, whole periods: on the fitted lines (docs/method.md §11)
+        y, baseline, signatures = _harmonic.periodic_affine(result, signals)
+        return AffineReconstruction(measured=y, baseline=baseline, signatures=signatures, estimate=estimate,
+                                    names=tuple(t.name for t in result.terms))
     factor = result.upsample
     work = result.working_signals(signals)
     u = result.extended_input(work, on_grid=True)

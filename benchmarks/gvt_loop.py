@@ -17,24 +17,27 @@ Per level of :func:`bayesnsi.simulate.gvt_records` (0.1, 1, 8 N; the configs of
 
     OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/gvt_loop.py [--level 2 1 0]
 
-Measured (seed 0, 2026-11-26; 15-45 s per level on one core): localisation - the pair 7-8 leads
-every other location by 8x (0.1 N: 0.0047 vs 0.0006), 3.4x (1 N: 0.0100 vs 0.0029) and 3.6x (8 N:
-0.038 vs 0.011). 8 N: adds (x7-x8)**3 first (1.87e7 N/m³, true 2e7; |Im|/|Re| 0.15, log BF 3321),
-then nothing ((x7-x8)|x7-x8| 1.29, sign(v7-v8) 8.5, (v7-v8)**3 4.8, v7|v7| 0.73 fail the quality
-index); validation in accelerations level 1: 0.320 -> 0.199 (-38 %), level 0: 0.565 -> 0.735
-(+30 %), the other 8 N realisation 0.419 -> 0.391 (displacements alike to 3 digits). 1 N: adds
-nothing: sign(v7-v8) 0.075 N (true 0.1) fails the quality index (0.43; (v7-v8)**3 1.09;
-(x7-x8)**3 log Bayes factor 0.8); the linear model predicts the other 1 N realisation at 0.085.
-There the joint is mostly Coulomb friction (0.094 N rms of 0.1 tanh(v/ε),
-|v7-v8| > ε 88 % of the time; the hardening 0.011 N rms), and even the true basis
-tanh((v7-v8)/0.002) gets |Im|/|Re| 0.34 (order 18) to 0.42 (order 20): λ(ω) is not flat (≈ 0.27
-below 4 Hz, 0.05-0.08 above 6 Hz); sign(v) has no periodic steady state where the joint sticks
-(the harmonic balance does not settle), while the true tanh term, had it been added, cuts the
-validation error in accelerations at 0.1 N from 0.571 to 0.136 (the linear model from one start:
-measured before the multi-start refinement). 0.1 N: adds nothing (the joint effects are tried
-first and fail the quality index); its linear model predicts the other 0.1 N realisation at 0.032.
-Seed 1 (``--seed 1``): 8 N adds (x7-x8)|x7-x8| first (1.9e5 N/m², |Im|/|Re| 0.24, log BF 6014;
-level 1 in accelerations 0.337 -> 0.194, -42 %); 1 N and 0.1 N add nothing.
+Measured (seed 0, 2026-11-26, after the quality index weighted by information per line and the
+evidence on the fitted lines, docs/method.md §11; 12-30 s per level on one core): localisation - the
+pair 7-8 leads every other location by 8x (0.1 N: 0.0047 vs 0.0006), 3.4x (1 N: 0.0100 vs 0.0029)
+and 3.6x (8 N: 0.038 vs 0.011). 8 N: adds (x7-x8)**3 first (1.874e7 N/m³, true 2e7; |Im|/|Re| 0.05,
+log BF 12562), then v7|v7| (-20.75, 0.20, log BF 17077); validation in accelerations level 1:
+0.320 -> 0.167 (-48 %), level 0: 0.565 -> 0.672, the other 8 N realisation 0.419 -> 0.392. 1 N: adds
+(v7-v8)|v7-v8| first (-197.5 N s²/m², |Im|/|Re| 0.21, log BF 5061); the other 1 N realisation
+0.085 -> 0.082, level 0: 0.574 -> 0.424 (-26 %), level 2: diverges (a negative quadratic damping
+feeds energy at large velocity). The joint there is mostly Coulomb friction (0.1 tanh(v/0.002)):
+the evidence on the lines ranks (v7-v8)|v7-v8| (log BF 5061) above (v7-v8)**3 (4763, also negative),
+tanh((v7-v8)/0.008) (4746), the true tanh((v7-v8)/0.002) (3882; not in the dictionary) and
+sign(v7-v8) (3280; 0.075 N, |Im|/|Re| 0.25), while the true term predicts level 0 at 0.136;
+sign(v7-v8) has no periodic steady state (harmonic-balance residual 3e-3 at 1 N, 0.43 at 0.1 N).
+0.1 N: adds nothing (the joint effects fail the quality index); its linear model predicts the
+other 0.1 N realisation at 0.032. Seed 1 (``--seed 1``): 8 N adds (x7-x8)|x7-x8| first (1.9e5
+N/m², |Im|/|Re| 0.10, log BF 25964; level 1 in accelerations 0.337 -> 0.194, -42 %); 1 N adds
+(v7-v8)|v7-v8| (-223.5, 0.26, log BF 3525; level 0 0.567 -> 0.402, -29 %; level 2 diverges);
+0.1 N adds nothing.
+Before those two changes (seed 0): 1 N added nothing - sign(v7-v8) had |Im|/|Re| 0.43 as the plain
+band mean (0.25 weighted), and the time-domain open-loop residual of every velocity term, driven
+through the model's out-of-band gain, had NRMSE 0.38-0.51 (0.06 on the lines).
 """
 
 import os

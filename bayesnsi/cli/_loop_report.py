@@ -128,7 +128,8 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
         )
         section.append(
             "Coefficients of the final model (NSI estimate; quality index |Im|/|Re|). Its 95 % and 50 % intervals "
-            "include the linear part's uncertainty (the identification repeated on record windows) + the posterior; "
+            "include the linear part's uncertainty (the identification repeated on noisy copies of the record, its "
+            "errors-in-variables bias removed from the centre; or on record windows) + the posterior; "
             "the posterior-only interval beside them takes the linear part as exact." + note
         )
         from ._report_intervals import final_coefficients_frame

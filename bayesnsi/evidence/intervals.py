@@ -74,7 +74,8 @@ class ParameterInterval:
     posterior_sd : float
         Posterior standard deviation given the linear part (NaN for modal parameters).
     segment_sd : float
-        Standard deviation from the sub-record scatter (NaN with ``method = "posterior"``).
+        Standard deviation from the sub-record scatter, or of the noise replicates (``method = "noise"``;
+        NaN with ``method = "posterior"``).
     ci50, ci95 : tuple of float
         Central 50 % and 95 % intervals.
     posterior_mean : float
@@ -117,16 +118,16 @@ class Intervals:
     Attributes
     ----------
     method : str
-        ``"segments"`` or ``"posterior"`` (see :data:`INTERVAL_METHODS`); ``"posterior"`` also when
+        ``"noise"``, ``"segments"`` or ``"posterior"`` (see :data:`INTERVAL_METHODS`); ``"posterior"`` also when
         the sub-records could not be identified (see ``notes``).
     coefficients : tuple of ParameterInterval
         One per term, in the candidate's order.
     frequencies, damping_ratios : tuple of ParameterInterval
         One per full-record mode (empty with ``method = "posterior"``).
     n_segments : int
-        Sub-records identified successfully.
+        Sub-records (or noise replicates, ``method = "noise"``) identified successfully.
     segment_samples : int
-        Samples per sub-record (0 when none was used).
+        Samples per sub-record or replicate (0 when none was used).
     notes : tuple of str
         Why the method fell back, which sub-records failed, which posterior means lie outside the
         95 % interval of the reported estimate.

@@ -165,4 +165,7 @@ def _final_coefficients(loop, intervals, posterior) -> list:
 
 def _effect_record(effect) -> dict:
     """Type, location and parameters of a loop effect, as written to results.json."""
-    return {"type": effect.base, "at": list(effect.location), "gap": effect.gap}
+    record = {"type": effect.base, "at": list(effect.location), "gap": effect.gap}
+    if effect.eps is not None:  # a tanh(v/eps) friction's width
+        record["eps"] = effect.eps
+    return record

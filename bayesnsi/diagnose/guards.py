@@ -12,6 +12,17 @@ An effect proposed against the current model is kept only if
   most block rows a half allows, and the step's ``half_note`` says so ("record too short for the
   halves at 60 block rows: identified with 41"); only when not even that works is the effect
   rejected with the reason "record too short for the halves".
+* it does not feed energy in: a pure velocity term that is odd in the velocity and dissipative
+  in shape (``n(v)·v >= 0`` with v the velocity at its location, relative for an element:
+  ``v|v|``, ``v^3``, ``sign(v)``, ``tanh(v/eps)``) adds the force ``-λ l n`` (the equation of
+  motion ``M ẅ + C ẇ + K w + λ l n = F f``, extended input ``[f; -n]``), whose power
+  ``-λ n(v)·v`` is positive for every motion when ``λ < 0``. An effect that passes every other
+  guard but this one is rejected with the reason "negative dissipation" (:func:`injects_energy`;
+  checked last, so the other guards' reasons are unchanged); the loop does not count it among its
+  ``n_tries`` (it is not a candidate, so the next effect is checked in its place; the look-ahead
+  and exchange moves of :mod:`bayesnsi.diagnose.moves` do count it). This is the physics, not a
+  tolerance: a negative quadratic damping fitted to a Coulomb joint on one level diverges on a
+  stronger one (the simulated GVT, ``benchmarks/gvt_loop.py``).
 * it is separable from the effects the loop added before: the squared partial correlation of its
   column with each of theirs, given the linear part and the other terms, is at most
   ``max_shared`` (:mod:`bayesnsi.diagnose.separable`); otherwise the reason reads "not separable
@@ -36,10 +47,67 @@ from .scoring import shared_correlations
 from .separable import shared_fraction
 from .state import Baseline, LoopContext, measured_nrmse
 
-__all__ = ["TOO_SHORT", "Verdict", "check_effect", "documented", "half_block_rows", "half_coefficients", "without"]
+__all__ = [
+    "NEGATIVE_DISSIPATION", "TOO_SHORT", "Verdict", "check_effect", "dissipative_shape", "documented",
+    "half_block_rows", "half_coefficients", "injects_energy", "without",
+]
 
 TOO_SHORT = "record too short for the halves"
 """Start of the reason of an effect rejected because the record halves cannot be identified."""
+NEGATIVE_DISSIPATION = "negative dissipation"
+"""Start of the reason of a dissipative-shaped velocity effect whose coefficient feeds energy in."""
+_PROBE = np.random.default_rng(20_261_126).choice([-1.0, 1.0], (4, 64)) * 10.0 ** np.random.default_rng(
+    20_261_127).uniform(-6.0, 3.0, (4, 64))
+
+
+def dissipative_shape(term: Term) -> bool:
+    """True for a pure velocity term, odd in the velocity, with ``n(v)·v >= 0`` at its location.
+
+    Checked on a fixed probe of velocities of both signs spanning 1e-6 to 1e3 (v the DOF's
+    velocity for a grounded term, ``v_j - v_k`` for an element between j and k).
+
+    Parameters
+    ----------
+    term : Term
+
+    Returns
+    -------
+    bool
+        True for ``v|v|``, ``v^3``, ``sign(v)``, ``tanh(v/eps)`` (and their element forms); False
+        for any term that reads a displacement, reads velocities off its location, or is not odd
+        (``sign(v)+``, ``v+``).
+    """
+    expr = term.expr
+    if expr.displacement_dofs or not expr.velocity_dofs or not set(expr.velocity_dofs) <= set(term.at):
+        return False
+    dofs = sorted(set(term.at))
+    if len(dofs) > _PROBE.shape[0]:
+        return False
+    v = {d - 1: _PROBE[i] for i, d in enumerate(dofs)}
+    n = expr.evaluate({}, v)
+    n_minus = expr.evaluate({}, {k: -a for k, a in v.items()})
+    relative = v[term.at[0] - 1] - (v[term.at[1] - 1] if len(term.at) == 2 else 0.0)
+    power = n * relative
+    scale = np.abs(n) * np.abs(relative)
+    odd = np.allclose(n_minus, -n, rtol=1e-9, atol=0.0)
+    return bool(odd and np.all(np.isfinite(power)) and np.all(power >= -1e-12 * scale) and np.any(power > 0))
+
+
+def injects_energy(term: Term, coefficient: float) -> bool:
+    """True when ``term`` with ``coefficient`` λ does positive work on every motion (module notes).
+
+    Parameters
+    ----------
+    term : Term
+    coefficient : float
+        Its identified coefficient λ (real part).
+
+    Returns
+    -------
+    bool
+        ``λ < 0`` for a term of :func:`dissipative_shape`; False otherwise.
+    """
+    return bool(np.isfinite(coefficient) and coefficient < 0 and dissipative_shape(term))
 
 
 @dataclass(frozen=True)
@@ -187,6 +255,7 @@ def check_effect(
     coef = trial.coefficients[-1]
     halves: tuple[float, float] = (math.nan, math.nan)
     too_short, rows, note = False, context.nsi.block_rows, ""
+    feeds_energy = injects_energy(entry.effect.term, float(np.real(coef.value)))
     if log_bf > threshold:  # the halves cost two identifications
         halves, too_short, rows = half_coefficients(signals, trial.candidate, context.nsi, half_cache)
         if rows != context.nsi.block_rows:
@@ -216,9 +285,14 @@ def check_effect(
     elif is_free_body(trial) and np.isfinite(entry.nrmse) and entry.nrmse > baseline.nrmse:
         # the field's error for a free body: the identified model's own force prediction must improve
         reason = f"force-prediction NRMSE rises from {baseline.nrmse:.4g} to {entry.nrmse:.4g} (free body, IDIM view)"
+    elif feeds_energy:  # last: it rejects only what every other guard would accept
+        reason = (
+            f"{NEGATIVE_DISSIPATION}: coefficient {coef.value:.4g} < 0 of a dissipative velocity term feeds energy "
+            "into every motion"
+        )
     else:
         reason = "accepted"
-    quality_only = log_bf > threshold and stable and coef.imag_ratio >= max_imag_ratio
+    quality_only = log_bf > threshold and stable and coef.imag_ratio >= max_imag_ratio and not feeds_energy
     ci95, intervals = (math.nan, math.nan), None
     if reason == "accepted":  # emcee only for what is kept: its credible intervals
         full = candidate_evidence(trial, signals, context.evidence, seed, warn=False)[context.evidence.likelihood]

@@ -74,7 +74,7 @@ class LoopStep:
     Attributes
     ----------
     effect : Effect
-        Type, location (its term) and parameters (a clearance's gap).
+        Type, location (its term) and parameters (a clearance's gap, a tanh friction's width).
     accepted : bool
     reason : str
         Why it was accepted or rejected.
@@ -199,7 +199,7 @@ class LoopResult:
         -------
         list of dict
             In the search's order (by Laplace log-evidence, then the screened-out ones in screen
-            order): ``type``, ``at``, ``gap``, ``term``, ``screen_rank``, ``screen_score``,
+            order): ``type``, ``at``, ``gap``, ``eps``, ``term``, ``screen_rank``, ``screen_score``,
             ``screen_view``, ``log_evidence_laplace``, ``log_bayes_factor``, ``nrmse``,
             ``imag_ratio``, ``status`` ("accepted", "rejected", "not checked", "failed",
             "screened out") and ``reason``.
@@ -235,7 +235,7 @@ def score_record(row: EffectScore, step: LoopStep | None = None, n_tries=None, s
         status, reason = "not checked", f"not among the n_tries = {n_tries} best by evidence"
     effect = row.effect
     return {
-        "type": effect.base, "at": list(effect.location), "gap": effect.gap, "term": row.term.name,
+        "type": effect.base, "at": list(effect.location), "gap": effect.gap, "eps": effect.eps, "term": row.term.name,
         "screen_rank": row.screen_rank, "screen_score": row.screen_score, "screen_view": row.screen_view,
         "log_evidence_laplace": row.log_evidence, "log_bayes_factor": row.log_bayes_factor, "nrmse": row.nrmse,
         "imag_ratio": row.imag_ratio, "status": status, "reason": reason,

@@ -5,7 +5,8 @@ Greedy forward search with a backward check. Every effect of a dictionary (type 
 scored by its Laplace log-evidence (:mod:`bayesnsi.diagnose.scoring`; a frequency-domain screen
 first chooses which effects are identified). The best ``n_tries`` are checked in turn and the
 first that passes the guards (:mod:`bayesnsi.diagnose.guards`: Bayes factor, quality index,
-stability across record halves) is added. Then effects added earlier that the new one made
+stability across record halves, no negative dissipation) is added; an effect rejected because its
+coefficient feeds energy in does not use up one of the ``n_tries``. Then effects added earlier that the new one made
 redundant are pruned; an effect that failed only the quality index may be added with a second one
 (look ahead), after which the pair's first effect is re-examined (:mod:`bayesnsi.diagnose.moves`).
 The search repeats from the enlarged model until no effect passes or ``max_steps`` effects were
@@ -28,11 +29,11 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..exceptions import BayesNSIError, BayesNSIWarning, ConfigError, LoopError
-from ..models import CandidateModel, default_gaps, effect_dictionary
-from ..models.dictionary import CLEARANCE, DEFAULT_EFFECT_TYPES, EFFECT_TYPES, Effect
+from ..models import CandidateModel, default_gaps, default_widths, effect_dictionary
+from ..models.dictionary import CLEARANCE, DEFAULT_EFFECT_TYPES, EFFECT_TYPES, SMOOTH_FRICTION, Effect
 from ..nsi import identify
 from ..options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions
-from .guards import check_effect, documented
+from .guards import NEGATIVE_DISSIPATION, check_effect, documented
 from .moves import accept_pair, look_ahead, prune
 from .results import LoopResult
 from .scoring import laplace_score, rank_effects
@@ -52,10 +53,13 @@ def loop_effects(signals, names=None) -> list[Effect]:
     signals : Signals
         Estimation data (its output DOFs, and their displacement spread for the clearance gaps).
     names : sequence of str, optional
-        Keys of :data:`bayesnsi.models.EFFECT_TYPES` and ``"clearance"`` (``LoopOptions.effects``);
-        default :data:`bayesnsi.models.dictionary.DEFAULT_EFFECT_TYPES` and clearances. Clearances
-        are tried at each measured DOF with gaps of 0.5, 1 and 1.5
-        displacement standard deviations (refined when one ranks among the best).
+        Keys of :data:`bayesnsi.models.EFFECT_TYPES`, ``"clearance"`` and ``"tanh(v/eps)"``
+        (``LoopOptions.effects``); default :data:`bayesnsi.models.dictionary.DEFAULT_EFFECT_TYPES`,
+        clearances and tanh frictions. Clearances are tried at each measured DOF with gaps of 0.5, 1
+        and 1.5 displacement standard deviations (refined when one ranks among the best); the
+        smoothed friction ``tanh(v/eps)`` at every location (DOFs and pairs) with ε = 0.25 and 0.5
+        standard deviations of the velocity it acts on (the relative velocity for a pair), written
+        with its numeric ε (:func:`bayesnsi.models.default_widths`).
 
     Returns
     -------
@@ -66,15 +70,30 @@ def loop_effects(signals, names=None) -> list[Effect]:
     ConfigError
         For a name that is neither an effect type nor ``"clearance"``.
     """
-    names = (*DEFAULT_EFFECT_TYPES, CLEARANCE) if names is None else tuple(names)
-    unknown = [n for n in names if n != CLEARANCE and n not in EFFECT_TYPES]
+    names = (*DEFAULT_EFFECT_TYPES, CLEARANCE, SMOOTH_FRICTION) if names is None else tuple(names)
+    unknown = [n for n in names if n not in (CLEARANCE, SMOOTH_FRICTION) and n not in EFFECT_TYPES]
     if unknown:
-        raise ConfigError(f"[diagnose] effects: unknown type(s) {unknown}; choose from {[*EFFECT_TYPES, CLEARANCE]}")
+        raise ConfigError(
+            f"[diagnose] effects: unknown type(s) {unknown}; choose from {[*EFFECT_TYPES, CLEARANCE, SMOOTH_FRICTION]}"
+        )
     gaps: dict[tuple[int, ...], Sequence[float]] | None = None
     if CLEARANCE in names:
         std = {d: signals.displacement[:, c].std() for c, d in enumerate(signals.output_dofs)}
         gaps = {(d,): tuple(default_gaps(s)) for d, s in std.items()}
-    return effect_dictionary(signals.output_dofs, [t for t in EFFECT_TYPES if t in names], gaps=gaps)
+    widths = _friction_widths(signals) if SMOOTH_FRICTION in names else None
+    return effect_dictionary(signals.output_dofs, [t for t in EFFECT_TYPES if t in names], gaps=gaps, widths=widths)
+
+
+def _friction_widths(signals) -> dict[tuple[int, ...], Sequence[float]]:
+    """tanh widths at each measured DOF and each pair of consecutive measured DOFs (as effect_dictionary)."""
+    velocity = signals.velocities()
+    column = {int(d): c for c, d in enumerate(signals.output_dofs)}
+    out: dict[tuple[int, ...], Sequence[float]] = {}
+    for d, c in column.items():
+        out[(d,)] = tuple(default_widths(float(velocity[:, c].std())))
+        if d + 1 in column:
+            out[(d, d + 1)] = tuple(default_widths(float((velocity[:, c] - velocity[:, column[d + 1]]).std())))
+    return {at: w for at, w in out.items() if all(np.isfinite(w)) and min(w) > 0}
 
 
 def close_the_loop(
@@ -256,11 +275,13 @@ def _step(context: LoopContext, state: LoopState) -> bool:
     pending = None
     added = {s.term.name for s in state.steps if s.accepted}  # the "separable" guard checks against these
     accepted = tuple(t for t in state.current.candidate.terms if t.name in added)
-    for entry in scored[: options.n_tries]:
-        if not np.isfinite(entry.log_evidence):
+    tries = 0
+    for entry in scored:  # the n_tries best; an effect rejected for negative dissipation does not count
+        if tries >= options.n_tries or not np.isfinite(entry.log_evidence):
             break
         verdict = check_effect(context, entry, baseline, state.next_seed(), state.half_cache, accepted, search=search)
         state.steps.append(verdict.step)
+        tries += not verdict.step.reason.startswith(NEGATIVE_DISSIPATION)
         if verdict.step.accepted:
             step = documented(verdict.step, state.current, entry.result, context.signals)
             state.replace_step(verdict.step, step)

@@ -1,6 +1,15 @@
 """Candidate nonlinear terms and models: the lowest layer (numpy only)."""
 
-from .dictionary import EFFECT_TYPES, Effect, clearance_expression, default_gaps, effect_dictionary
+from .dictionary import (
+    EFFECT_TYPES,
+    SMOOTH_FRICTION,
+    Effect,
+    clearance_expression,
+    default_gaps,
+    default_widths,
+    effect_dictionary,
+    smooth_friction_effect,
+)
 from .expressions import Expression, parse_expression
 from .terms import CandidateModel, Term, nonlinear_force
 
@@ -15,4 +24,7 @@ __all__ = [
     "effect_dictionary",
     "clearance_expression",
     "default_gaps",
+    "SMOOTH_FRICTION",
+    "default_widths",
+    "smooth_friction_effect",
 ]

@@ -15,10 +15,13 @@ __all__ = [
     "EFFECT_TYPES",
     "DEFAULT_EFFECT_TYPES",
     "Effect",
+    "SMOOTH_FRICTION",
     "clearance_effect",
     "clearance_expression",
     "default_gaps",
+    "default_widths",
     "effect_dictionary",
+    "smooth_friction_effect",
 ]
 
 EFFECT_TYPES: dict[str, str] = {
@@ -47,6 +50,40 @@ DEFAULT_EFFECT_TYPES: tuple[str, ...] = ("x^2", "x|x|", "x^3", "sign(v)", "v|v|"
 
 CLEARANCE = "clearance"
 """Type of a clearance (dead-zone) spring, whose gap is a parameter (:func:`clearance_effect`)."""
+
+SMOOTH_FRICTION = "tanh(v/eps)"
+"""Type of a smoothed Coulomb friction ``tanh(v/ε)`` whose width ε [m/s] is a parameter fixed from
+the data (:func:`default_widths`, :func:`smooth_friction_effect`). Unlike ``sign(v)`` it is smooth,
+so a frequency-route model holding it has a periodic steady state (harmonic balance); its
+coefficient is the friction force reached at |v| >> ε."""
+
+
+def smooth_friction_effect(at, eps: float) -> Effect:
+    """A smoothed friction effect ``tanh(v/ε)`` at DOF ``k`` or across a pair ``(j, k)``.
+
+    Parameters
+    ----------
+    at : int or (int, int)
+        Location (grounded at DOF k, or an element between j and k acting on v_j - v_k).
+    eps : float
+        Width ε > 0 [m/s], kept to 3 significant digits and written as a number in the term
+        (``"tanh((v7-v8)/0.00455)"``), so the expression in results.json is reproducible.
+
+    Returns
+    -------
+    Effect
+
+    Raises
+    ------
+    ConfigError
+        For a width that is not a positive finite number.
+    """
+    if not (np.isfinite(eps) and eps > 0):
+        raise ConfigError(f"the width of a tanh(v/eps) friction must be a positive number, got {eps!r}")
+    at = (int(at),) if np.ndim(at) == 0 else tuple(int(a) for a in at)
+    _, v = _location_symbols(at)
+    eps = float(f"{eps:.3g}")
+    return Effect(SMOOTH_FRICTION, Term(f"tanh({v}/{eps:.3g})", at if len(at) == 2 else at[0]), eps=eps)
 
 
 def clearance_expression(x: str, gap: float) -> str:
@@ -86,18 +123,27 @@ class Effect:
         The effect's basis function with its location.
     gap : float or None
         Gap g [m] of a clearance (6 significant digits, as written in its term); None otherwise.
+    eps : float or None
+        Width ε [m/s] of a ``tanh(v/eps)`` friction (3 significant digits, as written); None otherwise.
     """
 
     base: str
     term: Term
     gap: float | None = None
+    eps: float | None = None
 
     def __post_init__(self) -> None:
-        if self.base != CLEARANCE and self.base not in EFFECT_TYPES:
-            raise ConfigError(f"effect type {self.base!r} unknown; choose from {list(EFFECT_TYPES) + [CLEARANCE]}")
+        if self.base not in (CLEARANCE, SMOOTH_FRICTION) and self.base not in EFFECT_TYPES:
+            raise ConfigError(
+                f"effect type {self.base!r} unknown; choose from {[*EFFECT_TYPES, CLEARANCE, SMOOTH_FRICTION]}"
+            )
         if (self.base == CLEARANCE) != (self.gap is not None):
             raise ConfigError(
                 f"a gap is given with, and only with, a clearance effect; got {self.base!r}, gap {self.gap!r}"
+            )
+        if (self.base == SMOOTH_FRICTION) != (self.eps is not None):
+            raise ConfigError(
+                f"a width is given with, and only with, a {SMOOTH_FRICTION} effect; got {self.base!r}, eps {self.eps!r}"
             )
 
     @property
@@ -107,7 +153,9 @@ class Effect:
 
     @property
     def name(self) -> str:
-        """The type with its parameter, e.g. ``"x^3"`` or ``"clearance g=0.015"``."""
+        """The type with its parameter, e.g. ``"x^3"``, ``"clearance g=0.015"`` or ``"tanh(v/eps) eps=0.00455"``."""
+        if self.eps is not None:
+            return f"{SMOOTH_FRICTION} eps={self.eps:.3g}"
         return f"{CLEARANCE} g={self.gap:.6g}" if self.gap is not None else self.base
 
     def __str__(self) -> str:
@@ -139,6 +187,7 @@ def effect_dictionary(
     types: Iterable[str] = DEFAULT_EFFECT_TYPES,
     gaps: dict[tuple[int, ...], Sequence[float]] | None = None,
     pairs: Sequence[tuple[int, int]] | None = None,
+    widths: dict[tuple[int, ...], Sequence[float]] | None = None,
 ) -> list[Effect]:
     """Effects at each measured DOF and between neighbouring measured DOFs (docs/method.md §7).
 
@@ -152,11 +201,13 @@ def effect_dictionary(
         Clearance gaps [m] to try at each location (``(k,)`` or ``(j, k)``); none by default.
     pairs : sequence of (j, k), optional
         Element locations; default: consecutive DOF numbers that are both measured.
+    widths : mapping location -> sequence of float, optional
+        Widths ε [m/s] of the ``tanh(v/eps)`` frictions to try at each location; none by default.
 
     Returns
     -------
     list of Effect
-        Per location, the ``types`` in order, then its clearances.
+        Per location, the ``types`` in order, then its clearances, then its tanh frictions.
 
     Raises
     ------
@@ -178,6 +229,8 @@ def effect_dictionary(
             out.append(Effect(name, Term(EFFECT_TYPES[name].format(x=x, v=v), at if len(at) == 2 else at[0])))
         for gap in (gaps or {}).get(at, ()):
             out.append(clearance_effect(at, float(gap)))
+        for eps in (widths or {}).get(at, ()):
+            out.append(smooth_friction_effect(at, float(eps)))
     return out
 
 
@@ -197,3 +250,25 @@ def default_gaps(displacement_std: float, fractions=(0.5, 1.0, 1.5)) -> np.ndarr
         The gaps [m], one per fraction.
     """
     return np.asarray(fractions) * displacement_std
+
+
+def default_widths(velocity_std: float, fractions=(0.25, 0.5)) -> np.ndarray:
+    """The widths ε of ``tanh(v/eps)`` frictions as fractions of the velocity standard deviation.
+
+    A width well below the velocity spread makes ``tanh(v/ε)`` a Coulomb friction that is smooth
+    through the reversals; 0.25 and 0.5 std bracket the joint of the simulated GVT
+    (``tanh(v/0.002)``, std of the relative velocity 0.018 m/s at 1 N: ε = 0.0046 and 0.0091).
+
+    Parameters
+    ----------
+    velocity_std : float
+        Standard deviation of the velocity the friction acts on (relative velocity for a pair) [m/s].
+    fractions : sequence of float
+        The widths as fractions of ``velocity_std``.
+
+    Returns
+    -------
+    numpy.ndarray
+        The widths [m/s], one per fraction.
+    """
+    return np.asarray(fractions) * velocity_std

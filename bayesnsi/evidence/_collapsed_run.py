@@ -32,17 +32,20 @@ def sample_collapsed(target: Target, rng, n_walkers: int, n_steps: int, n_burn: 
     import emcee
 
     from .._interrupt import interrupt_after
-    from ..exceptions import InputDataError
-    from .sampling import PosteriorSamples, _initial_walkers, _inside_support, _laplace_covariance, _moves
+    from .sampling import (
+        PosteriorSamples,
+        _chain_settings,
+        _initial_walkers,
+        _inside_support,
+        _laplace_covariance,
+        _moves,
+    )
 
     collapsed = CollapsedTarget(target)
     rng = np.random.default_rng(rng)
     q = target.q
-    n_walkers, n_steps, n_burn = int(n_walkers), int(n_steps), int(n_burn)
-    if n_walkers < max(2 * q, 4) or n_walkers % 2:
-        raise InputDataError(f"n_walkers must be even and >= 2 x {q} coefficients (and 4), got {n_walkers}")
-    if not 0 <= n_burn < n_steps:
-        raise InputDataError(f"need 0 <= n_burn < n_steps, got n_burn = {n_burn}, n_steps = {n_steps}")
+    minimum = max(2 * q, 4)
+    n_walkers, n_steps, n_burn = _chain_settings(n_walkers, n_steps, n_burn, minimum, f"2 x {q} coefficients (and 4)")
     theta0 = target.initial_theta(start)
     mode, _, hess, _ = target.find_mode(theta0)
     mode = _inside_support(target, mode, theta0)

@@ -43,6 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import BayesNSIError, IntervalWarning, SpuriousPoleWarning
+from .perturbation import match_modes
 
 __all__ = ["INTERVAL_METHODS", "ParameterInterval", "Intervals", "segment_estimates", "candidate_intervals"]
 
@@ -55,7 +56,6 @@ of the record with added sensor noise (:mod:`bayesnsi.evidence.perturbation`).""
 _Z95 = 1.959963984540054
 _Z50 = 0.6744897501960817
 _MAX_FRACTION = 0.9  # windows are lengthened to what the block rows need, up to this fraction of the record
-_MODE_MATCH = 0.1  # a window mode farther than 10 % in frequency from every full-record mode is not matched
 
 
 @dataclass(frozen=True)
@@ -208,14 +208,7 @@ def segment_estimates(result, signals, options=None, n_segments: int = 8, fracti
                 failures.append(f"samples {offset}..{offset + b}: {type(err).__name__}: {err}")
                 continue
         coefficients.append(window.coefficient_values)
-        f_win = np.array([m.frequency_hz for m in window.modes])
-        z_win = np.array([m.damping_ratio for m in window.modes])
-        f_row, z_row = np.full(len(f_full), np.nan), np.full(len(f_full), np.nan)
-        for k, f in enumerate(f_full):
-            if len(f_win):
-                j = int(np.argmin(np.abs(f_win - f)))
-                if abs(f_win[j] - f) <= _MODE_MATCH * f:
-                    f_row[k], z_row[k] = f_win[j], z_win[j]
+        f_row, z_row = match_modes(f_full, window.modes)
         freqs.append(f_row)
         zetas.append(z_row)
     q, m = len(result.coefficients), len(f_full)

@@ -226,6 +226,16 @@ def sample_posterior(
     return _sample(target, rng, n_walkers, n_steps, n_burn, start, moves)
 
 
+
+def _chain_settings(n_walkers, n_steps, n_burn, minimum: int, what: str) -> tuple[int, int, int]:
+    """``(n_walkers, n_steps, n_burn)`` as ints, checked: even walkers >= ``minimum``, 0 <= burn < steps."""
+    n_walkers, n_steps, n_burn = int(n_walkers), int(n_steps), int(n_burn)
+    if n_walkers < minimum or n_walkers % 2:
+        raise InputDataError(f"n_walkers must be even and >= {what} = {minimum}, got {n_walkers}")
+    if not 0 <= n_burn < n_steps:
+        raise InputDataError(f"need 0 <= n_burn < n_steps, got n_burn = {n_burn}, n_steps = {n_steps}")
+    return n_walkers, n_steps, n_burn
+
 def _sample(
     target: Target, rng, n_walkers: int, n_steps: int, n_burn: int, start, moves: str = "mixed"
 ) -> PosteriorSamples:
@@ -234,11 +244,7 @@ def _sample(
 
     rng = np.random.default_rng(rng)
     ndim = target.ndim
-    n_walkers, n_steps, n_burn = int(n_walkers), int(n_steps), int(n_burn)
-    if n_walkers < 2 * ndim or n_walkers % 2:
-        raise InputDataError(f"n_walkers must be even and >= 2 x {ndim} parameters = {2 * ndim}, got {n_walkers}")
-    if not 0 <= n_burn < n_steps:
-        raise InputDataError(f"need 0 <= n_burn < n_steps, got n_burn = {n_burn}, n_steps = {n_steps}")
+    n_walkers, n_steps, n_burn = _chain_settings(n_walkers, n_steps, n_burn, 2 * ndim, f"2 x {ndim} parameters")
 
     theta0 = target.initial_theta(start)
     mode, _, hess, _ = target.find_mode(theta0)

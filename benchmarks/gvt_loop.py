@@ -17,7 +17,17 @@ Per level of :func:`bayesnsi.simulate.gvt_records` (0.1, 1, 8 N; the configs of
 
     OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/gvt_loop.py [--level 2 1 0]
 
-Measured (seed 0, 2026-11-26, after the quality index weighted by information per line and the
+Measured with tanh(v/eps) in the dictionary (eps = 0.25 and 0.5 std of the velocity it acts on)
+and the "negative dissipation" guard (docs/method.md §7; 13-70 s per level on one core, seeds 0
+and 1): 8 N adds (x7-x8)**3 (seed 0: 1.874e7, then nothing: v7|v7| < 0 is refused) or
+(x7-x8)|x7-x8| (seed 1) first; level 1 in accelerations 0.320 -> 0.199 (-38 %) / 0.337 -> 0.194
+(-42 %). 1 N adds tanh((v7-v8)/0.00455) = 0.106 N first (seed 0; true 0.1 tanh(v/0.002)), after
+refusing (v7-v8)|v7-v8| = -197.5 and (v7-v8)**3 = -2877 as negative dissipation; level 0 0.574 ->
+0.250 (-56 %), level 2 0.468 -> 0.479 (no longer diverges); seed 1: tanh((v7-v8)/0.00906) = 0.137 N,
+level 0 0.567 -> 0.345 (-39 %), level 2 0.504 -> 0.542. 0.1 N adds nothing (both seeds). Item 2 of
+issue 17 holds at every level for both seeds.
+
+Before them (seed 0, 2026-11-26, after the quality index weighted by information per line and the
 evidence on the fitted lines, docs/method.md §11; 12-30 s per level on one core): localisation - the
 pair 7-8 leads every other location by 8x (0.1 N: 0.0047 vs 0.0006), 3.4x (1 N: 0.0100 vs 0.0029)
 and 3.6x (8 N: 0.038 vs 0.011). 8 N: adds (x7-x8)**3 first (1.874e7 N/m³, true 2e7; |Im|/|Re| 0.05,

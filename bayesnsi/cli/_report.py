@@ -248,7 +248,9 @@ def selection_sections(report, signals, selection, selected, units=None, role: s
         answer.append(
             f"Evidence: marginal likelihood of each candidate, the {residual} modelled as "
             f"{_LIKELIHOOD_TEXT.get(opts.likelihood, opts.likelihood)} noise (coefficients and noise level integrated "
-            "over proper priors; emcee + bridge sampling). The log Bayes factor is the difference of log evidences "
+            "over proper priors: the noise levels in closed form where the likelihood allows, the coefficients by "
+            "MCMC, the evidence by bridge sampling; docs/method.md §6). The log Bayes factor is the difference of "
+            "log evidences "
             "[nat]; the words are Kass and "
             "Raftery's (1 nat: barely worth mentioning, 3: strong, 5: very strong). ± are Monte-Carlo errors."
         )

@@ -17,7 +17,7 @@ def add_parser(sub) -> None:
         "select",
         help="identify every candidate and rank them by Bayesian evidence",
         description="Identify every candidate of CONFIG by NSI, compute the paper's plain Gaussian ranking "
-        "and the marginal evidence (emcee + bridge sampling) under the chosen residual model, and write "
+        "and the marginal evidence (MCMC + bridge sampling) under the chosen residual model, and write "
         "DIR/results.json and DIR/report.html.",
         epilog="example: bayesnsi select two_dof.toml --out results/two_dof",
     )

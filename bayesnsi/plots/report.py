@@ -36,7 +36,7 @@ def plot_bayes_factors(decision, selected: str, ax=None):
     """
     others = decision.drop(index=selected, errors="ignore")
     if ax is None:
-        fig, ax = plt.subplots(figsize=(6.5, 0.55 * len(others) + 1.6), layout="constrained")
+        fig, ax = plt.subplots(figsize=(7.5, 0.55 * len(others) + 1.6), layout="constrained")
     else:
         fig = ax.figure
     values = others["log_bayes_factor"].to_numpy(dtype=float)
@@ -57,7 +57,8 @@ def plot_bayes_factors(decision, selected: str, ax=None):
     ax.set_xlim(min(0.0, float(np.min(values[finite], initial=0.0)) * 1.15), top)
     ax.set_xlabel(f"log Bayes factor of {selected} against each candidate [nat]")
     ax.set_title(f"How sure: evidence for {selected}", fontsize=10)
-    ax.legend(fontsize=7, loc="lower right", framealpha=0.9, title="Kass and Raftery", title_fontsize=7)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,  # never over a bar
+              title="Kass and Raftery", title_fontsize=7)
     return fig
 
 

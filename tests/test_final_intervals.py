@@ -75,3 +75,30 @@ def test_loop_report_table_shows_the_final_intervals(loop_run):
     coefficient = results["final_coefficients"][0]
     assert _pair(coefficient["ci95"]) in html and _pair(coefficient["ci95_posterior"]) in html
     assert _pair(coefficient["ci50"]) in html and "noise replicates + posterior" in html
+
+
+def test_final_intervals_replicate_with_the_final_models_upsampled_settings(monkeypatch):
+    """The noise replicates re-identify with ``settings["final_nsi"]`` (upsample 4, block rows x 4),
+    the settings the reported final coefficients were identified with, not the loop's data-rate ones."""
+    from types import SimpleNamespace
+
+    from bayesnsi.diagnose import final as final_module
+    from bayesnsi.options import NSIOptions
+
+    seen = {}
+
+    def fake_evidence(result, signals, options, seeds, warn=True):
+        return {options.likelihood: "evidence"}
+
+    def fake_intervals(result, signals, evidence, options, nsi):
+        seen["nsi"] = nsi
+        return "intervals"
+
+    monkeypatch.setattr(final_module, "candidate_evidence", fake_evidence)
+    monkeypatch.setattr(final_module, "candidate_intervals", fake_intervals)
+    data_rate = NSIOptions(block_rows=60, order=4)
+    fine = data_rate.replace(upsample=4, block_rows=240)
+    loop = SimpleNamespace(final="final", settings={"nsi": data_rate.to_dict(), "final_nsi": fine.to_dict(),
+                                                    "evidence": {}})
+    assert final_module.final_intervals(loop, "signals") == ("evidence", "intervals")
+    assert seen["nsi"].upsample == 4 and seen["nsi"].block_rows == 240

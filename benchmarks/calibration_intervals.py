@@ -149,26 +149,36 @@ def main(argv=None) -> int:
     given = {"n_segments": args.n_segments, "segment_fraction": args.segment_fraction, "interval": args.interval,
              "n_replicates": args.n_replicates}
     opts = EvidenceOptions().replace(**{k: v for k, v in given.items() if v is not None})
-    print("bayesnsi interval calibration (issue 15)")
-    print(f"python {platform.python_version()}, numpy {np.__version__}, {os.cpu_count()} CPUs, {args.workers} workers")
-    print(f"cases {args.cases}; {n_seeds} seeds per case from {args.seed0}; evidence options {opts.to_dict()}")
-    tasks = [(name, args.seed0 + j, opts) for name in args.cases for j in range(n_seeds)]
-    records: list[dict] = []
-    start = time.perf_counter()
-    with ProcessPoolExecutor(max_workers=args.workers) as pool:
-        futures = [pool.submit(one_seed, *t) for t in tasks]
-        for k, fut in enumerate(as_completed(futures), 1):
-            records.append(fut.result())
-            if k % 20 == 0 or k == len(tasks):
-                print(f"  [{k}/{len(tasks)}] {time.perf_counter() - start:.0f} s", file=sys.stderr, flush=True)
-    print(f"wall time {time.perf_counter() - start:.0f} s")
+    records = run_seeds("bayesnsi interval calibration (issue 15)", one_seed, args.cases, n_seeds, args.seed0, opts,
+                        args.workers, json_path=args.json)
     for name in args.cases:
         print_case(name, sorted((r for r in records if r["case"] == name), key=lambda r: r["seed"]))
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(records, fh, indent=1)
         print(f"\nrecords written to {args.json}")
     return 0
+
+
+def run_seeds(title: str, task, cases, n_seeds: int, seed0: int, opts, workers: int, json_path=None) -> list[dict]:
+    """Print the run's header, run ``task(case, seed, opts)`` for every case and seed in a process pool.
+
+    With ``json_path`` the records are written as they come, so an interrupted study keeps its seeds.
+    """
+    print(title)
+    print(f"python {platform.python_version()}, numpy {np.__version__}, {os.cpu_count()} CPUs, {workers} workers")
+    print(f"cases {cases}; {n_seeds} seeds per case from {seed0}; evidence options {opts.to_dict()}")
+    tasks = [(name, seed0 + j, opts) for name in cases for j in range(n_seeds)]
+    records: list[dict] = []
+    start = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        futures = [pool.submit(task, *t) for t in tasks]
+        for k, fut in enumerate(as_completed(futures), 1):
+            records.append(fut.result())
+            if json_path:
+                with open(json_path, "w") as fh:
+                    json.dump(records, fh, indent=1)
+            print(f"  [{k}/{len(tasks)}] {time.perf_counter() - start:.0f} s", file=sys.stderr, flush=True)
+    print(f"wall time {time.perf_counter() - start:.0f} s")
+    return records
 
 
 if __name__ == "__main__":

@@ -26,16 +26,14 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUME
     os.environ[_var] = "1"
 
 import argparse  # noqa: E402
-import platform  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 import warnings  # noqa: E402
-from concurrent.futures import ProcessPoolExecutor, as_completed  # noqa: E402
 
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from calibration_intervals import print_case  # noqa: E402
+from calibration_intervals import print_case, run_seeds  # noqa: E402
 
 CASE_NAMES = ("coulomb-dof2", "cubic-pair")
 
@@ -76,13 +74,6 @@ def one_seed(case_name: str, seed: int, opts) -> dict:
     return out
 
 
-def _write(path: str, records: list[dict]) -> None:
-    import json
-
-    with open(path, "w") as fh:
-        json.dump(records, fh, indent=1)
-
-
 def main(argv=None) -> int:
     from bayesnsi import EvidenceOptions
 
@@ -100,24 +91,9 @@ def main(argv=None) -> int:
         with open(args.tables) as fh:
             _print_tables(json.load(fh), args.cases)
         return 0
-    opts = EvidenceOptions()
-    print("bayesnsi loop interval calibration (issue 15)")
-    print(f"python {platform.python_version()}, numpy {np.__version__}, {os.cpu_count()} CPUs, {args.workers} workers")
-    print(f"cases {args.cases}; {args.seeds} seeds per case from {args.seed0}; evidence options {opts.to_dict()}")
-    tasks = [(name, args.seed0 + j, opts) for name in args.cases for j in range(args.seeds)]
-    records: list[dict] = []
-    start = time.perf_counter()
-    with ProcessPoolExecutor(max_workers=args.workers) as pool:
-        futures = [pool.submit(one_seed, *t) for t in tasks]
-        for k, fut in enumerate(as_completed(futures), 1):
-            records.append(fut.result())
-            if args.json:  # as they come, so a long study interrupted still leaves its seeds
-                _write(args.json, records)
-            print(f"  [{k}/{len(tasks)}] {time.perf_counter() - start:.0f} s", file=sys.stderr, flush=True)
-    print(f"wall time {time.perf_counter() - start:.0f} s")
+    records = run_seeds("bayesnsi loop interval calibration (issue 15)", one_seed, args.cases, args.seeds, args.seed0,
+                        EvidenceOptions(), args.workers, json_path=args.json)
     _print_tables(records, args.cases)
-    if args.json:
-        _write(args.json, records)
     return 0
 
 

@@ -42,8 +42,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..exceptions import BayesNSIError, IntervalWarning, SpuriousPoleWarning
-from .perturbation import match_modes
+from ..exceptions import IntervalWarning
+from .perturbation import reidentify
 
 __all__ = ["INTERVAL_METHODS", "ParameterInterval", "Intervals", "segment_estimates", "candidate_intervals"]
 
@@ -188,7 +188,6 @@ def segment_estimates(result, signals, options=None, n_segments: int = 8, fracti
     failures : list of str
         One message per sub-record that failed.
     """
-    from ..nsi import identify
     from ..options import NSIOptions
 
     if not 0.0 < fraction < 1.0:
@@ -197,28 +196,8 @@ def segment_estimates(result, signals, options=None, n_segments: int = 8, fracti
     n = signals.n_samples
     b = max(int(round(fraction * n)), min(_shortest_window(result), int(_MAX_FRACTION * n)))
     offsets = np.unique(np.linspace(0, n - b, n_segments).round().astype(int))
-    f_full = np.array([m.frequency_hz for m in result.modes])
-    coefficients, freqs, zetas, failures = [], [], [], []
-    for offset in offsets:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", SpuriousPoleWarning)
-            try:
-                window = identify(signals.segment(int(offset), int(offset) + b), result.candidate, options)
-            except (BayesNSIError, np.linalg.LinAlgError) as err:
-                failures.append(f"samples {offset}..{offset + b}: {type(err).__name__}: {err}")
-                continue
-        coefficients.append(window.coefficient_values)
-        f_row, z_row = match_modes(f_full, window.modes)
-        freqs.append(f_row)
-        zetas.append(z_row)
-    q, m = len(result.coefficients), len(f_full)
-    return (
-        b,
-        np.array(coefficients, dtype=float).reshape(len(coefficients), q),  # q or m may be 0 (linear, free body)
-        np.array(freqs, dtype=float).reshape(len(freqs), m),
-        np.array(zetas, dtype=float).reshape(len(zetas), m),
-        failures,
-    )
+    windows = ((f"samples {o}..{o + b}", signals.segment(int(o), int(o) + b)) for o in offsets)
+    return (b, *reidentify(result, windows, options))
 
 
 def _shortest_window(result) -> int:

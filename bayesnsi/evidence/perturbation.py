@@ -33,7 +33,7 @@ import numpy as np
 
 from ..exceptions import BayesNSIError, SpuriousPoleWarning
 
-__all__ = ["noise_replicates", "replicate_moments", "match_modes", "velocity_noise_std"]
+__all__ = ["noise_replicates", "reidentify", "replicate_moments", "match_modes", "velocity_noise_std"]
 
 _MODE_MATCH = 0.1  # a replicate mode farther than 10 % in frequency from every full-record mode is not matched
 
@@ -91,7 +91,7 @@ def noise_replicates(result, signals, options=None, n_replicates: int = 16, seed
     failures : list of str
         One message per copy that failed.
     """
-    from ..nsi import identify, white_noise_std
+    from ..nsi import white_noise_std
     from ..options import NSIOptions
 
     if int(n_replicates) < 2:
@@ -103,26 +103,56 @@ def noise_replicates(result, signals, options=None, n_replicates: int = 16, seed
     v = None if signals.velocity is None else np.asarray(signals.velocity, dtype=float)
     lowest = min((m.frequency_hz for m in result.modes), default=0.0)
     v_std = velocity_noise_std(y, v, signals.fs, y_std, lowest) if v is not None else np.zeros(0)
+
+    def copies():
+        for k in range(int(n_replicates)):
+            noisy = {"displacement": y + rng.standard_normal(y.shape) * y_std}
+            if v is not None:
+                noisy["velocity"] = v + rng.standard_normal(v.shape) * v_std
+            yield f"noise replicate {k}", replace(signals, **noisy)
+
+    return (y_std, *reidentify(result, copies(), options))
+
+
+def reidentify(result, labelled_signals, options):
+    """Identify ``result``'s candidate on each of several records; its coefficients and matched modes.
+
+    Parameters
+    ----------
+    result : NSIResult
+        The full-record identification (its candidate and modes).
+    labelled_signals : iterable of (str, Signals)
+        The records, each with a label for its failure message.
+    options : NSIOptions
+        Identification settings.
+
+    Returns
+    -------
+    coefficients : ndarray, shape (n_ok, q)
+        Coefficients of each record identified successfully.
+    frequencies, damping_ratios : ndarray, shape (n_ok, n_modes)
+        Its modes matched to the full-record modes (:func:`match_modes`).
+    failures : list of str
+        ``"label: error"`` for each record that failed.
+    """
+    from ..nsi import identify
+
     f_full = np.array([m.frequency_hz for m in result.modes], dtype=float)
     coefficients, freqs, zetas, failures = [], [], [], []
-    for k in range(int(n_replicates)):
-        noisy = {"displacement": y + rng.standard_normal(y.shape) * y_std}
-        if v is not None:
-            noisy["velocity"] = v + rng.standard_normal(v.shape) * v_std
+    for label, record in labelled_signals:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", SpuriousPoleWarning)
             try:
-                copy = identify(replace(signals, **noisy), result.candidate, options)
+                copy = identify(record, result.candidate, options)
             except (BayesNSIError, np.linalg.LinAlgError) as err:
-                failures.append(f"noise replicate {k}: {type(err).__name__}: {err}")
+                failures.append(f"{label}: {type(err).__name__}: {err}")
                 continue
         coefficients.append(copy.coefficient_values)
         f_row, z_row = match_modes(f_full, copy.modes)
         freqs.append(f_row)
         zetas.append(z_row)
-    q, m = len(result.coefficients), len(f_full)
+    q, m = len(result.coefficients), len(f_full)  # q or m may be 0 (linear, free body)
     return (
-        y_std,
         np.array(coefficients, dtype=float).reshape(len(coefficients), q),
         np.array(freqs, dtype=float).reshape(len(freqs), m),
         np.array(zetas, dtype=float).reshape(len(zetas), m),

@@ -140,9 +140,11 @@ def stabilise(signals: Signals, stiffness: float) -> Signals:
 def rigid_body_poles(poles_discrete, dt: float, n_samples: int) -> np.ndarray:
     """Continuous-time poles that are rigid-body poles (s ≈ 0, z ≈ 1) on this record.
 
-    A pole counts as rigid when it is real (or its discrete eigenvalue is real and positive) and
-    ``|s| < 2π/T`` with ``T`` the record length: the record cannot tell it from zero. An
-    eigenvalue on or outside the unit circle that is real and positive counts too (noise moves
+    A pole counts as rigid when ``|s| < 2π/T`` with ``T`` the record length (the record cannot
+    tell it from zero: less than one cycle or one time constant in the record), whether it is real
+    or one of a complex pair: a body with no damping to ground has a double pole at s = 0 (position
+    and velocity of the rigid-body motion), which the estimate may split into a slow complex pair.
+    An eigenvalue on or outside the unit circle that is real and positive counts too (noise moves
     z = 1 either way).
 
     Parameters
@@ -164,7 +166,7 @@ def rigid_body_poles(poles_discrete, dt: float, n_samples: int) -> np.ndarray:
         s = np.log(z) / dt
     limit = 2 * np.pi / (n_samples * dt)
     real = np.abs(z.imag) <= 1e-9 * np.maximum(np.abs(z), 1e-300)
-    rigid = real & (z.real > 0) & ((np.abs(s) < limit) | (np.abs(z) >= 1.0))
+    rigid = (z.real > 0) & ((np.abs(s) < limit) | (real & (np.abs(z) >= 1.0)))
     return s[rigid]
 
 

@@ -23,6 +23,7 @@ from ._noise import white_noise_std
 from ._output_error import refine_output_error
 from ._output_error import refine_poles as _refine_poles
 from ._stabilise import pole_text, reflect_out_of_band
+from ._virtual_mode import mirror_undamped
 from .feedback import as_candidate, extended_input, resolve_input_hold, working_signals
 from .free_body import auto_stiffness, free_model, rigid_body_poles, stabilise
 from .order import oblique_decomposition, scaled_stack, select_order
@@ -186,6 +187,11 @@ def identify(
         return identify(measured, cand, fixed, correlations=correlations)
     stabilised = (reflect_out_of_band(A, signals.dt, options.band_hz, np.asarray(signals.force)) if radius >= 1.0
                   else (A, eigenvalues[:0]))
+    virtual_mode = eigenvalues[:0]
+    if stabilised is None and stiffness:  # the virtual spring's mode of a body with no damping to ground
+        mirrored = mirror_undamped(A, signals.dt)
+        stabilised, virtual_mode = (None, virtual_mode) if mirrored is None else ((mirrored[0], eigenvalues[:0]),
+                                                                                  mirrored[1])
     if stabilised is None:
         raise UnstableModelError(
             f"candidate {cand.name!r}: the identified underlying linear model is unstable "
@@ -215,6 +221,7 @@ def identify(
         free = free_model(model, stiffness, signals.input_dofs, signals.output_dofs)
         rigid = rigid_body_poles(free.poles_discrete, signals.dt, len(u))
         modes, spurious = split_poles(free.poles, signals.dt)
+        modes = [m for m in modes if not np.any(np.isclose(m.pole, rigid))]  # a slow pair of the double s = 0
         spurious = np.array([s for s in spurious if not np.any(np.isclose(s, rigid))], dtype=complex)
     else:
         _, spurious = split_poles(model.poles, signals.dt)
@@ -242,6 +249,7 @@ def identify(
         fs=data_fs,
         virtual_stiffness=stiffness,
         reflected_poles_hz=[float(abs(np.angle(z)) / (2 * np.pi * signals.dt)) for z in reflected],
+        virtual_mode_mirrored_hz=[float(abs(np.angle(z)) / (2 * np.pi * signals.dt)) for z in virtual_mode],
     )
     return NSIResult(
         candidate=cand,

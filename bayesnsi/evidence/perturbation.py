@@ -32,6 +32,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..exceptions import BayesNSIError, SpuriousPoleWarning
+from ._period_noise import period_noise
 
 __all__ = ["noise_replicates", "reidentify", "replicate_moments", "match_modes", "velocity_noise_std"]
 
@@ -83,7 +84,11 @@ def noise_replicates(result, signals, options=None, n_replicates: int = 16, seed
     Returns
     -------
     noise_std : ndarray, shape (n_outputs,)
-        The estimated sensor noise std of each response channel (displacement field).
+        The estimated sensor noise std of each response channel (displacement field). On two or
+        more whole periods (``signals.period``) it is the period-to-period scatter and each copy's
+        noise is drawn from that scatter (:mod:`bayesnsi.evidence._period_noise`: its spectrum
+        and channel correlation, e.g. integrated accelerations whose noise lies in the
+        integration band only); else high-order differences and white noise.
     coefficients : ndarray, shape (n_ok, q)
         Coefficients of each copy identified successfully.
     frequencies, damping_ratios : ndarray, shape (n_ok, n_modes)
@@ -103,9 +108,20 @@ def noise_replicates(result, signals, options=None, n_replicates: int = 16, seed
     v = None if signals.velocity is None else np.asarray(signals.velocity, dtype=float)
     lowest = min((m.frequency_hz for m in result.modes), default=0.0)
     v_std = velocity_noise_std(y, v, signals.fs, y_std, lowest) if v is not None else np.zeros(0)
+    # whole periods: the noise is the period-to-period scatter (spectrum and channels kept, _period_noise)
+    scatter = period_noise(y if v is None else np.column_stack([y, v]), getattr(signals, "period", None))
+    if scatter is not None:
+        y_std = scatter.std[: y.shape[1]]
 
     def copies():
         for k in range(int(n_replicates)):
+            if scatter is not None:
+                e = scatter.draw(len(y), rng)
+                noisy = {"displacement": y + e[:, : y.shape[1]]}
+                if v is not None:
+                    noisy["velocity"] = v + e[:, y.shape[1] :]
+                yield f"noise replicate {k}", replace(signals, **noisy)
+                continue
             noisy = {"displacement": y + rng.standard_normal(y.shape) * y_std}
             if v is not None:
                 noisy["velocity"] = v + rng.standard_normal(v.shape) * v_std

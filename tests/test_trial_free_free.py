@@ -37,7 +37,7 @@ def _band_limited(rng, n, fs, lo, hi, rms):
     return x * rms / x.std()
 
 
-def _two_mass_record(seed: int = 1, duration: float = 30.0):
+def _two_mass_record(seed: int = 1, duration: float = 30.0, noise: float = 1e-6):
     rng = np.random.default_rng(seed)
     n = int(duration * FS)
     h = 1 / (FS * SUB)
@@ -53,26 +53,24 @@ def _two_mass_record(seed: int = 1, duration: float = 30.0):
         v2 += h * (spring - FC2 * np.sign(v2)) / M2
         x1 += h * v1
         x2 += h * v2
-    x_out += rng.normal(0.0, 1e-6, x_out.shape)
+    x_out += rng.normal(0.0, noise, x_out.shape)
     return Signals(force=f_out[:, None], displacement=x_out, fs=FS, input_dofs=(1,), output_dofs=(1, 2))
 
 
-@pytest.fixture(scope="module")
-def rig() -> Signals:
-    return _two_mass_record()
-
-
-def test_free_free_true_candidate_identifies(rig):
+@pytest.mark.parametrize("noise", [1e-6, 1e-4])  # position noise [m]: 1 µm (encoder), 0.1 mm (0.1 % of std)
+def test_free_free_true_candidate_identifies(noise):
+    rig = _two_mass_record(noise=noise)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         result = identify(rig, [("sign(v2)", 2)], NSIOptions())
     assert result.virtual_stiffness > 0
-    # the rigid-body double pole is reported as rigid, not as a mode
-    assert len(result.rigid_body_poles) == 2
+    # the rigid-body double pole is reported as rigid, not as a mode (with 0.1 mm noise one of the
+    # two estimates is a real pole at -0.48 rad/s, which the record resolves: a spurious pole)
+    assert len(result.rigid_body_poles) == (2 if noise < 1e-5 else 1)
     (mode,) = result.modes
     assert mode.frequency_hz == pytest.approx(F_TRUE, rel=0.005)
     assert mode.damping_ratio == pytest.approx(ZETA_TRUE, rel=0.1)
-    assert result.coefficient_values[0] == pytest.approx(FC2, rel=0.05)
+    assert result.coefficient_values[0] == pytest.approx(FC2, rel=0.05 if noise < 1e-5 else 0.1)
 
 
 def test_slow_complex_pair_counts_as_rigid():
@@ -81,3 +79,25 @@ def test_slow_complex_pair_counts_as_rigid():
     rigid = rigid_body_poles(np.exp(s * dt), dt, n)
     assert len(rigid) == 2
     assert np.allclose(np.sort_complex(rigid), np.sort_complex(s[:2]))
+
+
+def test_only_the_virtual_mode_is_mirrored():
+    from bayesnsi.nsi._virtual_mode import mirror_undamped, physical_mirrored
+    from bayesnsi.nsi.physics import Mode
+
+    dt = 0.002
+    # one lightly unstable pair (ζ = -0.036 at 0.93 Hz) and a stable one: mirrored, same frequency
+    s = np.array([0.21 + 5.84j, 0.21 - 5.84j, -2.35 + 68.3j, -2.35 - 68.3j])
+    z1, z2 = np.exp(s[0] * dt), np.exp(s[2] * dt)
+    A_real = np.zeros((4, 4))
+    A_real[:2, :2] = [[z1.real, z1.imag], [-z1.imag, z1.real]]  # real block of the pair z, conj(z)
+    A_real[2:, 2:] = [[z2.real, z2.imag], [-z2.imag, z2.real]]
+    stable, mirrored = mirror_undamped(A_real, dt)
+    assert np.max(np.abs(np.linalg.eigvals(stable))) < 1.0
+    assert len(mirrored) == 1 and abs(np.angle(mirrored[0])) / (2 * np.pi * dt) == pytest.approx(5.84 / (2 * np.pi))
+    # a strongly unstable pair (ζ = -0.5) or a real unstable pole is not mirrored
+    assert mirror_undamped(np.diag([np.exp(0.5 * dt)] * 2), dt) is None
+    # the free model still has a mode at the mirrored frequency: a physical mode, reported
+    elastic = Mode(frequency_hz=0.93, damping_ratio=0.01, pole=complex(-0.06, 5.84))
+    assert physical_mirrored(mirrored, [elastic], dt) == [pytest.approx(0.929, rel=1e-3)]
+    assert physical_mirrored(mirrored, [], dt) == []

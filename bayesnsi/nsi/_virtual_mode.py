@@ -17,17 +17,21 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["VIRTUAL_MODE_MAX_NEGATIVE_DAMPING", "mirror_undamped"]
+__all__ = ["VIRTUAL_MODE_MAX_NEGATIVE_DAMPING", "mirror_undamped", "physical_mirrored"]
 
-VIRTUAL_MODE_MAX_NEGATIVE_DAMPING = 0.01
-"""Largest negative damping ratio of a pole mirrored as an undamped mode (|z| ≥ 1, ζ ≥ -0.01)."""
+VIRTUAL_MODE_MAX_NEGATIVE_DAMPING = 0.2
+"""Largest negative damping ratio of an unstable oscillatory pole mirrored as the virtual mode."""
+
+_SAME_MODE = 0.05
+"""Relative frequency difference within which a mirrored pole is a mode of the free model."""
 
 
 def mirror_undamped(A: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray] | None:
-    """``A`` with its lightly unstable eigenvalues (``-0.01 <= ζ <= 0``) mirrored into the unit circle.
+    """``A`` with its unstable oscillatory eigenvalues (``ζ >= -0.2``) mirrored into the unit circle.
 
     Only for a model identified with a virtual spring (:mod:`bayesnsi.nsi.free_body`): an undamped
-    virtual mode is expected there.
+    virtual mode is expected there; :func:`physical_mirrored` checks afterwards that only that
+    mode was mirrored.
 
     Parameters
     ----------
@@ -40,8 +44,8 @@ def mirror_undamped(A: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray] |
     -------
     (ndarray, ndarray) or None
         The real A with every eigenvalue inside the unit circle and the mirrored poles (one of each
-        conjugate pair); None when an unstable eigenvalue is damped more negatively than
-        :data:`VIRTUAL_MODE_MAX_NEGATIVE_DAMPING`, is real, or A is defective.
+        conjugate pair, as identified); None when an unstable eigenvalue is real, is damped more
+        negatively than :data:`VIRTUAL_MODE_MAX_NEGATIVE_DAMPING`, or A is defective.
     """
     lam, vec = np.linalg.eig(A)
     unstable = np.abs(lam) >= 1.0
@@ -50,8 +54,8 @@ def mirror_undamped(A: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray] |
     with np.errstate(divide="ignore", invalid="ignore"):
         s = np.log(lam.astype(complex)) / dt
         zeta = -s.real / np.abs(s)
-    light = (np.abs(lam.imag) > 0) & (zeta >= -VIRTUAL_MODE_MAX_NEGATIVE_DAMPING)
-    if np.any(unstable & ~light):
+    oscillatory = (np.abs(lam.imag) > 0) & (zeta >= -VIRTUAL_MODE_MAX_NEGATIVE_DAMPING)
+    if np.any(unstable & ~oscillatory):
         return None
     mirrored = lam.copy()
     mirrored[unstable] = 1.0 / np.conj(lam[unstable])
@@ -59,3 +63,25 @@ def mirror_undamped(A: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray] |
     if np.max(np.abs(np.linalg.eigvals(stable))) >= 1.0:  # defective A: the mirror did not hold
         return None
     return stable, lam[unstable & (lam.imag >= 0)]
+
+
+def physical_mirrored(mirrored: np.ndarray, modes, dt: float) -> list[float]:
+    """Frequencies [Hz] of mirrored poles that are still modes of the free model (not the virtual mode).
+
+    Parameters
+    ----------
+    mirrored : ndarray of complex
+        Discrete poles :func:`mirror_undamped` mirrored.
+    modes : sequence of Mode
+        Physical modes of the free model (virtual spring removed).
+    dt : float
+        Sampling interval [s].
+
+    Returns
+    -------
+    list of float
+        Empty when every mirrored pole was the virtual spring's mode.
+    """
+    freqs = np.abs(np.angle(np.asarray(mirrored, dtype=complex))) / (2 * np.pi * dt)
+    physical = [m.frequency_hz for m in modes]
+    return [float(f) for f in freqs if any(abs(p - f) <= _SAME_MODE * f for p in physical)]

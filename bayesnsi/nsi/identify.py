@@ -23,7 +23,7 @@ from ._noise import white_noise_std
 from ._output_error import refine_output_error
 from ._output_error import refine_poles as _refine_poles
 from ._stabilise import pole_text, reflect_out_of_band
-from ._virtual_mode import mirror_undamped
+from ._virtual_mode import mirror_undamped, physical_mirrored
 from .feedback import as_candidate, extended_input, resolve_input_hold, working_signals
 from .free_body import auto_stiffness, free_model, rigid_body_poles, stabilise
 from .order import oblique_decomposition, scaled_stack, select_order
@@ -222,6 +222,12 @@ def identify(
         rigid = rigid_body_poles(free.poles_discrete, signals.dt, len(u))
         modes, spurious = split_poles(free.poles, signals.dt)
         modes = [m for m in modes if not np.any(np.isclose(m.pole, rigid))]  # a slow pair of the double s = 0
+        if physical := physical_mirrored(virtual_mode, modes, signals.dt):
+            raise UnstableModelError(
+                f"candidate {cand.name!r}: the identified model has an unstable mode at "
+                f"{', '.join(f'{f:.3g}' for f in physical)} Hz (not the virtual spring's mode of the free body); "
+                "try another order or number of block rows, or reconsider the candidate's terms"
+            )
         spurious = np.array([s for s in spurious if not np.any(np.isclose(s, rigid))], dtype=complex)
     else:
         _, spurious = split_poles(model.poles, signals.dt)

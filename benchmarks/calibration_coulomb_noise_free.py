@@ -6,8 +6,15 @@ loop's final model uses R = 4), and the mean and seed-to-seed sd of both coeffic
 printed per R (``--rows``: other block rows, per data-rate sample). Noise-free, every error is
 one the noise replicates of :func:`bayesnsi.evidence.candidate_intervals` do not reproduce.
 
+``--draws K`` asks what the replicates do see: per seed, with the loop's final settings (R = 4,
+240 block rows), the true model is identified on the seed's clean response plus K fresh draws of
+white noise at the seed's own noise level per channel (the force record held fixed), and the mean
+and sd of those K estimates (the estimator's distribution given the force record) are printed
+beside the estimate on the seed's data, the 16 noise replicates' sd and their mean shift (the
+bias estimate of :mod:`bayesnsi.evidence.perturbation`).
+
 Run: ``OMP_NUM_THREADS=1 .venv/bin/python benchmarks/calibration_coulomb_noise_free.py [--seeds 12]
-[--factors 4 --rows 40 60 100] [--noise 2]``
+[--factors 4 --rows 40 60 100] [--noise 2] [--draws 16 --seeds 4]``
 """
 
 from __future__ import annotations
@@ -34,7 +41,11 @@ def main() -> None:
     parser.add_argument("--factors", type=int, nargs="+", default=[1, 2, 4, 8], help="upsampling factors R")
     parser.add_argument("--noise", type=float, default=0.0, help="sensor noise [%%] (the case's default: 2)")
     parser.add_argument("--rows", type=int, nargs="+", default=[60], help="block rows per data-rate sample")
+    parser.add_argument("--draws", type=int, default=0, help="noise draws per seed given its force record")
     args = parser.parse_args()
+    if args.draws:
+        conditional(args.seeds, args.draws)
+        return
     settings = [(factor, rows) for factor in args.factors for rows in args.rows]
     values = np.zeros((len(settings), args.seeds, len(TERMS)))
     with warnings.catch_warnings():
@@ -49,6 +60,40 @@ def main() -> None:
     for k, (factor, rows) in enumerate(settings):
         mean, sd = values[k].mean(axis=0), values[k].std(axis=0, ddof=1)
         print(f"  {factor:<3d} {rows * factor:10d} {mean[0]:11.3f} {sd[0]:9.3f}   {mean[1]:13.4f} {sd[1]:11.4f}")
+
+
+def _noisy(clean, x_std, v_std, rng):
+    """The clean record with fresh white noise of the given std per channel."""
+    from dataclasses import replace
+
+    return replace(clean, displacement=clean.displacement + rng.standard_normal(clean.displacement.shape) * x_std,
+                   velocity=clean.velocity + rng.standard_normal(clean.velocity.shape) * v_std)
+
+
+def conditional(seeds: int, draws: int) -> None:
+    """Per seed: the estimator's mean and sd over fresh noise draws beside the noise replicates'."""
+    from bayesnsi.evidence.perturbation import noise_replicates
+
+    nsi = NSIOptions(block_rows=240, order=4, upsample=4)
+    rng = np.random.default_rng(np.random.SeedSequence([15, draws]))
+    print(f"coulomb-dof2, 2 % noise, {draws} noise draws per seed on its clean response (truth: 20, 1)")
+    print("  seed  term          draws mean  draws sd   data estimate   replicates sd  replicates shift")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for seed in range(seeds):
+            reference = undeclared_case("coulomb-dof2", seed=seed).reference
+            data, clean = reference.signals, reference.clean
+            x_std = np.std(data.displacement - clean.displacement, axis=0)
+            v_std = np.std(data.velocity - clean.velocity, axis=0)
+            values = np.array([identify(_noisy(clean, x_std, v_std, rng), TERMS, nsi).coefficient_values
+                               for _ in range(draws)])
+            full = identify(data, TERMS, nsi)
+            _, replicates, *_ = noise_replicates(full, data, nsi, 16, seed)
+            shift = replicates.mean(axis=0) - full.coefficient_values
+            for k, (expr, _) in enumerate(TERMS):
+                print(f"  {seed:<5d} {expr:12s} {values[:, k].mean():11.4f} {values[:, k].std(ddof=1):9.4f}"
+                      f" {full.coefficient_values[k]:15.4f} {replicates[:, k].std(ddof=1):14.4f}"
+                      f" {shift[k]:17.4f}")
 
 
 if __name__ == "__main__":

@@ -24,6 +24,7 @@ __all__ = [
     "CacheWarning",
     "IntervalWarning",
     "AdequacyWarning",
+    "PeriodicityWarning",
 ]
 
 
@@ -97,3 +98,7 @@ class IntervalWarning(BayesNSIWarning):
 
 class AdequacyWarning(BayesNSIWarning):
     """The selected model fails a check of adequacy (quality index, validation, residual vs noise, orders)."""
+
+
+class PeriodicityWarning(BayesNSIWarning):
+    """A window of a periodic record holds a period unlike the others (transient, another realisation)."""

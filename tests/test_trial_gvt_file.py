@@ -81,3 +81,60 @@ def test_period_noise_draws_keep_the_scatter_spectrum_and_channel_link():
     cov_draw = flat.T @ flat / len(flat)
     scale = np.sqrt(np.outer(np.diag(cov_data), np.diag(cov_data)))
     assert np.all(np.abs(cov_draw - cov_data) < 0.1 * scale)
+
+
+# --- periods that do not repeat: a transient or another realisation inside the window -------------
+
+def _concatenated_realisations(n_periods: int = 8, noise: float = 0.5):
+    """Two realisations (new phases, same lines) from rest, concatenated as in one GVT file."""
+    rng = np.random.default_rng(7)
+    forces = [multisine(P, FS, BAND, 5.0, rng, n_periods=n_periods) for _ in range(2)]
+    response = simulate_response(*MCK, [2], np.stack([f.fine for f in forces]), FS * 8, 8, CUBIC, [1e5])
+    x = response.displacement
+    x = x + noise / 100 * x.std(axis=(0, 1)) * rng.standard_normal(x.shape)
+    return np.concatenate(list(response.force)), np.concatenate(list(x))
+
+
+def test_period_problems_name_the_transient_and_the_next_realisation():
+    from bayesnsi.nsi.steady import period_problems
+
+    force, x = _concatenated_realisations()
+    steady = slice(3 * P, 8 * P)  # periods 4-8 of realisation 1 (slowest mode e^{-0.28 t}): nothing to say
+    assert period_problems(force[steady], x[steady], P) == []
+    transient = period_problems(force[: 8 * P], x[: 8 * P], P, offset=100)
+    assert "period 1 of 8 (samples [100, 1100))" in transient[0] and "transient" in transient[0]
+    assert all("period 1 " in t or "period 2 " in t for t in transient)  # 6 % of it left after 10 s
+    crossing = period_problems(force[4 * P : 9 * P], x[4 * P : 9 * P], P)  # runs into realisation 2
+    assert len(crossing) == 1 and "force does not repeat every 1000 samples" in crossing[0]
+    wrong_period = period_problems(force[steady], x[steady], 700)
+    assert len(wrong_period) == 1 and "force does not repeat" in wrong_period[0]
+    assert period_problems(force[P : 3 * P], x[P : 3 * P], P) == []  # two periods: cannot tell
+    assert period_problems(force, x, None) == []
+
+
+def test_loading_a_window_with_a_transient_warns_in_one_plain_line(tmp_path, capsys):
+    import warnings
+
+    from bayesnsi.cli import main
+    from bayesnsi.exceptions import PeriodicityWarning
+    from bayesnsi.io import load_config, load_signals
+
+    force, x = _concatenated_realisations()
+    np.savetxt(tmp_path / "gvt.csv", np.column_stack([force[:, 0], x]), delimiter=",", header="Force,x1,x2",
+               comments="")
+    (tmp_path / "gvt.toml").write_text(
+        f'[data]\nfile = "gvt.csv"\nfs = {FS}\nperiod = {P}\nestimation = [0, {8 * P}]\n'
+        'inputs = { Force = 2 }\noutputs = { x1 = 1, x2 = 2 }\n'
+        '[nsi]\ndomain = "frequency"\norder = 4\n[[candidates]]\nname = "linear"\nterms = []\n'
+    )
+    config = load_config(tmp_path / "gvt.toml")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        load_signals(config)
+    assert caught and {w.category for w in caught} == {PeriodicityWarning}
+    assert "samples [0, 8000): period 1 of 8" in str(caught[0].message)
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", PeriodicityWarning)  # as for a user (the suite turns warnings into errors)
+        assert main(["identify", str(tmp_path / "gvt.toml"), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert "warning: " in err and "period 1 of 8" in err and "PeriodicityWarning" not in err

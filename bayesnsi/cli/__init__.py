@@ -20,6 +20,7 @@ import traceback
 
 from .._version import __version__
 from ..exceptions import BayesNSIError
+from ._warnings import plain_warnings
 
 __all__ = ["EXIT_CODES", "main", "build_parser"]
 
@@ -79,7 +80,7 @@ def main(argv=None) -> int:
         sys.modules["matplotlib"].use("Agg")
     else:  # not imported here: a command without figures (--no-figures) never imports it
         os.environ["MPLBACKEND"] = "Agg"
-    with _sigterm_raises(), contextlib.ExitStack() as args.resources:
+    with _sigterm_raises(), plain_warnings(), contextlib.ExitStack() as args.resources:
         try:
             return int(args.run(args) or 0)
         except KeyboardInterrupt as stop:

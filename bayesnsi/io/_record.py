@@ -3,14 +3,16 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
 from .. import preprocess
-from ..exceptions import ConfigError, InputDataError
+from ..exceptions import ConfigError, InputDataError, PeriodicityWarning
 from ..nsi.periodic import periodic_integration
+from ..nsi.steady import period_problems
 from ..signals import Signals
 from ._columns import MeasurementColumns, file_format
 from ._csv import read_csv_any
@@ -95,12 +97,15 @@ class Record:
         if means is not None:
             force, displacement = force - means[0], displacement - means[1]
             velocity = None if velocity is None or means[2] is None else velocity - means[2]
+        period = _period(self.data, len(force))
+        for problem in period_problems(force, displacement, period, start, self.data.decimate):  # else: "noise"
+            warnings.warn(f"{self.path}: samples [{start}, {stop}): {problem}", PeriodicityWarning, stacklevel=2)
         return Signals(
             force=force, displacement=displacement, velocity=velocity,
             fs=self.fs / self.data.decimate,
             input_dofs=tuple(self.data.inputs.values()), output_dofs=tuple(self.data.outputs.values()),
             input_names=tuple(self.data.inputs), output_names=tuple(self.data.outputs),
-            period=_period(self.data, len(force)),
+            period=period,
             measured="acceleration" if self.integrate is not None else "displacement",
         )
 

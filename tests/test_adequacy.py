@@ -73,8 +73,9 @@ def test_no_candidate_fits_is_reported_inadequate(two_dof):
     """Linear and Coulomb-only candidates for quadratic damping: neither reaches the noise level."""
     case, _ = two_dof
     candidates = [CandidateModel.from_terms("linear", []), case.candidates[1]]
-    with pytest.warns(AdequacyWarning, match="no candidate is adequate"):
+    with pytest.warns(AdequacyWarning) as raised:  # also: Coulomb's sign(v1) < 0 feeds energy in
         selection = select(case.signals, candidates, case.recommended, FAST)
+    assert any("no candidate is adequate" in str(w.message) for w in raised)
     assert not any(c.adequate for c in selection.checks.values())
     assert any("no candidate is adequate" in w for w in selection.warnings)
 

@@ -59,3 +59,97 @@ def test_distortion_level_names_the_kind_of_unexcited_lines_it_measured():
 
     text = distortion_text({"odd": np.array([np.nan]), "even": np.array([1.04])}, 4, 1, 100)
     assert "nan" not in text.lower() and "1.04 times its noise level at the unexcited even lines" in text
+
+
+def _fake_outcome(name: str, terms_values, residual_ratio: float):
+    """A candidate outcome with the fields model_checks reads: no identification needed."""
+    from types import SimpleNamespace
+
+    from bayesnsi.models import Term
+
+    coefficients = [SimpleNamespace(term=Term(expr, 1), value=value, imag_ratio=0.05) for expr, value in terms_values]
+    residual = np.full((400, 1), 0.02 * residual_ratio) * np.where(np.arange(400) % 2, 1.0, -1.0)[:, None]
+    result = SimpleNamespace(order=2, coefficients=coefficients, virtual_stiffness=None, physical_parameters=(),
+                             reconstruct=lambda signals: SimpleNamespace(residual=residual))
+    return SimpleNamespace(name=name, result=result, intervals=None)
+
+
+def _periodic_noise_record(noise: float = 0.02) -> Signals:
+    """Four identical periods plus white noise of std ``noise``: the period-to-period noise is ``noise``."""
+    rng = np.random.default_rng(3)
+    x = np.tile(np.sin(np.linspace(0.0, 2 * np.pi, 100, endpoint=False)), 4)[:, None]
+    return Signals(force=x.copy(), displacement=x + noise * rng.standard_normal((400, 1)), fs=100.0,
+                   input_dofs=(1,), output_dofs=(1,), period=100)
+
+
+def test_selected_model_feeding_energy_in_is_warned():
+    # The trial's selected 'cubic + Coulomb' held sign(v1)@1 = -5.83 N (time route) and the frequency
+    # route's Coulomb -14.4 N: a friction with a negative coefficient does positive work on every
+    # motion, which the loop refuses ("negative dissipation") but select reported silently.
+    from bayesnsi.run.adequacy import adequacy_warnings, model_checks
+
+    outcomes = [
+        _fake_outcome("cubic + Coulomb", [("x1**3", 7.6e9), ("sign(v1)", -5.83)], 6.5),
+        _fake_outcome("quadratic damping", [("v1*abs(v1)", 266.0)], 8.2),
+        _fake_outcome("stiffening only", [("x1*abs(x1)", -3.0e6)], 7.0),  # not a velocity term: no warning
+    ]
+    checks = model_checks(outcomes, _periodic_noise_record())
+    assert checks["cubic + Coulomb"].energy_input == (("sign(v1)@1", -5.83),)
+    assert checks["quadratic damping"].energy_input == () and checks["stiffening only"].energy_input == ()
+    assert checks["cubic + Coulomb"].to_dict()["negative_dissipation"] == [{"term": "sign(v1)@1", "coefficient": -5.83}]
+    warned = adequacy_warnings(checks, "cubic + Coulomb")
+    assert any("sign(v1)@1 = -5.83" in w and "negative dissipation" in w for w in warned)
+    assert not any("negative dissipation" in w for w in adequacy_warnings(checks, "quadratic damping"))
+
+
+def test_intervals_of_an_inadequate_selected_model_are_said_to_carry_the_noise_only():
+    # The trial's time and frequency routes gave x1**3 = 7.37e9 [7.35e9, 7.47e9] and 4.43e9 [4.02e9, 4.80e9]
+    # on the same record: intervals that hold the sensor noise only cannot hold a model-form error of 40 %.
+    from bayesnsi.run.adequacy import adequacy_warnings, model_checks
+
+    record = _periodic_noise_record()
+    none_fit = model_checks([_fake_outcome("a", [("x1**3", 1.0)], 6.0), _fake_outcome("b", [], 8.0)], record)
+    nothing = [w for w in adequacy_warnings(none_fit, "a") if "no candidate is adequate" in w]
+    assert len(nothing) == 1 and "intervals carry the sensor noise only" in nothing[0]
+    one_fits = model_checks([_fake_outcome("a", [("x1**3", 1.0)], 6.0), _fake_outcome("b", [], 1.0)], record)
+    assert one_fits["b"].adequate and not one_fits["a"].adequate
+    said = adequacy_warnings(one_fits, "a")
+    assert any("'a' is not adequate" in w and "sensor noise only" in w for w in said), said
+    assert adequacy_warnings(one_fits, "b") == ()
+
+
+def test_diagnose_answer_says_why_nothing_was_added_and_that_the_model_left_is_inadequate():
+    # Trial, time route from 'linear': six effects rejected, all by the quality index (|Im|/|Re| 0.94-23.2),
+    # and the answer said only "nothing added", while the linear model's residual was 8.50x the noise.
+    from types import SimpleNamespace
+
+    from bayesnsi.cli._loop_report import nothing_added_note
+
+    steps = [SimpleNamespace(reason=f"quality index |Im|/|Re| = {r:.2f} >= 0.3", imag_ratio=r) for r in (0.99, 23.24)]
+    payload = {"candidates": [{"name": "linear", "model_check": {"adequate": False, "noise_ratio": 8.4994}},
+                              {"name": "cubic", "model_check": {"adequate": False, "noise_ratio": 7.2}}]}
+    note = nothing_added_note(steps, payload, "linear")
+    assert "failed the quality index (|Im|/|Re| 0.99-23)" in note and "memory (hysteresis" in note
+    assert "linear, is not adequate: its residual is 8.50x the sensor noise" in note
+    mixed = steps + [SimpleNamespace(reason="log Bayes factor 1.2 < 5", imag_ratio=0.02)]
+    adequate = {"candidates": [{"name": "linear", "model_check": {"adequate": True, "noise_ratio": 1.05}}]}
+    assert nothing_added_note(mixed, adequate, "linear") == ""  # a control with nothing missing: nothing to say
+
+
+def test_headerless_single_column_file_says_how_to_join_input_and_output(tmp_path):
+    # The benchmark ships uval_multisine.csv / yval_multisine.csv: one headerless column each. Before, the
+    # message said only "found only numbers; add a header line", not how to give one file input and output.
+    from bayesnsi.exceptions import InputDataError
+    from bayesnsi.io import read_csv_columns
+
+    path = tmp_path / "uval_multisine.csv"
+    path.write_text("-3.1685884343e+00\n5.1152134151e+00\n4.3372220951e+00\n")
+    try:
+        read_csv_columns(path, ["u"])
+    except InputDataError as err:
+        message = str(err)
+    else:
+        raise AssertionError("a headerless file was read")
+    assert "only numbers (1 column(s), no header)" in message
+    assert "separate headerless files" in message and "paste -d, u.csv y.csv" in message
+    assert "\n" not in message and "3.1685884343" not in message  # one line, never quotes the file

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ._report import ANSWER, LOOP
 
-__all__ = ["loop_sections", "step_number"]
+__all__ = ["loop_sections", "nothing_added_note", "step_number"]
 
 
 def step_number(step, start) -> int:
@@ -24,6 +24,49 @@ def step_number(step, start) -> int:
     int
     """
     return max(1, len(step.candidate.terms) - len(start.terms))
+
+
+def nothing_added_note(steps, payload, start_name: str) -> str:
+    """What the answer adds when the loop added nothing: is the model left adequate, and why nothing fitted.
+
+    When every effect examined was rejected by the quality index, the force each would explain
+    changes with frequency (docs/method.md §4), which no static term n(x, v) of the dictionary
+    gives: the note names the likely causes (a nonlinearity with memory such as hysteresis, or
+    linear dynamics the model lacks). When the starting model's adequacy check (``model_check``
+    of its candidate record) says its residual is above the noise, the note says so, so that
+    "nothing added" is not read as "nothing missing".
+
+    Parameters
+    ----------
+    steps : sequence of LoopStep
+        The loop's examined effects (none accepted).
+    payload : dict
+        The results.json payload (``candidates`` with their ``model_check``).
+    start_name : str
+        The starting candidate.
+
+    Returns
+    -------
+    str
+        Sentences to append (with a leading space), or "" when there is nothing to add.
+    """
+    parts = []
+    ratios = [s.imag_ratio for s in steps]
+    if steps and all(s.reason.startswith("quality index") for s in steps):
+        parts.append(
+            f"Every effect examined failed the quality index (|Im|/|Re| {min(ratios):.2g}-{max(ratios):.2g}): the "
+            "force each would explain changes with frequency, which no static term n(x, v) gives - a nonlinearity "
+            "with memory (hysteresis, e.g. Bouc-Wen; a dynamic joint) or linear dynamics the model lacks (a higher "
+            "[nsi] order) is more likely than a missing dictionary term."
+        )
+    record = next((c for c in payload.get("candidates", ()) if c.get("name") == start_name), {})
+    check = record.get("model_check") or {}
+    if check and not check.get("adequate", True):
+        parts.append(
+            f"The model left, {start_name}, is not adequate: its residual is {check['noise_ratio']:.2f}x the sensor "
+            "noise (adequacy check in the evidence section)."
+        )
+    return "".join(" " + p for p in parts)
 
 
 def _where(effect) -> str:
@@ -70,7 +113,7 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
         )
         answer.append((
             "lead", f"Closing the loop from {start_name}: nothing added - no effect of the dictionary passed the "
-            f"checks ({why}).",
+            f"checks ({why}).{nothing_added_note(loop.steps, payload, start_name)}",
         ))
     section = report.section("Closing the loop (docs/method.md §7)", LOOP)
     section.append(

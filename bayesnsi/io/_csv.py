@@ -161,11 +161,13 @@ def _read_head(path: Path) -> tuple[list[str], list[str]]:
     first_row = rows[1] if len(rows) > 1 else None
     while header and header[-1] == "":
         header.pop()
-    if not header or all(_is_number(h) for h in header if h):
+    if not header:
         raise InputDataError(
-            f"{path}, line 1: the first line must be a header naming the columns, found "
-            f"{'an empty line' if not header else 'only numbers'}; add a header line"
+            f"{path}, line 1: the first line must be a header naming the columns, found an empty line; "
+            "add a header line"
         )
+    if all(_is_number(h) for h in header if h):
+        raise InputDataError(_headerless(path, len(header)))
     named = [h for h in header if h]
     duplicated = sorted(name for name, count in _counts(named).items() if count > 1)
     if duplicated:
@@ -175,6 +177,21 @@ def _read_head(path: Path) -> tuple[list[str], list[str]]:
     if first_row is None:
         raise InputDataError(f"{path}: the file has a header but no data rows")
     return header, first_row
+
+
+def _headerless(path: Path, n_columns: int) -> InputDataError:
+    """The error for a file whose first line holds only numbers: how to give it the header it needs.
+
+    Benchmark data are often shipped as one headerless single-column file per channel (input and
+    output apart); the message says how to join them into the one file with a header that
+    ``[data] file`` reads.
+    """
+    return InputDataError(
+        f"{path}, line 1: the first line must be a header naming the columns, found only numbers "
+        f"({n_columns} column(s), no header); add a header line with the names [data] inputs and outputs use "
+        "(e.g. u,y). Input and output in separate headerless files (as benchmark data are shipped) go into one "
+        "file first, e.g. (echo u,y; paste -d, u.csv y.csv) > data.csv"
+    )
 
 
 def _counts(names: list[str]) -> dict[str, int]:

@@ -70,6 +70,11 @@ class ModelCheck:
     unsupported : tuple of (str, float, float)
         Coefficients whose 95 % interval (:attr:`CandidateOutcome.intervals`, the honest segments
         interval when select computed it) includes zero: name, lower and upper bound.
+    energy_input : tuple of (str, float)
+        Terms that feed energy in: a pure velocity term odd and dissipative in shape (v|v|, v³,
+        sign(v), tanh(v/ε)) with a negative coefficient, whose force does positive work on every
+        motion (:func:`bayesnsi.diagnose.guards.injects_energy`, the loop's "negative dissipation"
+        guard): name and coefficient.
     """
 
     name: str
@@ -84,6 +89,7 @@ class ModelCheck:
     validation_log_predictive: float | None = None
     quantity: str = "displacement"
     unsupported: tuple[tuple[str, float, float], ...] = ()
+    energy_input: tuple[tuple[str, float], ...] = ()
 
     def to_dict(self) -> dict:
         """JSON-ready record.
@@ -98,6 +104,7 @@ class ModelCheck:
             "noise_ratio": self.noise_ratio, "adequate": self.adequate, "quality_index": self.quality_index,
             "quality_ok": self.quality_ok, "validation_nrmse": self.validation_nrmse,
             "validation_log_predictive": self.validation_log_predictive, "quantity": self.quantity,
+            "negative_dissipation": [{"term": name, "coefficient": value} for name, value in self.energy_input],
         }
 
 
@@ -171,6 +178,7 @@ def model_checks(
             quality_ok=quality is None or quality <= max_imag_ratio, validation_nrmse=nrmse,
             validation_log_predictive=_log_predictive(segments, np.where(rms > 0, rms, level)) if segments else None,
             quantity=quantity, unsupported=_unsupported(getattr(outcome, "intervals", None)),
+            energy_input=_energy_input(result),
         )
     return checks
 
@@ -208,6 +216,13 @@ def _unsupported(intervals) -> tuple[tuple[str, float, float], ...]:
     return tuple((p.name, float(p.ci95[0]), float(p.ci95[1])) for p in coefficients if p.ci95[0] <= 0.0 <= p.ci95[1])
 
 
+def _energy_input(result) -> tuple[tuple[str, float], ...]:
+    """The terms of ``result`` whose identified coefficient feeds energy in (negative dissipation)."""
+    from ..diagnose.guards import injects_energy
+
+    return tuple((c.term.name, float(c.value)) for c in result.coefficients if injects_energy(c.term, c.value))
+
+
 def adequacy_warnings(
     checks: Mapping[str, ModelCheck], selected: str | None, *, max_noise_ratio: float = 1.3,
     max_imag_ratio: float = 0.3,
@@ -226,11 +241,14 @@ def adequacy_warnings(
     Returns
     -------
     tuple of str
-        One message per failed check: the selected model fails the quality index; it validates
-        more than :data:`VALIDATION_TOLERANCE` worse than another candidate (a free body's force
-        prediction: worse at all); it holds a term whose 95 % interval includes zero; no
-        candidate's residual is near the noise level; the candidates have linear parts of different
-        orders.
+        One message per failed check: the selected model fails the quality index; it holds a
+        dissipative-shaped velocity term with a negative coefficient (negative dissipation); it
+        validates more than :data:`VALIDATION_TOLERANCE` worse than another candidate (a free
+        body's force prediction: worse at all); it holds a term whose 95 % interval includes zero;
+        its residual is not near the noise level while another candidate's is; no candidate's
+        residual is near the noise level; the candidates have linear parts of different orders.
+        When the selected model's residual is not near the noise, the message says that its
+        intervals carry the sensor noise only, not its model error.
     """
     out = []
     chosen = checks.get(selected) if selected is not None else None
@@ -238,6 +256,12 @@ def adequacy_warnings(
         out.append(
             f"the selected model {selected!r} fails the quality index: |Im|/|Re| = {chosen.quality_index:.3g} > "
             f"{max_imag_ratio:g} (its coefficients are not constant over the band)"
+        )
+    for name, value in chosen.energy_input if chosen is not None else ():
+        out.append(
+            f"the selected model {selected!r} holds {name} = {value:.4g}: a friction or damping term with a negative "
+            "coefficient feeds energy in on every motion (negative dissipation, docs/method.md §7); it compensates "
+            "something the candidates lack (e.g. too much linear damping), it is not a physical friction or damping"
         )
     for name, low, high in chosen.unsupported if chosen is not None else ():
         out.append(f"term {name} is not supported by the data: its 95 % interval [{low:.4g}, {high:.4g}] includes 0")
@@ -260,6 +284,14 @@ def adequacy_warnings(
         out.append(
             f"no candidate is adequate: every residual is more than {max_noise_ratio:g}x the sensor noise "
             f"(best {best!r}: {checks[best].noise_ratio:.2f}x{what}); the probabilities only rank wrong models"
+            + (", and the selected model's intervals carry the sensor noise only, not its model error"
+               if chosen is not None else "")
+        )
+    elif chosen is not None and not chosen.adequate:
+        out.append(
+            f"the selected model {selected!r} is not adequate: its residual is {chosen.noise_ratio:.2f}x the sensor "
+            f"noise (more than {max_noise_ratio:g}x) while another candidate's is within it; its intervals carry "
+            "the sensor noise only, not this model error"
         )
     orders = sorted({c.order for c in checks.values()})
     if len(orders) > 1:

@@ -153,3 +153,26 @@ def test_headerless_single_column_file_says_how_to_join_input_and_output(tmp_pat
     assert "only numbers (1 column(s), no header)" in message
     assert "separate headerless files" in message and "paste -d, u.csv y.csv" in message
     assert "\n" not in message and "3.1685884343" not in message  # one line, never quotes the file
+
+
+def test_diagnose_prints_what_it_added_and_the_validation_error_before_and_after():
+    # Before, `bayesnsi diagnose` printed each rejection and the files it wrote, never the outcome.
+    from types import SimpleNamespace
+
+    from bayesnsi.cli._loop_report import loop_summary
+    from bayesnsi.models import Term
+
+    payload = {
+        "validation_before": [{"name": "second realisation", "nrmse": 0.25712}],
+        "validation": [{"name": "second realisation", "nrmse": 0.18685}],
+        "candidates": [{"name": "linear", "model_check": {"adequate": False, "noise_ratio": 8.5}}],
+    }
+    added = SimpleNamespace(steps=[SimpleNamespace(accepted=True, term=Term("x1**3", 1), reason="", imag_ratio=0.1)])
+    line = loop_summary(added, payload, "linear")
+    assert line == ("loop from 'linear': added x1**3@1; closed-loop validation NRMSE 0.257 -> 0.187 "
+                    "(second realisation).")
+    rejected = SimpleNamespace(steps=[SimpleNamespace(accepted=False, term=Term("x1**3", 1), imag_ratio=0.99,
+                                                      reason="quality index |Im|/|Re| = 0.99 >= 0.3")])
+    line = loop_summary(rejected, dict(payload, validation=payload["validation_before"]), "linear")
+    assert line.startswith("loop from 'linear': nothing added; closed-loop validation NRMSE 0.257 -> 0.257")
+    assert "memory (hysteresis" in line and "8.50x the sensor noise" in line

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ._report import ANSWER, LOOP
 
-__all__ = ["loop_sections", "nothing_added_note", "step_number"]
+__all__ = ["loop_sections", "loop_summary", "nothing_added_note", "step_number"]
 
 
 def step_number(step, start) -> int:
@@ -67,6 +67,35 @@ def nothing_added_note(steps, payload, start_name: str) -> str:
             "noise (adequacy check in the evidence section)."
         )
     return "".join(" " + p for p in parts)
+
+
+def loop_summary(loop, payload, start_name: str) -> str:
+    """The line ``bayesnsi diagnose`` prints at the end: what was added and the validation error before/after.
+
+    Parameters
+    ----------
+    loop : LoopResult
+    payload : dict
+        The results.json payload (``validation_before``, ``validation``, ``candidates``).
+    start_name : str
+        The starting candidate.
+
+    Returns
+    -------
+    str
+        E.g. ``"loop from 'linear': added x1**3@1; closed-loop validation NRMSE 0.257 -> 0.187 (second
+        realisation)"``, or ``"loop from 'linear': nothing added."`` followed by :func:`nothing_added_note`.
+    """
+    added = [s.term.name for s in loop.steps if s.accepted]
+    head = f"loop from {start_name!r}: " + (f"added {', '.join(added)}" if added else "nothing added")
+    errors = [
+        f"{b['nrmse']:.3g} -> {a['nrmse']:.3g} ({b['name']})"
+        for b, a in zip(payload.get("validation_before", ()), payload.get("validation", ()), strict=False)
+        if b.get("nrmse") is not None and a.get("nrmse") is not None
+    ]
+    if errors:
+        head += "; closed-loop validation NRMSE " + ", ".join(errors)
+    return head + ("." if added else "." + nothing_added_note(loop.steps, payload, start_name))
 
 
 def _where(effect) -> str:

@@ -38,7 +38,7 @@ def run(args) -> int:
     from ..io.posterior import write_posteriors
     from ..options import ExecutionOptions
     from ..validation import validate
-    from ._loop_report import loop_sections
+    from ._loop_report import loop_sections, loop_summary
     from ._report import held_figures, identification_report, report_units, selection_sections
 
     config, out, signals = start_run(args)
@@ -114,6 +114,7 @@ def run(args) -> int:
         payload["final_evidence"] = to_jsonable(final_evidence.to_dict())
     payload["posterior_files"] = write_posteriors(out, posteriors, selection.likelihood)
     payload["loop_scores"] = [loop.search_records(k) for k in range(len(loop.scores))]
+    progress(loop_summary(loop, payload, start), args.quiet)
     if not args.no_figures:
         with held_figures():
             units = report_units(config)

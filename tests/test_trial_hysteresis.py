@@ -176,3 +176,18 @@ def test_diagnose_prints_what_it_added_and_the_validation_error_before_and_after
     line = loop_summary(rejected, dict(payload, validation=payload["validation_before"]), "linear")
     assert line.startswith("loop from 'linear': nothing added; closed-loop validation NRMSE 0.257 -> 0.257")
     assert "memory (hysteresis" in line and "8.50x the sensor noise" in line
+
+
+def test_no_harmonic_balance_of_a_sign_friction_model_names_the_switching_term():
+    # Trial, frequency route: 'Coulomb' (sign(v1), -14.4 N) had no periodic steady state and the
+    # validation error read "the model is unstable in feedback", while 'smoothed friction'
+    # (tanh(v1/0.01), -14.9 N) settled: the discontinuity, not an instability, is the likely cause.
+    import pytest
+
+    from bayesnsi.exceptions import UnstableModelError
+    from bayesnsi.nsi._harmonic import _solve
+
+    with pytest.raises(UnstableModelError, match=r"sign\(v1\)@1 switch with the velocity.*tanh\(v/eps\)"):
+        _solve(lambda X: X + 1.0, np.ones((4, 1), dtype=complex), "Coulomb", ("sign(v1)@1",))
+    with pytest.raises(UnstableModelError, match="residual .* of the response\\): the model is unstable in feedback$"):
+        _solve(lambda X: X + 1.0, np.ones((4, 1), dtype=complex), "cubic")

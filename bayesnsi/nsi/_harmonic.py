@@ -106,14 +106,20 @@ def periodic_closed_loop(result, signals: Signals) -> np.ndarray:
 
     X = linear
     if result.terms:
-        X = _solve(update, linear, result.candidate.name)
+        switching = tuple(t.name for t in result.terms if t.expr.switches_with_velocity)
+        X = _solve(update, linear, result.candidate.name, switching)
     x, _ = time_of(X)
     return np.tile(x, (signals.n_samples // period, 1))
 
 
-def _solve(update, start: np.ndarray, name: str) -> np.ndarray:
+def _solve(update, start: np.ndarray, name: str, switching: tuple[str, ...] = ()) -> np.ndarray:
     """``X = update(X)``: damped fixed point, then Newton-Krylov from its best point when it stalls (a
-    linearised loop gain with real part above one, e.g. a strong hardening, repels every damped step)."""
+    linearised loop gain with real part above one, e.g. a strong hardening, repels every damped step).
+
+    ``switching`` names the model's terms whose force jumps at velocity reversals (``sign(v)``): the
+    message of a failure then names them as the likely cause, which is not an instability (on the trial's
+    hysteretic record ``tanh(v1/0.01)`` with λ = -14.9 N settled where ``sign(v1)`` with -14.4 N did not).
+    """
     X, step = start, 1.0
     mapped = update(X)
     residual = float(np.linalg.norm(mapped - X))
@@ -135,9 +141,15 @@ def _solve(update, start: np.ndarray, name: str) -> np.ndarray:
         X, residual = _newton(update, X, residual)
     if residual <= _ACCEPT * _size(X):
         return X
+    cause = (
+        f"its term(s) {', '.join(switching)} switch with the velocity, and a force that jumps at each reversal has "
+        "no periodic solution on a finite set of lines - on the frequency route use the smooth friction "
+        "tanh(v/eps) instead (docs/method.md §7), or the model is unstable in feedback"
+        if switching else "the model is unstable in feedback"
+    )
     raise UnstableModelError(
         f"closed loop of {name!r}: no periodic steady state on the fitted lines (harmonic balance residual "
-        f"{residual / _size(X):.2g} of the response): the model is unstable in feedback"
+        f"{residual / _size(X):.2g} of the response): {cause}"
     )
 
 

@@ -130,6 +130,8 @@ def test_diagnose_answer_says_why_nothing_was_added_and_that_the_model_left_is_i
                               {"name": "cubic", "model_check": {"adequate": False, "noise_ratio": 7.2}}]}
     note = nothing_added_note(steps, payload, "linear")
     assert "failed the quality index (|Im|/|Re| 0.99-23)" in note and "memory (hysteresis" in note
+    # measured on the trial: --max-imag-ratio 1.0 adds x1**3, validation NRMSE 0.257 -> 0.187
+    assert "raise [diagnose] max_imag_ratio above 0.99 (--max-imag-ratio)" in note
     assert "linear, is not adequate: its residual is 8.50x the sensor noise" in note
     mixed = steps + [SimpleNamespace(reason="log Bayes factor 1.2 < 5", imag_ratio=0.02)]
     adequate = {"candidates": [{"name": "linear", "model_check": {"adequate": True, "noise_ratio": 1.05}}]}

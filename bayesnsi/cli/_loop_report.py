@@ -57,7 +57,8 @@ def nothing_added_note(steps, payload, start_name: str) -> str:
             f"Every effect examined failed the quality index (|Im|/|Re| {min(ratios):.2g}-{max(ratios):.2g}): the "
             "force each would explain changes with frequency, which no static term n(x, v) gives - a nonlinearity "
             "with memory (hysteresis, e.g. Bouc-Wen; a dynamic joint) or linear dynamics the model lacks (a higher "
-            "[nsi] order) is more likely than a missing dictionary term."
+            "[nsi] order) is more likely than a missing dictionary term. To accept the best static approximation "
+            f"anyway, raise [diagnose] max_imag_ratio above {min(ratios):.2g} (--max-imag-ratio)."
         )
     record = next((c for c in payload.get("candidates", ()) if c.get("name") == start_name), {})
     check = record.get("model_check") or {}

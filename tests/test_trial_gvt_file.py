@@ -138,3 +138,40 @@ def test_loading_a_window_with_a_transient_warns_in_one_plain_line(tmp_path, cap
         assert main(["identify", str(tmp_path / "gvt.toml"), "--out", str(tmp_path / "out"), "--quiet"]) == 0
     err = capsys.readouterr().err
     assert "warning: " in err and "period 1 of 8" in err and "PeriodicityWarning" not in err
+
+
+# --- diagnose: "nothing added" while an effect that passes was never examined (n_tries) ---------
+
+def _loop_payload(n_tries: int = 3) -> dict:
+    """The trial's loop from 'linear' (8 N, realisation 1): three effects examined and rejected, the
+    joint's cubic ranked 4th by evidence, passing the quality index, left 'not checked'."""
+    def record(term, bf, ratio, status):
+        return {"term": term, "log_bayes_factor": bf, "imag_ratio": ratio, "status": status}
+    search = [
+        record("(v7-v8)*abs(v7-v8)@7-8", 44768.1, 1.199, "rejected"),
+        record("(x7-x8)*abs(x7-x8)@7-8", 44100.6, 0.287, "rejected"),
+        record("tanh((v7-v8)/0.0613)@7-8", 38972.7, 1.384, "rejected"),
+        record("(x7-x8)**3@7-8", 35964.2, 0.200, "not checked"),
+        record("tanh((v7-v8)/0.0306)@7-8", 30736.4, 1.152, "not checked"),  # fails the quality index
+        record("sign(v7-v8)@7-8", None, None, "screened out"),
+    ]
+    return {"loop_scores": [search], "candidates": [],
+            "settings": {"loop": {"threshold": 4.6, "max_imag_ratio": 0.3, "n_tries": n_tries}}}
+
+
+def test_nothing_added_names_the_unexamined_effect_that_passes():
+    from types import SimpleNamespace
+
+    from bayesnsi.cli._loop_report import loop_summary
+    from bayesnsi.cli._loop_unexamined import unexamined_note
+
+    note = unexamined_note(_loop_payload())
+    assert "(x7-x8)**3@7-8 (log Bayes factor 3.6e+04, |Im|/|Re| 0.2)" in note
+    assert "tanh((v7-v8)/0.0306)" not in note and "sign(v7-v8)" not in note
+    assert "n_tries = 3" in note and "--n-tries 6" in note
+    rejected = SimpleNamespace(accepted=False, reason="quality index |Im|/|Re| = 1.20 >= 0.3", imag_ratio=1.2)
+    line = loop_summary(SimpleNamespace(steps=[rejected]), _loop_payload(), "linear")
+    assert line.startswith("loop from 'linear': nothing added.") and "Not examined: (x7-x8)**3@7-8" in line
+    everything = _loop_payload()
+    everything["loop_scores"][0][3]["status"] = "rejected"  # examined: nothing left unexamined to name
+    assert unexamined_note(everything) == ""

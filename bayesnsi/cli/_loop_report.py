@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ._loop_unexamined import unexamined_note
 from ._report import ANSWER, LOOP
 
 __all__ = ["loop_sections", "loop_summary", "nothing_added_note", "step_number"]
@@ -96,7 +97,8 @@ def loop_summary(loop, payload, start_name: str) -> str:
     ]
     if errors:
         head += "; closed-loop validation NRMSE " + ", ".join(errors)
-    return head + ("." if added else "." + nothing_added_note(loop.steps, payload, start_name))
+    return head + ("." if added else "." + nothing_added_note(loop.steps, payload, start_name)
+                   + unexamined_note(payload))
 
 
 def _where(effect) -> str:
@@ -142,8 +144,8 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
             else "none came through the screen to be examined in detail; results.json loop_scores has every score"
         )
         answer.append((
-            "lead", f"Closing the loop from {start_name}: nothing added - no effect of the dictionary passed the "
-            f"checks ({why}).{nothing_added_note(loop.steps, payload, start_name)}",
+            "lead", f"Closing the loop from {start_name}: nothing added - no effect examined passed the "
+            f"checks ({why}).{nothing_added_note(loop.steps, payload, start_name)}{unexamined_note(payload)}",
         ))
     section = report.section("Closing the loop (docs/method.md §7)", LOOP)
     section.append(

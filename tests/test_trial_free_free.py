@@ -101,3 +101,91 @@ def test_only_the_virtual_mode_is_mirrored():
     elastic = Mode(frequency_hz=0.93, damping_ratio=0.01, pole=complex(-0.06, 5.84))
     assert physical_mirrored(mirrored, [elastic], dt) == [pytest.approx(0.929, rel=1e-3)]
     assert physical_mirrored(mirrored, [], dt) == []
+
+
+def _affine(rng, n, rho, q=1, sigma=0.5):
+    from bayesnsi.nsi import AffineReconstruction
+
+    g = np.cumsum(rng.standard_normal((n, 1, q)), axis=0) / np.sqrt(n)  # slow signatures
+    noise = np.empty((n, 1))
+    noise[0] = sigma * rng.standard_normal(1)
+    for k in range(1, n):
+        noise[k] = rho * noise[k - 1] + sigma * rng.standard_normal(1)
+    if rho == 1.0:  # integrated twice, as a force error is in the position of a drifting free body
+        noise = np.cumsum(noise, axis=0)
+    baseline = rng.standard_normal((n, 1))
+    measured = baseline + g @ np.ones(q) + noise
+    ls = np.linalg.lstsq(g.reshape(-1, q), (measured - baseline).reshape(-1), rcond=None)[0]
+    return AffineReconstruction(measured=measured, baseline=baseline, signatures=g, estimate=ls, names=("k",) * q)
+
+
+def _priors(affine):
+    from bayesnsi.evidence.priors import CoefficientPrior, NoisePrior, Priors
+
+    q = affine.signatures.shape[2]
+    return Priors(coefficients=CoefficientPrior(affine.names, np.full(q, 3.0)),
+                  noise=NoisePrior.from_std(affine.measured.std(axis=0)))
+
+
+def test_loop_evidence_of_a_random_walk_residual_is_finite():
+    """AR(1) mode beyond the prior bound: Laplace over every parameter is NaN, the collapsed one
+    matches the exact evidence (closed form: λ analytically, σ and ρ by quadrature)."""
+    from bayesnsi.evidence import closed_form_log_evidence, laplace_log_evidence, sufficient_statistics
+    from bayesnsi.evidence.boundary import collapsed_laplace_log_evidence
+
+    rng = np.random.default_rng(5)
+    affine = _affine(rng, 4000, rho=1.0)
+    stats, priors = sufficient_statistics(affine, ar_order=1), _priors(affine)
+    assert np.isnan(laplace_log_evidence(stats, priors, "ar1"))
+    exact = closed_form_log_evidence(stats, priors, "ar1")
+    assert collapsed_laplace_log_evidence(stats, priors, "ar1") == pytest.approx(exact, abs=0.1)
+    # where the full Laplace is finite the two agree
+    affine = _affine(rng, 4000, rho=0.5)
+    stats, priors = sufficient_statistics(affine, ar_order=1), _priors(affine)
+    full = laplace_log_evidence(stats, priors, "ar1")
+    assert collapsed_laplace_log_evidence(stats, priors, "ar1") == pytest.approx(full, abs=0.05)
+
+
+def _write_acc_case(folder, acc, force, fs, band):
+    lines = ["f1,a1,a2"] + [f"{f:.9g},{a:.9g},{b:.9g}" for f, (a, b) in zip(force, acc)]
+    (folder / "acc.csv").write_text("\n".join(lines) + "\n")
+    (folder / "acc.toml").write_text(
+        f'[data]\nfile = "acc.csv"\nfs = {fs}\ninputs = {{ f1 = 1 }}\naccelerations = {{ a1 = 1, a2 = 2 }}\n'
+        f"integrate = {{ band_hz = [{band[0]}, {band[1]}] }}\n"
+        '[[candidates]]\nname = "linear"\nterms = []\n'
+    )
+    return folder / "acc.toml"
+
+
+def test_accelerometers_on_a_free_body_warn(tmp_path):
+    """Integrated accelerations lose the rigid-body motion below f_lo: the loader says so."""
+    from bayesnsi.exceptions import IntegrationWarning
+    from bayesnsi.io import load_config, load_signals
+
+    rig = _two_mass_record(duration=20.0)
+    x = np.asarray(rig.displacement)
+    acc = (x[2:] - 2 * x[1:-1] + x[:-2]) * FS**2  # the rig's accelerations (noise-free positions)
+    config = _write_acc_case(tmp_path, acc, np.asarray(rig.force)[1:-1, 0], FS, (2.0, 100.0))
+    with pytest.warns(IntegrationWarning, match=r"below the integration band.*mass line"):
+        load_signals(load_config(config))
+
+
+def test_accelerometers_on_a_grounded_structure_do_not_warn(tmp_path):
+    """A two-DOF chain held by springs (modes 4.4 and 11.5 Hz), broadband force: nothing lost."""
+    from scipy.signal import lsim
+
+    from bayesnsi.io import load_config, load_signals
+
+    rng = np.random.default_rng(3)
+    m, k, c = np.diag([1.0, 1.0]), np.array([[2e3, -1e3], [-1e3, 1e3]]) * 2, np.array([[2.0, -1.0], [-1.0, 1.0]])
+    a_c = np.block([[np.zeros((2, 2)), np.eye(2)], [-np.linalg.solve(m, k), -np.linalg.solve(m, c)]])
+    b_c = np.concatenate([np.zeros((2, 1)), np.linalg.solve(m, [[1.0], [0.0]])])
+    fs, n = 100.0, 6000
+    force = _band_limited(rng, n, fs, 0.0, 40.0, 1.0)
+    t = np.arange(n) / fs
+    _, _, states = lsim((a_c, b_c, np.eye(4), np.zeros((4, 1))), force, t)
+    acc = states @ a_c[2:].T + force[:, None] * b_c[2:, 0]
+    config = _write_acc_case(tmp_path, acc, force, fs, (1.0, 40.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        load_signals(load_config(config))

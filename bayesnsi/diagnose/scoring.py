@@ -18,6 +18,7 @@ import numpy as np
 
 from .._dispatch import dispatch
 from ..evidence import candidate_affine, candidate_priors, laplace_log_evidence, sufficient_statistics
+from ..evidence.boundary import collapsed_laplace_log_evidence
 from ..exceptions import BayesNSIError, BayesNSIWarning
 from ..models import Effect
 from ..models.dictionary import clearance_effect
@@ -45,15 +46,20 @@ def laplace_score(result, signals, evidence: EvidenceOptions) -> tuple[float, fl
     Returns
     -------
     (float, float)
-        The log-evidence (primary likelihood) and the NRMSE, NaN unless the evidence scores the
-        open-loop reconstruction residual (then the affine model at the NSI estimate is that
-        reconstruction, docs/method.md §5); for a free body the NRMSE of the force it predicts
-        from the measured motion at the NSI estimate (:func:`bayesnsi.nsi.force_affine`).
+        The log-evidence (primary likelihood; where the Laplace approximation over every parameter
+        is not finite, e.g. an AR(1) mode beyond the prior bound, the one in the coefficients alone
+        with the noise parameters integrated out, :mod:`bayesnsi.evidence.boundary`) and the NRMSE,
+        NaN unless the evidence scores the open-loop reconstruction residual (then the affine model
+        at the NSI estimate is that reconstruction, docs/method.md §5); for a free body the NRMSE of
+        the force it predicts from the measured motion at the NSI estimate
+        (:func:`bayesnsi.nsi.force_affine`).
     """
     affine = candidate_affine(result, signals, evidence.residual)
     priors = candidate_priors(result, signals, affine, evidence)
     stats = sufficient_statistics(affine, ar_order=parse_likelihood(evidence.likelihood)[0])
     score = laplace_log_evidence(stats, priors, evidence.likelihood)
+    if not np.isfinite(score):  # e.g. an AR(1) mode beyond the prior bound: a drifting residual
+        score = collapsed_laplace_log_evidence(stats, priors, evidence.likelihood)
     if is_free_body(result):  # the error of the model's own force prediction (IDIM view)
         affine = force_affine(result, signals)
     elif evidence.residual != "reconstruction":

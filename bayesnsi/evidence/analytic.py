@@ -78,8 +78,8 @@ def closed_form_log_evidence(stats: SufficientStatistics, priors: Priors, likeli
             raise np.linalg.LinAlgError
     except np.linalg.LinAlgError:
         sd = np.concatenate([np.full(target.l, 1.0 / np.sqrt(2 * target.n_eff)), np.full(dim - target.l, 0.1)])
-    centre = mode[q:]
     lower, upper = _eta_support(target)
+    centre = np.clip(mode[q:], lower, upper)  # a mode beyond the support (AR(1) of a drifting residual): its edge
     width = _QUAD_RULE[dim][0]
     for _ in range(6):
         lo = np.maximum(centre - width * sd, lower)

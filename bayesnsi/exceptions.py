@@ -25,6 +25,7 @@ __all__ = [
     "IntervalWarning",
     "AdequacyWarning",
     "PeriodicityWarning",
+    "IntegrationWarning",
 ]
 
 
@@ -102,3 +103,7 @@ class AdequacyWarning(BayesNSIWarning):
 
 class PeriodicityWarning(BayesNSIWarning):
     """A window of a periodic record holds a period unlike the others (transient, another realisation)."""
+
+
+class IntegrationWarning(BayesNSIWarning):
+    """``[data] integrate`` removes motion the force drives below the band (e.g. a free body's rigid-body motion)."""

@@ -10,13 +10,14 @@ from pathlib import Path
 import numpy as np
 
 from .. import preprocess
-from ..exceptions import ConfigError, InputDataError, PeriodicityWarning
+from ..exceptions import ConfigError, InputDataError, IntegrationWarning, PeriodicityWarning
 from ..nsi.periodic import periodic_integration
 from ..nsi.steady import period_problems
 from ..signals import Signals
 from ._columns import MeasurementColumns, file_format
 from ._csv import read_csv_any
 from ._formats import read_matlike
+from ._lowband import below_band_messages
 from ._specs import DataSpec
 from ._uff import read_uff
 
@@ -124,6 +125,9 @@ class Record:
                     self.response[start:stop], self.fs, self.data.period, spec.band_hz
                 )
             elif spec is not None:
+                for message in below_band_messages(force, self.response[start:stop], self.fs, spec.band_hz,
+                                                   self.response_columns):
+                    warnings.warn(f"{self.path.name}: {message}", IntegrationWarning, stacklevel=2)
                 velocity, displacement = preprocess.integrate_acceleration(
                     self.response[start:stop], self.fs, spec.band_hz, spec.method,
                     detrend_order=spec.detrend_order, taper=spec.taper, filter_order=spec.filter_order,

@@ -193,3 +193,27 @@ def test_no_harmonic_balance_of_a_sign_friction_model_names_the_switching_term()
         _solve(lambda X: X + 1.0, np.ones((4, 1), dtype=complex), "Coulomb", ("sign(v1)@1",))
     with pytest.raises(UnstableModelError, match="residual .* of the response\\): the model is unstable in feedback$"):
         _solve(lambda X: X + 1.0, np.ones((4, 1), dtype=complex), "cubic")
+
+
+def test_report_answer_qualifies_the_probability_when_no_candidate_is_adequate(tmp_path, capsys):
+    # Trial: "Selected: cubic + Coulomb, posterior probability > 0.9999" led the answer while every candidate
+    # left 6-8x the sensor noise; only a warning further down said the probabilities rank wrong models.
+    import json
+
+    from bayesnsi.cli import main
+
+    assert main(["simulate", "two-dof", "--seed", "3", "--out", str(tmp_path / "two_dof.csv"), "--quiet"]) == 0
+    config = tmp_path / "wrong.toml"
+    config.write_text(
+        '[data]\nfile = "two_dof.csv"\nfs = 100.0\ninputs = { f2 = 2 }\noutputs = { x1 = 1, x2 = 2 }\n'
+        '[nsi]\nblock_rows = 60\norder = 4\n'
+        '[evidence]\nn_steps = 200\nn_burn = 50\nlikelihood = "white"\ncompare = []\ninterval = "posterior"\n'
+        '[[candidates]]\nname = "linear"\nterms = []\n'
+        '[[candidates]]\nname = "cubic"\nterms = [{ expr = "x1**3", at = 1 }]\n'
+    )
+    capsys.readouterr()
+    assert main(["select", str(config), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+    results = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert not any(c["model_check"]["adequate"] for c in results["candidates"])  # the truth is v1|v1|
+    html = (tmp_path / "out" / "report.html").read_text()
+    assert "The probability compares these candidates only: none of them explains the data down to the noise" in html

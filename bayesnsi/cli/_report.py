@@ -243,7 +243,11 @@ def selection_sections(report, signals, selection, selected, units=None, role: s
         from ..evidence.decision import decision_table
 
         decision = decision_table(table, opts.likelihood, selected)
-        answer.append(("lead", _answer_text(decision, selected, opts, role)))
+        checks = getattr(selection, "checks", None) or {}
+        none_adequate = bool(checks) and not any(c.adequate for c in checks.values())
+        answer.append(("lead", _answer_text(decision, selected, opts, role) + (
+            " The probability compares these candidates only: none of them explains the data down to the noise "
+            "(warnings below), so it says which is least wrong, not that it is right." if none_adequate else "")))
         answer.append(decision_frame(decision, selected))
         answer.append(
             f"Evidence: marginal likelihood of each candidate, the {residual} modelled as "

@@ -189,3 +189,36 @@ def test_accelerometers_on_a_grounded_structure_do_not_warn(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         load_signals(load_config(config))
+
+
+def _carriage_record(seed: int = 2, duration: float = 30.0, noise: float = 1e-6):
+    """One carriage (M 20 kg, Fv 30 N s/m, Fc 8 N) in a PD position loop, as the EMPS axis."""
+    rng = np.random.default_rng(seed)
+    n, h = int(duration * FS), 1 / (FS * SUB)
+    t = np.arange(n * SUB) * h
+    ref = sum(0.006 * np.sin(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi)) for f in rng.uniform(0.2, 1.5, 5))
+    disturbance = _band_limited(rng, n * SUB, FS * SUB, 0.1, 60.0, 10.0)
+    q = v = tau = 0.0
+    qs, taus = np.empty(n), np.empty(n)
+    for k in range(n * SUB):
+        if k % SUB == 0:
+            tau = 2.0e4 * (ref[k] - q) - 800.0 * v + disturbance[k]
+            qs[k // SUB], taus[k // SUB] = q, tau
+        v += h * (tau - 30.0 * v - 8.0 * np.sign(v)) / 20.0
+        q += h * v
+    qs += rng.normal(0.0, noise, n)
+    return Signals(force=(taus - taus.mean())[:, None], displacement=(qs - qs.mean())[:, None], fs=FS,
+                   input_dofs=(1,), output_dofs=(1,))
+
+
+def test_carriage_with_a_wrong_velocity_term_is_identified_as_a_free_body():
+    """v|v| instead of sign(v): the first estimate has two real stable poles (no mode); it failed
+    with "no physical mode" instead of taking the free-body route (virtual spring)."""
+    carriage = _carriage_record()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        wrong = identify(carriage, [("v1*abs(v1)", 1)], NSIOptions())
+        right = identify(carriage, [("sign(v1)", 1)], NSIOptions())
+    assert wrong.virtual_stiffness > 0 and right.virtual_stiffness > 0
+    (phys,) = right.physical_parameters
+    assert (phys.mass, phys.damping, right.coefficient_values[0]) == pytest.approx((20.0, 30.0, 8.0), rel=0.05)

@@ -181,7 +181,8 @@ def identify(
     A, C_s = _subspace.system_matrices_ac(left, singular_values, order, stack.y.shape[1])
     eigenvalues = np.linalg.eigvals(A)
     radius = np.max(np.abs(eigenvalues))
-    if options.virtual_stiffness == "auto" and _free_body_failure(eigenvalues, signals.dt, len(u)):
+    colocated = bool(set(signals.input_dofs) & set(signals.output_dofs))
+    if options.virtual_stiffness == "auto" and _free_body_failure(eigenvalues, signals.dt, len(u), colocated):
         # a free body: identify again with a known spring on the input (bayesnsi.nsi.free_body)
         fixed = options.replace(virtual_stiffness=auto_stiffness(measured))
         return identify(measured, cand, fixed, correlations=correlations)
@@ -274,16 +275,23 @@ def identify(
     )
 
 
-def _free_body_failure(eigenvalues, dt: float, n_samples: int) -> bool:
+def _free_body_failure(eigenvalues, dt: float, n_samples: int, colocated: bool = False) -> bool:
     """A rigid-body pole where the model would otherwise fail (unstable, or no physical mode).
 
     Models that identify without it (an oscillatory structure with a slow real pole) are left alone.
+    A model with no physical mode whose poles are all real and stable counts too when a DOF is
+    forced and measured (``colocated``): a free body with friction to ground, whose s = 0 pole the
+    estimate moved onto the real axis (a carriage with a v|v| candidate: s = -2.3 and -8.6 rad/s,
+    which failed with "no physical mode").
     """
-    if not len(rigid_body_poles(eigenvalues, dt, n_samples)):
-        return False
+    z = np.asarray(eigenvalues, dtype=complex)
     with np.errstate(divide="ignore", invalid="ignore"):
-        poles = np.log(np.asarray(eigenvalues, dtype=complex)) / dt
-    return bool(np.max(np.abs(eigenvalues)) >= 1.0 or not split_poles(poles, dt)[0])
+        poles = np.log(z) / dt
+    no_mode = not split_poles(poles, dt)[0]
+    if not len(rigid_body_poles(eigenvalues, dt, n_samples)):
+        real_stable = bool(np.all((np.abs(z.imag) <= 1e-9 * np.abs(z)) & (z.real > 0) & (np.abs(z) < 1.0)))
+        return colocated and no_mode and real_stable
+    return bool(np.max(np.abs(eigenvalues)) >= 1.0 or no_mode)
 
 
 def _fixed_stiffness(options: NSIOptions) -> float:

@@ -217,3 +217,20 @@ def test_report_answer_qualifies_the_probability_when_no_candidate_is_adequate(t
     assert not any(c["model_check"]["adequate"] for c in results["candidates"])  # the truth is v1|v1|
     html = (tmp_path / "out" / "report.html").read_text()
     assert "The probability compares these candidates only: none of them explains the data down to the noise" in html
+
+
+def test_a_selected_model_whose_validation_failed_is_not_said_to_be_inf_percent_worse():
+    # Trial, frequency route with residual = "reconstruction": the selected 'cubic + Coulomb' had no periodic
+    # steady state on the validation record and the warning read "closed-loop NRMSE inf against 0.184 (+inf %)".
+    from bayesnsi.run.adequacy import ModelCheck, adequacy_warnings
+
+    def check(name, nrmse):
+        return ModelCheck(name=name, order=2, residual_rms=(6.0,), noise_std=(1.0,), noise_ratio=6.0, adequate=False,
+                          quality_index=0.1, quality_ok=True, validation_nrmse=nrmse)
+
+    said = adequacy_warnings({"cubic + Coulomb": check("cubic + Coulomb", float("inf")),
+                              "cubic": check("cubic", 0.1836)}, "cubic + Coulomb")
+    failed = [w for w in said if "could not be validated" in w]
+    assert len(failed) == 1 and "closed-loop simulation failed" in failed[0]
+    assert "'cubic' validates with closed-loop NRMSE 0.184" in failed[0]
+    assert not any("inf" in w for w in said)

@@ -273,11 +273,20 @@ def adequacy_warnings(
             force = chosen.quantity == "force"
             if chosen.validation_nrmse > (1 + (0.0 if force else VALIDATION_TOLERANCE)) * others[best]:
                 what = "force-prediction NRMSE (free body)" if force else "closed-loop NRMSE"
-                worse = 100 * (chosen.validation_nrmse / others[best] - 1)
-                out.append(
-                    f"the selected model {selected!r} validates worse than {best!r}: {what} "
-                    f"{chosen.validation_nrmse:.3g} against {others[best]:.3g} (+{worse:.2g} %) on the validation data"
-                )
+                if not math.isfinite(chosen.validation_nrmse):  # its simulation failed: no error to compare
+                    out.append(
+                        f"the selected model {selected!r} could not be validated - its "
+                        f"{'force prediction' if force else 'closed-loop simulation'} failed on the validation data "
+                        f"(the error is in results.json validation) - while {best!r} validates with {what} "
+                        f"{others[best]:.3g}"
+                    )
+                else:
+                    worse = 100 * (chosen.validation_nrmse / others[best] - 1)
+                    out.append(
+                        f"the selected model {selected!r} validates worse than {best!r}: {what} "
+                        f"{chosen.validation_nrmse:.3g} against {others[best]:.3g} (+{worse:.2g} %) on the validation "
+                        "data"
+                    )
     if checks and not any(c.adequate for c in checks.values()):
         best = min(checks, key=lambda n: checks[n].noise_ratio)
         what = " (force residual against the force noise)" if checks[best].quantity == "force" else ""

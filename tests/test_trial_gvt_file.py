@@ -175,3 +175,36 @@ def test_nothing_added_names_the_unexamined_effect_that_passes():
     everything = _loop_payload()
     everything["loop_scores"][0][3]["status"] = "rejected"  # examined: nothing left unexamined to name
     assert unexamined_note(everything) == ""
+
+
+# --- a periodic test loaded without its period: say so -----------------------------------------
+
+def test_repeating_period_finds_the_multisine_period_and_nothing_in_a_sweep_or_noise():
+    from bayesnsi.nsi.steady import repeating_period
+
+    rng = np.random.default_rng(5)
+    force = multisine(P, FS, BAND, 5.0, rng, n_periods=4).samples[:, 0]
+    assert repeating_period(force) == P
+    assert repeating_period(force + 0.3 * force.std() * rng.standard_normal(force.shape)) == P  # noisy force
+    assert repeating_period(force[: P + P // 2]) is None  # not two periods
+    t = np.arange(4 * P) / FS
+    sweep = np.sin(2 * np.pi * (1.0 * t + 0.5 * (19.0 / t[-1]) * t**2))  # linear sweep 1 -> 20 Hz
+    assert repeating_period(sweep) is None
+    assert repeating_period(rng.standard_normal(4 * P)) is None
+
+
+def test_a_periodic_record_without_period_gets_a_note_naming_the_period(tmp_path, capsys):
+    from bayesnsi.cli import main
+
+    force, x = _concatenated_realisations()
+    np.savetxt(tmp_path / "gvt.csv", np.column_stack([force[:, 0], x]), delimiter=",", header="Force,x1,x2",
+               comments="")
+    (tmp_path / "gvt.toml").write_text(
+        f'[data]\nfile = "gvt.csv"\nfs = {FS}\nestimation = [{3 * P}, {8 * P}]\n'
+        'inputs = { Force = 2 }\noutputs = { x1 = 1, x2 = 2 }\n'
+        '[nsi]\norder = 4\n[[candidates]]\nname = "linear"\nterms = []\n'
+    )
+    assert main(["identify", str(tmp_path / "gvt.toml"), "--out", str(tmp_path / "out"), "--quiet",
+                 "--no-figures"]) == 0
+    err = capsys.readouterr().err
+    assert f"note: the force repeats every {P} samples" in err and f"[data] period = {P}" in err

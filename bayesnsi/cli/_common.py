@@ -119,6 +119,7 @@ def start_run(args):
     """
     from ..io import load_config, load_signals, prepare_output_dir
     from ..io.results import output_folder
+    from ._warnings import periodic_hint
 
     config = load_config(args.config)
     resources = getattr(args, "resources", None)  # main()'s ExitStack: the folder stays locked until the end
@@ -127,6 +128,9 @@ def start_run(args):
     else:
         out = prepare_output_dir(args.out, force=args.force)
     signals = load_signals(config)
+    hint = periodic_hint(config, signals)
+    if hint:  # shown with --quiet too, as warnings are
+        print(hint, file=sys.stderr)
     progress(f"{len(config.candidates)} candidates, {signals.n_samples} samples at {signals.fs:g} Hz", args.quiet)
     return config, out, signals
 

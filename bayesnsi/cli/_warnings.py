@@ -36,3 +36,36 @@ def plain_warnings():
         yield
     finally:
         warnings.showwarning = previous
+
+
+def periodic_hint(config, signals) -> str | None:
+    """A note when the estimation force repeats but the config gives no ``[data] period``.
+
+    A multisine test read without its period goes to the time route, which does not use the
+    repetition (trial of a GVT file: every nonlinear candidate came out unstable there, and
+    nothing said that the data were periodic).
+
+    Parameters
+    ----------
+    config : ExperimentConfig
+    signals : Signals
+        Its estimation data.
+
+    Returns
+    -------
+    str or None
+        ``"note: the force repeats every N samples ..."`` (N at the file's rate), or None when the
+        config gives a period or the force does not repeat (:func:`bayesnsi.nsi.steady.repeating_period`).
+    """
+    from ..nsi.steady import repeating_period
+
+    if config.data.period is not None:
+        return None
+    lag = repeating_period(signals.force)
+    if lag is None:
+        return None
+    period = lag * config.data.decimate
+    return (
+        f"note: the force repeats every {period} samples of the file: if the test is periodic in steady state, "
+        f'[data] period = {period} and [nsi] domain = "frequency" use the repetition (README, Periodic tests)'
+    )

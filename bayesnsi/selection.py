@@ -21,6 +21,7 @@ from .exceptions import AdequacyWarning, BayesNSIError
 from .options import EvidenceOptions, ExecutionOptions, NSIOptions
 from .run.adequacy import ModelCheck, adequacy_warnings, model_checks
 from .run.batch import CandidateOutcome, run_candidates
+from .run.velocity_noise import velocity_noise_messages
 from .validation import SegmentError, Whiteness, open_loop_error, residual_whiteness, validate
 
 __all__ = ["Selection", "select"]
@@ -208,6 +209,7 @@ def select(
     fits = model_checks(outcomes, signals, checks, **limits)
     selection = Selection(outcomes, table, nsi or NSIOptions(), evidence, checks, adequacy, fits)
     messages = adequacy_warnings(fits, selection.selected, **limits)
+    messages += tuple(velocity_noise_messages(signals, candidates, (nsi or NSIOptions()).velocity_method))
     for message in messages:
         warnings.warn(message, AdequacyWarning, stacklevel=2)
     open_loop = {o.name: e for o in identified if (e := open_loop_error(o.result, signals)) is not None}

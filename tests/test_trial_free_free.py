@@ -222,3 +222,18 @@ def test_carriage_with_a_wrong_velocity_term_is_identified_as_a_free_body():
     assert wrong.virtual_stiffness > 0 and right.virtual_stiffness > 0
     (phys,) = right.physical_parameters
     assert (phys.mass, phys.damping, right.coefficient_values[0]) == pytest.approx((20.0, 30.0, 8.0), rel=0.05)
+
+
+def test_selection_says_when_a_derived_velocity_is_mostly_noise():
+    """0.1 mm position noise at 500 Hz: v2's difference noise is 0.34 of its std (sign(v2) read on noise)."""
+    from bayesnsi.models import CandidateModel
+    from bayesnsi.run.velocity_noise import velocity_noise_messages
+
+    coulomb = CandidateModel.from_terms("Coulomb at 2", [("sign(v2)", 2)])
+    noisy = _two_mass_record(duration=10.0, noise=1e-4)
+    (message,) = velocity_noise_messages(noisy, [coulomb])
+    assert "v2" in message and "sign(v2)" in message and "measure the velocity" in message
+    assert velocity_noise_messages(_two_mass_record(duration=10.0, noise=1e-6), [coulomb]) == []
+    measured = Signals(force=noisy.force, displacement=noisy.displacement, velocity=noisy.velocities(), fs=FS,
+                       input_dofs=(1,), output_dofs=(1, 2))
+    assert velocity_noise_messages(measured, [coulomb]) == []

@@ -153,7 +153,7 @@ def test_headerless_single_column_file_says_how_to_join_input_and_output(tmp_pat
     else:
         raise AssertionError("a headerless file was read")
     assert "only numbers (1 column(s), no header)" in message
-    assert "separate headerless files" in message and "paste -d, u.csv y.csv" in message
+    assert "separate headerless files" in message and '[data] files = { u = "u.csv", y = "y.csv" }' in message
     assert "\n" not in message and "3.1685884343" not in message  # one line, never quotes the file
 
 

@@ -27,6 +27,7 @@ from ._config_fields import (
     get_text,
     get_window,
 )
+from ._config_files import check_files_cover, parse_files
 from ._specs import DataSpec, IntegrationSpec, ValidationSegment
 
 __all__ = [
@@ -54,10 +55,14 @@ def parse_data(table: Any, where: Where, check_files: bool) -> DataSpec:
     if not isinstance(table, dict):
         raise where.error(None, "a table [data]", table)
     check_keys(table, _DATA_KEYS, where)
-    file = _resolve_file(get_text(table, "file", where), where, "file", check_files)
+    files = parse_files(table, where, lambda name, key: _resolve_file(name, where, key, check_files))
+    file = next(iter(files.values())) if files else _resolve_file(
+        get_text(table, "file", where), where, "file", check_files)
     fs = get_number(table, "fs", where, None, positive=True)
     if fs is not None and not MIN_FS <= fs <= MAX_FS:
         raise where.error("fs", f"a sampling frequency in [{MIN_FS:g}, {MAX_FS:g}] Hz", fs)
+    if files and fs is None:
+        raise where.error("fs", "the sampling frequency in Hz", fix="files of single channels carry no time column")
     time_column = check_name(get_text(table, "time_column", where, "t"), where, "time_column")
     inputs = cast(dict[str, int], _dof_map(table, "inputs", where, required=True))
     accelerations = _dof_map(table, "accelerations", where, required=False) or {}
@@ -86,6 +91,8 @@ def parse_data(table: Any, where: Where, check_files: bool) -> DataSpec:
             "give one velocity column per displacement column, or drop velocities to derive them",
         )
     _check_columns_unique(where, time_column if fs is None else None, inputs, outputs, velocities, accelerations)
+    if files:
+        check_files_cover(files, [*inputs, *outputs, *(velocities or {}), *accelerations], where)
     if integrate is not None:
         outputs = {f"x{dof}": dof for dof in accelerations.values()}
     estimation = table.get("estimation")
@@ -101,7 +108,7 @@ def parse_data(table: Any, where: Where, check_files: bool) -> DataSpec:
         file=file, fs=fs, inputs=inputs, outputs=outputs, velocities=velocities,
         accelerations=accelerations, estimation=estimation,
         remove_mean=get_bool(table, "remove_mean", where, False), time_column=time_column, period=period,
-        integrate=integrate, decimate=decimate, scale=scale, units=units,
+        integrate=integrate, decimate=decimate, scale=scale, units=units, files=files,
     )
 
 
@@ -355,14 +362,18 @@ def parse_validation(items: Any, path: Path, data: DataSpec, check_files: bool) 
         if name in names:
             raise where.problem("name", f"validation name {name!r} is used twice; give each segment its own name")
         names.add(name)
+        files = parse_files(item, where, lambda text, key, at=where: _resolve_file(text, at, key, check_files))
+        if files:  # another record, one file per channel: the columns of [data]
+            check_files_cover(files, [*data.inputs, *(data.outputs if data.integrate is None else {}),
+                                      *(data.velocities or {}), *data.accelerations], where)
         file = _resolve_file(get_text(item, "file", where), where, "file", check_files) if "file" in item else None
-        start = get_int(item, "start", where, None if file else MISSING, minimum=0)
-        stop = get_int(item, "stop", where, None if file else MISSING, minimum=1)
+        start = get_int(item, "start", where, None if file or files else MISSING, minimum=0)
+        stop = get_int(item, "stop", where, None if file or files else MISSING, minimum=1)
         if start is not None and stop is not None and start >= stop:
             raise where.error("stop", f"an index greater than start = {start}", stop)
-        if file is None or file == data.file:
+        if not files and (file is None or file == data.file):
             _check_no_overlap(where, name, start, stop, data.estimation)
-        segments.append(ValidationSegment(name=name, start=start, stop=stop, file=file))
+        segments.append(ValidationSegment(name=name, start=start, stop=stop, file=file, files=files))
     return tuple(segments)
 
 

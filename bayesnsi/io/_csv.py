@@ -183,14 +183,13 @@ def _headerless(path: Path, n_columns: int) -> InputDataError:
     """The error for a file whose first line holds only numbers: how to give it the header it needs.
 
     Benchmark data are often shipped as one headerless single-column file per channel (input and
-    output apart); the message says how to join them into the one file with a header that
-    ``[data] file`` reads.
+    output apart); the message names ``[data] files``, which reads them as they are.
     """
     return InputDataError(
         f"{path}, line 1: the first line must be a header naming the columns, found only numbers "
         f"({n_columns} column(s), no header); add a header line with the names [data] inputs and outputs use "
-        "(e.g. u,y). Input and output in separate headerless files (as benchmark data are shipped) go into one "
-        "file first, e.g. (echo u,y; paste -d, u.csv y.csv) > data.csv"
+        "(e.g. u,y), or, for input and output in separate headerless files (as benchmark data are shipped), "
+        'name the file of each column instead of file: [data] files = { u = "u.csv", y = "y.csv" }'
     )
 
 

@@ -19,6 +19,7 @@ from ._csv import read_csv_any
 from ._formats import read_matlike
 from ._lowband import below_band_messages
 from ._specs import DataSpec
+from ._split import read_split
 from ._uff import read_uff
 
 __all__ = ["Record", "read_any"]
@@ -35,6 +36,9 @@ class Record:
         The measurement file (any supported format).
     data : DataSpec
         Column -> DOF maps, sampling and processing (``[data]``).
+    files : mapping of str to Path, optional
+        Each column in a file of its own (``[data] files`` or a validation segment's
+        ``files``; :mod:`bayesnsi.io._split`); ``path`` is then only named in messages.
 
     Raises
     ------
@@ -42,7 +46,7 @@ class Record:
         As :func:`bayesnsi.io.read_signals`.
     """
 
-    def __init__(self, path: Path, data: DataSpec):
+    def __init__(self, path: Path, data: DataSpec, files: Mapping[str, Path] | None = None):
         self.path = Path(path)
         self.data = data
         self.integrate = data.integrate
@@ -53,7 +57,10 @@ class Record:
             responses.update({c: "velocity" for c in data.velocities or {}})
         roles = {c: "input" for c in data.inputs} | responses
         present = {} if self.integrate is not None else {c: "acceleration" for c in data.accelerations}
-        table = read_any(self.path, list(roles), roles, data.time_column, present)
+        if files:  # one file per channel ([data] files): read_split checks that each holds its channel
+            table = read_split({c: files[c] for c in roles}, roles, data.time_column, read_any)
+        else:
+            table = read_any(self.path, list(roles), roles, data.time_column, present)
         self.table = table
         self.fs = _resolve_fs(table, data)
         _check_units(table, roles)

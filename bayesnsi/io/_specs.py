@@ -115,6 +115,12 @@ class DataSpec:
     units : dict of str to str
         Unit per column (``[data] units = { V1 = "V" }``) for the labels of figures and tables;
         overrides the file's units row (:func:`bayesnsi.io.units.data_units`). Never converts.
+    files : dict of str to Path
+        Column -> the file that holds it alone (``[data] files = { u = "u.csv", y = "y.csv" }``,
+        instead of ``file``), for data shipped one channel per file (benchmark data: a headerless
+        column of numbers each; :mod:`bayesnsi.io._split`). Every mapped column has a file, ``fs`` is
+        required, and ``file`` is then the first of them (for messages). Empty: every column is
+        read from ``file``.
     """
 
     file: Path
@@ -131,6 +137,7 @@ class DataSpec:
     period: int | None = None
     scale: dict[str, float] = field(default_factory=dict)
     units: dict[str, str] = field(default_factory=dict)
+    files: dict[str, Path] = field(default_factory=dict)
 
     @property
     def signal_fs(self) -> float | None:
@@ -156,12 +163,16 @@ class ValidationSegment:
         Always given for segments of the estimation file.
     file : Path or None
         Another CSV with the same columns; None: the estimation file.
+    files : dict of str to Path
+        Another record given one channel per file, as ``[data] files`` (the same columns); empty:
+        ``file``, or the estimation record.
     """
 
     name: str
     start: int | None
     stop: int | None
     file: Path | None = None
+    files: dict[str, Path] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

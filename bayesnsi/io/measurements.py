@@ -172,7 +172,7 @@ def load_signals(config: ExperimentConfig) -> Signals:
     InputDataError
         As :func:`read_signals`, for the samples inside the window.
     """
-    record = Record(config.data.file, config.data)
+    record = Record(config.data.file, config.data, config.data.files)
     start, stop = record.window(config.data.estimation, "[data] estimation", config.path)
     return record.signals(start, stop, record.means(start, stop) if config.data.remove_mean else None)
 
@@ -199,14 +199,17 @@ def load_validation(config: ExperimentConfig) -> list[tuple[str, Signals]]:
     """
     if not config.validation:
         return []
-    main = Record(config.data.file, config.data)
+    main = Record(config.data.file, config.data, config.data.files)
     means = None
     if config.data.remove_mean:
         means = main.means(*main.window(config.data.estimation, "[data] estimation", config.path))
     out = []
     for segment in config.validation:
-        same_file = segment.file is None or segment.file == config.data.file
-        record = main if segment.file is None or same_file else Record(segment.file, config.data)
+        same_file = not segment.files and (segment.file is None or segment.file == config.data.file)
+        if segment.files:  # another record, one file per channel
+            record = Record(next(iter(segment.files.values())), config.data, segment.files)
+        else:
+            record = main if same_file else Record(segment.file or config.data.file, config.data)
         start, stop = record.window(
             (segment.start, segment.stop), f"[[validation]] {segment.name!r} start/stop", config.path
         )

@@ -138,6 +138,8 @@ def _group(unit: str) -> str:
 
 
 def _stated_units(data) -> dict:
+    if getattr(data, "files", None):  # one file per channel ([data] files): no units row; [data] units labels
+        return {}
     kind = file_format(data.file)
     if kind == "csv":
         header, first_row = _read_head(data.file)

@@ -141,3 +141,17 @@ def test_files_of_different_lengths_are_refused(record):
     config = load_config(_config(folder, 'files = { u = "u.csv", y = "y.csv" }', 'file = "joined_val.csv"'))
     with pytest.raises(InputDataError, match=r"samples \('u' \(u.csv\): 600, 'y' \(y.csv\): 500\)"):
         load_signals(config)
+
+
+def test_a_benchmark_mat_file_of_one_variable_gives_that_channel(record):
+    # nonlinearbenchmark.org's uval_multisine.mat holds one variable named after the file, not after the
+    # config's column: with one vector in the file, that vector is the channel.
+    folder, (u, y, _, _) = record
+    scipy.io.savemat(folder / "uval_multisine.mat", {"uval_multisine": u[:, None], "fs": 750.0})
+    config = load_config(_config(folder, 'files = { u = "uval_multisine.mat", y = "y.csv" }',
+                                 'file = "joined_val.csv"'))
+    np.testing.assert_allclose(load_signals(config).force[:, 0], u[:400], rtol=1e-15)
+    scipy.io.savemat(folder / "two.mat", {"a": u[:, None], "b": y[:, None]})  # two vectors: which one? say so
+    config = load_config(_config(folder, 'files = { u = "two.mat", y = "y.csv" }', 'file = "joined_val.csv"'))
+    with pytest.raises(InputDataError, match=r"variable\(s\) \['u'\] not found; available: 'a', 'b'"):
+        load_signals(config)

@@ -13,7 +13,9 @@ Each file is read by its format (:func:`bayesnsi.io._columns.file_format`):
   every cell must be a finite number (an empty, non-numeric or non-finite cell is an error naming
   the file and line: with one channel per file there is no window to exclude it by).
 * CSV with a header: the column of the channel's name, or the only column of a one-column file.
-* MAT, HDF5, UFF: the variable or record of the channel's name, as for ``[data] file``.
+* MAT, HDF5, UFF: the variable or record of the channel's name, as for ``[data] file``; a MAT
+  (v4-v7) file without that variable but with a single vector gives that vector (a benchmark's
+  ``uval_multisine.mat`` holds one variable, ``uval_multisine``).
 
 All files must hold the same number of samples. They carry no time column: ``[data] fs`` is
 required with ``files`` (checked when the config is read).
@@ -90,7 +92,8 @@ def _channel(path: Path, column: str, role: str, time_column: str, read_other) -
     if not path.is_file():
         raise InputDataError(f"data file {path} (channel {column!r}) not found; check the name and folder")
     if file_format(path) != "csv":
-        return read_other(path, [column], {column: role}, time_column, {}).values[column]
+        name = _only_vector(path, column, time_column) or column
+        return read_other(path, [name], {name: role}, time_column, {}).values[name]
     try:
         header = _read_head(path)[0]
     except InputDataError:  # a headerless file (or an empty one: reported below)
@@ -109,6 +112,29 @@ def _channel(path: Path, column: str, role: str, time_column: str, read_other) -
     n_lines = _scan_lines(path)
     check_allocation(_BYTES_PER_VALUE * n_lines, f"{path}: 1 column of {n_lines} lines")
     return _headerless_column(path, column, n_lines)
+
+
+def _only_vector(path: Path, column: str, time_column: str) -> str | None:
+    """The one vector variable of a MAT (v4-v7) file that has no variable ``column``, else None.
+
+    A benchmark's ``uval_multisine.mat`` holds one variable named after the file; ``files = { u =
+    "uval_multisine.mat" }`` reads it as channel ``u`` (the time vector and ``fs`` do not count).
+    Anything else - HDF5 / v7.3, an unreadable file, several vectors - is left to the reader's
+    own message.
+    """
+    if file_format(path) != "mat":
+        return None
+    import scipy.io
+
+    try:
+        info = scipy.io.whosmat(str(path))
+    except Exception:  # noqa: BLE001 - not a v4-v7 MAT file: the reader says what is wrong
+        return None
+    if any(name == column for name, _, _ in info):
+        return None
+    vectors = [name for name, shape, _ in info
+               if name not in (time_column, "fs") and len(shape) == 2 and min(shape) == 1 and max(shape) > 1]
+    return vectors[0] if len(vectors) == 1 else None
 
 
 def _headerless_column(path: Path, column: str, n_lines: int) -> np.ndarray:

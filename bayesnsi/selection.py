@@ -21,6 +21,7 @@ from .exceptions import AdequacyWarning, BayesNSIError
 from .options import EvidenceOptions, ExecutionOptions, NSIOptions
 from .run.adequacy import ModelCheck, adequacy_warnings, model_checks
 from .run.batch import CandidateOutcome, run_candidates
+from .run.free_view import one_view
 from .run.velocity_noise import velocity_noise_messages
 from .validation import SegmentError, Whiteness, open_loop_error, residual_whiteness, validate
 
@@ -190,6 +191,7 @@ def select(
 
     evidence = EvidenceOptions() if evidence is None else evidence
     outcomes = tuple(run_candidates(signals, candidates, nsi, evidence, execution=execution))
+    outcomes, view_notes = one_view(signals, outcomes, nsi, evidence, execution)  # free bodies: one view
     rng = np.random.default_rng(np.random.SeedSequence(evidence.seed).spawn(len(outcomes) + 1)[-1])
     table = compare_evidence(
         {o.name: None if o.evidences is None else list(o.evidences.values()) for o in outcomes},
@@ -209,7 +211,7 @@ def select(
     fits = model_checks(outcomes, signals, checks, **limits)
     selection = Selection(outcomes, table, nsi or NSIOptions(), evidence, checks, adequacy, fits)
     messages = adequacy_warnings(fits, selection.selected, **limits)
-    messages += tuple(velocity_noise_messages(signals, candidates, (nsi or NSIOptions()).velocity_method))
+    messages += view_notes + tuple(velocity_noise_messages(signals, candidates, (nsi or NSIOptions()).velocity_method))
     for message in messages:
         warnings.warn(message, AdequacyWarning, stacklevel=2)
     open_loop = {o.name: e for o in identified if (e := open_loop_error(o.result, signals)) is not None}

@@ -237,3 +237,41 @@ def test_selection_says_when_a_derived_velocity_is_mostly_noise():
     measured = Signals(force=noisy.force, displacement=noisy.displacement, velocity=noisy.velocities(), fs=FS,
                        input_dofs=(1,), output_dofs=(1, 2))
     assert velocity_noise_messages(measured, [coulomb]) == []
+
+
+def _carriage_candidates():
+    from bayesnsi.models import CandidateModel
+
+    return [CandidateModel.from_terms("linear", []), CandidateModel.from_terms("Coulomb", [("sign(v1)", 1)]),
+            CandidateModel.from_terms("cubic", [("x1**3", 1)])]
+
+
+def test_select_scores_every_candidate_of_a_free_body_on_the_force():
+    """Coulomb identifies as a free body, linear and x³ as grounded oscillators: their log Z (force
+    residual against displacement residual) were ranked together and x³ was selected (seed 2)."""
+    from bayesnsi import select
+    from bayesnsi.nsi import is_free_body
+    from bayesnsi.options import EvidenceOptions
+
+    carriage = _carriage_record()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        selection = select(carriage, _carriage_candidates(), NSIOptions(), EvidenceOptions(interval="posterior"))
+    assert all(is_free_body(o.result) for o in selection.outcomes)
+    assert selection.selected == "Coulomb"
+    assert any("identified again with its virtual spring" in w for w in selection.warnings)
+
+
+def test_loop_from_a_grounded_looking_start_switches_to_the_free_body_view():
+    """From linear (no rigid-body pole) sign(v1) identifies as a free body: the loop compared its
+    force log Z with the start's displacement log Z (log BF -2.6e5) and added nothing (seed 2)."""
+    from bayesnsi.diagnose import close_the_loop
+    from bayesnsi.options import LoopOptions
+
+    carriage = _carriage_record()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        loop = close_the_loop(carriage, _carriage_candidates()[0], LoopOptions(refine_final=None), nsi=NSIOptions())
+    assert [s.term.name for s in loop.steps if s.accepted] == ["sign(v1)@1"]
+    assert loop.start.virtual_stiffness > 0
+    assert loop.final.coefficient_values[0] == pytest.approx(8.0, rel=0.05)

@@ -33,6 +33,7 @@ from ..models import CandidateModel, default_gaps, default_widths, effect_dictio
 from ..models.dictionary import CLEARANCE, DEFAULT_EFFECT_TYPES, EFFECT_TYPES, SMOOTH_FRICTION, Effect
 from ..nsi import identify
 from ..options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions
+from .free_view import free_body_start
 from .guards import NEGATIVE_DISSIPATION, check_effect, documented
 from .moves import accept_pair, look_ahead, prune
 from .results import LoopResult
@@ -231,6 +232,7 @@ def close_the_loop_with(
     top_hz = max([m.frequency_hz for m in start.modes] or [start.band_hz[1]])  # free bodies: no mode
     screen_hz = None if options.screen is None else SCREEN_BAND * top_hz
     context = LoopContext(signals, effects, nsi, evidence, options, execution, screen_hz)
+    context, start, first = free_body_start(context, start, SCREEN_BAND)  # one view: force or displacement
     start_score = laplace_score(start, signals, evidence)[0]
     if not np.isfinite(start_score):
         raise LoopError(
@@ -239,15 +241,15 @@ def close_the_loop_with(
             "against the residual"
         )
     state = LoopState(start, start_score, evidence.seed)
-    while len(state.added) < options.max_steps and _step(context, state):
-        pass
+    while len(state.added) < options.max_steps and _step(context, state, first):
+        first = None
     final, final_nsi = _refined(context, state.current)
     settings = {
         **options.to_dict(),
         "final_nsi": final_nsi.to_dict(),
         "jobs": execution.jobs,
         "n_effects": len(effects),
-        "nsi": nsi.to_dict(),
+        "nsi": context.nsi.to_dict(),
         "evidence": evidence.to_dict(),
         "seed": evidence.seed,
     }
@@ -256,10 +258,13 @@ def close_the_loop_with(
     return LoopResult(start=start, final=final, steps=tuple(ordered), scores=tuple(state.scores), settings=settings)
 
 
-def _step(context: LoopContext, state: LoopState) -> bool:
-    """One search from the current model; True when something was added (search again)."""
+def _step(context: LoopContext, state: LoopState, scored=None) -> bool:
+    """One search from the current model; True when something was added (search again).
+
+    ``scored``: the search's scores when already computed (the first, :func:`free_body_start`).
+    """
     options = context.options
-    scored = rank_effects(context, state.current.candidate, state.added)
+    scored = rank_effects(context, state.current.candidate, state.added) if scored is None else scored
     search = state.record_scores(scored, state.log_z)
     tried = [s for s in scored if not math.isnan(s.log_evidence)]  # NaN: left out by the screen
     if tried and not any(np.isfinite(s.log_evidence) for s in tried):

@@ -220,7 +220,8 @@ class Target:
     def _vgh_safe(self, theta):
         if self.order and self.method == "exact" and np.any(np.abs(self.split(theta)[2]) >= 1.0):
             return -np.inf, np.zeros(self.ndim), np.zeros((self.ndim, self.ndim))
-        return self.value_grad_hess(theta)
+        with np.errstate(over="ignore", invalid="ignore"):  # a trial step far out: inf/NaN, rejected by find_mode
+            return self.value_grad_hess(theta)
 
     def in_support(self, theta) -> np.ndarray:
         return np.isfinite(self.log_prior(theta))

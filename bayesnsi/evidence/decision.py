@@ -86,7 +86,7 @@ def decision_table(table, likelihood: str, selected: str | None = None):
     log_z = table[log_z_col].to_numpy(dtype=float)
     se = table[se_col].to_numpy(dtype=float) if se_col in table.columns else np.zeros_like(log_z)
     k = list(table.index).index(selected)
-    with np.errstate(invalid="ignore", divide="ignore"):
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):  # odds of a probability ~1e-300: inf
         log_bf = np.where(np.isfinite(log_z), log_z[k] - log_z, np.inf)
         bf_se = np.where(np.isfinite(log_z), np.hypot(se[k], se), np.nan)
         odds = probability[k] / probability

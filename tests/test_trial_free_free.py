@@ -275,3 +275,21 @@ def test_loop_from_a_grounded_looking_start_switches_to_the_free_body_view():
     assert [s.term.name for s in loop.steps if s.accepted] == ["sign(v1)@1"]
     assert loop.start.virtual_stiffness > 0
     assert loop.final.coefficient_values[0] == pytest.approx(8.0, rel=0.05)
+
+
+def test_loop_summary_names_a_free_bodys_validation_error_as_force_prediction():
+    """A free body is validated by the force it predicts, not by a closed-loop simulation."""
+    from types import SimpleNamespace
+
+    from bayesnsi.cli._loop_report import loop_summary
+    from bayesnsi.models import Term
+
+    payload = {
+        "validation_before": [{"name": "second record", "nrmse": 0.411, "quantity": "force"}],
+        "validation": [{"name": "second record", "nrmse": 0.0957, "quantity": "force"}],
+        "candidates": [],
+    }
+    step = SimpleNamespace(accepted=True, term=Term("sign(v1)", 1), reason="", imag_ratio=0.02)
+    added = SimpleNamespace(steps=[step])
+    assert loop_summary(added, payload, "linear") == (
+        "loop from 'linear': added sign(v1)@1; force-prediction (free body) NRMSE 0.411 -> 0.0957 (second record).")

@@ -96,9 +96,15 @@ def loop_summary(loop, payload, start_name: str) -> str:
         if b.get("nrmse") is not None and a.get("nrmse") is not None
     ]
     if errors:
-        head += "; closed-loop validation NRMSE " + ", ".join(errors)
+        head += f"; {_validation_what(payload)} NRMSE " + ", ".join(errors)
     return head + ("." if added else "." + nothing_added_note(loop.steps, payload, start_name)
                    + unexamined_note(payload))
+
+
+def _validation_what(payload) -> str:
+    """What the validation errors measure: a free body's predicted force, else the closed-loop response."""
+    quantities = {v.get("quantity") for v in (*payload.get("validation_before", ()), *payload.get("validation", ()))}
+    return "force-prediction (free body)" if quantities == {"force"} else "closed-loop validation"
 
 
 def _where(effect) -> str:
@@ -184,8 +190,10 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
         section.append(
             pd.DataFrame(
                 {
-                    "closed-loop RMSE, starting model": {v["name"]: v["rmse"] for v in payload["validation_before"]},
-                    "closed-loop RMSE, final model": {v["name"]: v["rmse"] for v in payload["validation"]},
+                    f"{_validation_what(payload)} RMSE, starting model": {
+                        v["name"]: v["rmse"] for v in payload["validation_before"]},
+                    f"{_validation_what(payload)} RMSE, final model": {
+                        v["name"]: v["rmse"] for v in payload["validation"]},
                 }
             ).rename_axis("validation segment")
         )

@@ -155,3 +155,10 @@ def test_a_benchmark_mat_file_of_one_variable_gives_that_channel(record):
     config = load_config(_config(folder, 'files = { u = "two.mat", y = "y.csv" }', 'file = "joined_val.csv"'))
     with pytest.raises(InputDataError, match=r"variable\(s\) \['u'\] not found; available: 'a', 'b'"):
         load_signals(config)
+
+
+def test_a_data_table_without_file_names_both_ways_to_give_the_data(record):
+    folder, _ = record
+    path = _config(folder, "", 'file = "joined_val.csv"')
+    with pytest.raises(ConfigError, match=r'\[data\] file: expected the measurement file, .*files = \{ u = "u.csv"'):
+        load_config(path)

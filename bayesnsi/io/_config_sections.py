@@ -56,6 +56,9 @@ def parse_data(table: Any, where: Where, check_files: bool) -> DataSpec:
         raise where.error(None, "a table [data]", table)
     check_keys(table, _DATA_KEYS, where)
     files = parse_files(table, where, lambda name, key: _resolve_file(name, where, key, check_files))
+    if not files and "file" not in table:
+        raise where.error("file", "the measurement file", fix='add file = "data.csv", or files = { u = "u.csv", '
+                          'y = "y.csv" } for one file per column (data shipped as separate channels)')
     file = next(iter(files.values())) if files else _resolve_file(
         get_text(table, "file", where), where, "file", check_files)
     fs = get_number(table, "fs", where, None, positive=True)

@@ -162,3 +162,11 @@ def test_a_data_table_without_file_names_both_ways_to_give_the_data(record):
     path = _config(folder, "", 'file = "joined_val.csv"')
     with pytest.raises(ConfigError, match=r'\[data\] file: expected the measurement file, .*files = \{ u = "u.csv"'):
         load_config(path)
+
+
+def test_a_missing_value_in_a_headed_channel_file_names_that_file_and_line(record):
+    folder, _ = record
+    (folder / "y.csv").write_text("y\n1.0\n\n3.0\n".replace("\n\n", "\n,\n"))  # line 3: an empty cell
+    config = load_config(_config(folder, 'files = { u = "u.csv", y = "y.csv" }', 'file = "joined_val.csv"'))
+    with pytest.raises(InputDataError, match=r"y.csv \(line 3\): channel 'y' expected a finite number"):
+        load_signals(config)

@@ -12,7 +12,8 @@ Each file is read by its format (:func:`bayesnsi.io._columns.file_format`):
   The file is scanned as any CSV is (line length, NUL bytes, memory limit) before it is parsed;
   every cell must be a finite number (an empty, non-numeric or non-finite cell is an error naming
   the file and line: with one channel per file there is no window to exclude it by).
-* CSV with a header: the column of the channel's name, or the only column of a one-column file.
+* CSV with a header: the column of the channel's name, or the only column of a one-column file;
+  its values must be finite too.
 * MAT, HDF5, UFF: the variable or record of the channel's name, as for ``[data] file``; a MAT
   (v4-v7) file without that variable but with a single vector gives that vector (a benchmark's
   ``uval_multisine.mat`` holds one variable, ``uval_multisine``).
@@ -108,7 +109,15 @@ def _channel(path: Path, column: str, role: str, time_column: str, read_other) -
                 f"{path}: channel {column!r} of [data] files is not a column of this file and the file has "
                 f"{len(named)} columns; name the column as the channel, or give a file of that one channel"
             )
-        return read_csv_columns(path, [name]).values[name]
+        table = read_csv_columns(path, [name])
+        values = table.values[name]
+        if not np.all(np.isfinite(values)):
+            row = int(np.argmax(~np.isfinite(values)))
+            raise InputDataError(
+                f"{path}{table.locate(row)}: channel {column!r} expected a finite number (a missing or non-finite "
+                "value); fix or remove the line"
+            )
+        return values
     n_lines = _scan_lines(path)
     check_allocation(_BYTES_PER_VALUE * n_lines, f"{path}: 1 column of {n_lines} lines")
     return _headerless_column(path, column, n_lines)

@@ -133,6 +133,9 @@ def test_diagnose_answer_says_why_nothing_was_added_and_that_the_model_left_is_i
     # measured on the trial: --max-imag-ratio 1.0 adds x1**3, validation NRMSE 0.257 -> 0.187
     assert "raise [diagnose] max_imag_ratio above 0.99 (--max-imag-ratio)" in note
     assert "linear, is not adequate: its residual is 8.50x the sensor noise" in note
+    # a re-identified effect not examined that passes the quality index: a dictionary term may do after all
+    scored = dict(payload, loop_scores=[[{"term": "x1*abs(x1)@1", "imag_ratio": 0.22, "status": "not checked"}]])
+    assert "memory" not in nothing_added_note(steps, scored, "linear")
     mixed = steps + [SimpleNamespace(reason="log Bayes factor 1.2 < 5", imag_ratio=0.02)]
     adequate = {"candidates": [{"name": "linear", "model_check": {"adequate": True, "noise_ratio": 1.05}}]}
     assert nothing_added_note(mixed, adequate, "linear") == ""  # a control with nothing missing: nothing to say

@@ -30,10 +30,11 @@ def step_number(step, start) -> int:
 def nothing_added_note(steps, payload, start_name: str) -> str:
     """What the answer adds when the loop added nothing: is the model left adequate, and why nothing fitted.
 
-    When every effect examined was rejected by the quality index, the force each would explain
-    changes with frequency (docs/method.md §4), which no static term n(x, v) of the dictionary
-    gives: the note names the likely causes (a nonlinearity with memory such as hysteresis, or
-    linear dynamics the model lacks). When the starting model's adequacy check (``model_check``
+    When every effect examined was rejected by the quality index, and no other effect the loop
+    re-identified (``loop_scores``) passes it, the force each would explain changes with frequency
+    (docs/method.md §4), which no static term n(x, v) of the dictionary gives: the note names the
+    likely causes (a nonlinearity with memory such as hysteresis, or linear dynamics the model
+    lacks). When the starting model's adequacy check (``model_check``
     of its candidate record) says its residual is above the noise, the note says so, so that
     "nothing added" is not read as "nothing missing".
 
@@ -42,7 +43,8 @@ def nothing_added_note(steps, payload, start_name: str) -> str:
     steps : sequence of LoopStep
         The loop's examined effects (none accepted).
     payload : dict
-        The results.json payload (``candidates`` with their ``model_check``).
+        The results.json payload (``candidates`` with their ``model_check``; ``loop_scores`` and
+        ``settings["loop"]["max_imag_ratio"]`` when present).
     start_name : str
         The starting candidate.
 
@@ -53,13 +55,19 @@ def nothing_added_note(steps, payload, start_name: str) -> str:
     """
     parts = []
     ratios = [s.imag_ratio for s in steps]
-    if steps and all(s.reason.startswith("quality index") for s in steps):
+    limit = payload.get("settings", {}).get("loop", {}).get("max_imag_ratio", 0.3)
+    # an effect re-identified but not examined that passes the quality index (unexamined_note names it)
+    # is a dictionary term after all: then no word on memory
+    passing = any(r.get("imag_ratio") is not None and r["imag_ratio"] <= limit
+                  for search in payload.get("loop_scores") or () for r in search)
+    if steps and all(s.reason.startswith("quality index") for s in steps) and not passing:
         parts.append(
-            f"Every effect examined failed the quality index (|Im|/|Re| {min(ratios):.2g}-{max(ratios):.2g}): the "
-            "force each would explain changes with frequency, which no static term n(x, v) gives - a nonlinearity "
-            "with memory (hysteresis, e.g. Bouc-Wen; a dynamic joint) or linear dynamics the model lacks (a higher "
-            "[nsi] order) is more likely than a missing dictionary term. To accept the best static approximation "
-            f"anyway, raise [diagnose] max_imag_ratio above {min(ratios):.2g} (--max-imag-ratio)."
+            f"Every effect examined failed the quality index (|Im|/|Re| {min(ratios):.2g}-{max(ratios):.2g}), and "
+            "so did every other effect re-identified: the force each would explain changes with frequency, which no "
+            "static term n(x, v) gives - a nonlinearity with memory (hysteresis, e.g. Bouc-Wen; a dynamic joint) or "
+            "linear dynamics the model lacks (a higher [nsi] order) is more likely than a missing dictionary term. "
+            f"To accept the best static approximation anyway, raise [diagnose] max_imag_ratio above {min(ratios):.2g} "
+            "(--max-imag-ratio)."
         )
     record = next((c for c in payload.get("candidates", ()) if c.get("name") == start_name), {})
     check = record.get("model_check") or {}

@@ -82,7 +82,7 @@ def test_separate_headerless_files_load_as_the_joined_file(record):
 
 def test_validation_inside_the_split_record_and_per_channel_formats(record):
     folder, (u, y, _, _) = record
-    _write(folder, "y_headed.csv", y[:, None], header="displacement")  # a one-column file with a header
+    _write(folder, "y_headed.csv", np.c_[y, -y], header="y,minus_y")  # a file with a header: the named column
     scipy.io.savemat(folder / "u.mat", {"u": u[:, None]})  # a MAT variable named as the channel
     config = load_config(_config(folder, 'files = { u = "u.mat", y = "y_headed.csv" }', "start = 450\nstop = 600"))
     signals = load_signals(config)
@@ -170,3 +170,14 @@ def test_a_missing_value_in_a_headed_channel_file_names_that_file_and_line(recor
     config = load_config(_config(folder, 'files = { u = "u.csv", y = "y.csv" }', 'file = "joined_val.csv"'))
     with pytest.raises(InputDataError, match=r"y.csv \(line 3\): channel 'y' expected a finite number"):
         load_signals(config)
+
+
+def test_a_system_file_given_as_a_channel_file_is_refused_without_quoting_it(record, tmp_path):
+    folder, _ = record
+    secret = tmp_path / "passwd"
+    secret.write_text("root:x:0:0:root:/root:/bin/bash\ndaemon:x:1:1:daemon:/usr/sbin:/usr/sbin/nologin\n")
+    config = load_config(_config(folder, f'files = {{ u = "u.csv", y = "{secret}" }}', 'file = "joined_val.csv"'))
+    with pytest.raises(InputDataError, match="a header without the column 'y'") as raised:
+        load_signals(config)
+    message = str(raised.value).replace(str(secret), "")
+    assert "root" not in message and "daemon" not in message and "bash" not in message

@@ -12,8 +12,7 @@ Each file is read by its format (:func:`bayesnsi.io._columns.file_format`):
   The file is scanned as any CSV is (line length, NUL bytes, memory limit) before it is parsed;
   every cell must be a finite number (an empty, non-numeric or non-finite cell is an error naming
   the file and line: with one channel per file there is no window to exclude it by).
-* CSV with a header: the column of the channel's name, or the only column of a one-column file;
-  its values must be finite too.
+* CSV with a header: the column of the channel's name; its values must be finite too.
 * MAT, HDF5, UFF: the variable or record of the channel's name, as for ``[data] file``; a MAT
   (v4-v7) file without that variable but with a single vector gives that vector (a benchmark's
   ``uval_multisine.mat`` holds one variable, ``uval_multisine``).
@@ -103,14 +102,13 @@ def _channel(path: Path, column: str, role: str, time_column: str, read_other) -
         from ._csv import read_csv_columns
 
         named = [h for h in header if h]
-        name = column if column in named else (named[0] if len(named) == 1 else None)
-        if name is None:
+        if column not in named:  # the header is not quoted: the file may be anything (a system file)
             raise InputDataError(
-                f"{path}: channel {column!r} of [data] files is not a column of this file and the file has "
-                f"{len(named)} columns; name the column as the channel, or give a file of that one channel"
+                f"{path}, line 1: a header without the column {column!r} ({len(named)} column name(s)); name "
+                "the channel's column as in the config, or give a headerless file of that one channel"
             )
-        table = read_csv_columns(path, [name])
-        values = table.values[name]
+        table = read_csv_columns(path, [column])
+        values = table.values[column]
         if not np.all(np.isfinite(values)):
             row = int(np.argmax(~np.isfinite(values)))
             raise InputDataError(

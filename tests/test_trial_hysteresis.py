@@ -237,3 +237,20 @@ def test_a_selected_model_whose_validation_failed_is_not_said_to_be_inf_percent_
     assert len(failed) == 1 and "closed-loop simulation failed" in failed[0]
     assert "'cubic' validates with closed-loop NRMSE 0.184" in failed[0]
     assert not any("inf" in w for w in said)
+
+
+def test_a_look_ahead_row_of_the_loop_table_names_the_rejected_term_it_was_tried_with():
+    # Trial, time route from 'linear': x1**3 was rejected at step 1 and the table then showed "step 2" rows
+    # (clearance, x|x|) with NRMSE before 0.215 - the x1**3 model's - without saying they were tried with it.
+    from types import SimpleNamespace
+
+    from bayesnsi.cli._loop_report import tried_with
+    from bayesnsi.models import Term
+
+    cubic, xabs = Term("x1**3", 1), Term("x1*abs(x1)", 1)
+    first = SimpleNamespace(accepted=False, term=cubic, candidate=SimpleNamespace(terms=(cubic,)))
+    pair = SimpleNamespace(accepted=False, term=xabs, candidate=SimpleNamespace(terms=(cubic, xabs)))
+    loop = SimpleNamespace(start=SimpleNamespace(terms=()), steps=[first, pair])
+    assert tried_with(first, loop) == "" and tried_with(pair, loop) == " (tried with x1**3@1)"
+    added = SimpleNamespace(accepted=True, term=cubic, candidate=SimpleNamespace(terms=(cubic,)))
+    assert tried_with(pair, SimpleNamespace(start=loop.start, steps=[added, pair])) == ""  # on the current model

@@ -5,7 +5,7 @@ from __future__ import annotations
 from ._loop_unexamined import unexamined_note
 from ._report import ANSWER, LOOP
 
-__all__ = ["loop_sections", "loop_summary", "nothing_added_note", "step_number"]
+__all__ = ["loop_sections", "loop_summary", "nothing_added_note", "step_number", "tried_with"]
 
 
 def step_number(step, start) -> int:
@@ -25,6 +25,28 @@ def step_number(step, start) -> int:
     int
     """
     return max(1, len(step.candidate.terms) - len(start.terms))
+
+
+def tried_with(step, loop) -> str:
+    """The terms an examined effect was tried together with that the loop never added (a look-ahead pair).
+
+    A look-ahead examines an effect on top of one it rejected (``--lookahead``): the row of the
+    second effect is counted at the next step and its errors "before" are the first effect's, so
+    the table says which term it was tried with.
+
+    Parameters
+    ----------
+    step : LoopStep
+    loop : LoopResult
+
+    Returns
+    -------
+    str
+        ``" (tried with x1**3@1)"``, or "" when the effect was tried on the loop's current model.
+    """
+    kept = {t.name for t in loop.start.terms} | {s.term.name for s in loop.steps if s.accepted}
+    extra = [t.name for t in step.candidate.terms if t.name not in kept and t.name != step.term.name]
+    return f" (tried with {', '.join(extra)})" if extra else ""
 
 
 def nothing_added_note(steps, payload, start_name: str) -> str:
@@ -178,7 +200,7 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
                 "step": step_number(s, loop.start),
                 "effect": s.effect.name,
                 "where": _where(s.effect),
-                "decision": "added" if s.accepted else "rejected",
+                "decision": ("added" if s.accepted else "rejected") + tried_with(s, loop),
                 "bayes_factor_log": s.log_bayes_factor,
                 "coefficient": s.coefficient,
                 "ci95": "—" if s.ci95[0] != s.ci95[0] else f"[{s.ci95[0]:.4g}, {s.ci95[1]:.4g}]",

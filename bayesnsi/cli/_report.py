@@ -129,6 +129,8 @@ def identification_report(config, signals, results, records, title, report=None,
     if not physical.empty:  # one-DOF models (e.g. a free body, whose rigid-body pole is no mode)
         tables.append("Lumped parameters of the one-DOF models from the identified FRF (1/H = K - Mω² + jωC).")
         tables.append(physical)
+    elif any(len(r.rigid_body_poles) for r in results.values()):  # a free body with several DOFs
+        tables.append(_rigid_body_note(results))
     if any(r.terms for r in results.values()):
         tables.append(
             "Nonlinear coefficients: the NSI estimate (mean real part of λ(ω) over the band of the modes) and its "
@@ -360,3 +362,13 @@ def _reconstruction_figures(report, signals, results, units) -> None:
         fig.set_label(f"Measured {label} and each candidate's open-loop reconstruction, with the errors, over the "
                       f"first {_RECONSTRUCTION_SAMPLES} samples (paper Figs. 9, 13)")
         figs.append(fig)
+
+
+def _rigid_body_note(results) -> str:
+    """Which candidates hold rigid-body poles (free body, several DOFs: no lumped parameters)."""
+    parts = [
+        f"{name}: {', '.join(f'{p.real:.3g}' + (f'{p.imag:+.3g}j' if p.imag else '') for p in r.rigid_body_poles)}"
+        for name, r in results.items() if len(r.rigid_body_poles)
+    ]
+    return ("Rigid-body poles s [1/s] (a free body: identified with a virtual spring on the input, removed again; "
+            "not modes): " + "; ".join(parts) + ".")

@@ -93,7 +93,9 @@ def residual_force(before, after, signals, term) -> ResidualForce:
     column = len(after.input_dofs) + index
     lam = after.coefficients[index].value
     freqs = np.fft.rfftfreq(signals.n_samples, signals.dt)
-    h = after.frf(freqs)[:, :, column] / lam  # (n_freq, l): unit force at the location (any model grid)
+    # (n_freq, l): unit force at the location, through the model the residuals come from (a free body: the
+    # stabilised one, virtual spring on the input; the free FRF's rigid-body 1/ω² set the Tikhonov load)
+    h = after.model.frf(freqs)[:, :, column] / lam
     r_before = before.reconstruct(signals).residual
     r_after = after.reconstruct(signals).residual
     x, v = signals.state_rows(term.expr.displacement_dofs, term.expr.velocity_dofs)

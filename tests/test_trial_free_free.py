@@ -321,3 +321,17 @@ def test_report_names_the_rigid_body_poles_of_a_free_body_with_several_dofs():
     note = _rigid_body_note(results)
     assert note.startswith("Rigid-body poles s [1/s]")
     assert "Coulomb at 2: -0.021+0.016j, -0.021-0.016j; linear: 0.0214." in note
+
+
+def test_rigid_body_pole_of_a_carriage_is_reported_on_a_long_record():
+    """60 s: the rigid-body pole's estimate (-0.12 rad/s) is above 2π/T = 0.105 but far below the
+    band (0.76-1.67 Hz): a rigid-body pole, not a spurious one; the viscous pole (-Fv/M) stays apart."""
+    dt, n = 0.002, 30000
+    s = np.array([-0.1235, -1.473])
+    assert len(rigid_body_poles(np.exp(s * dt), dt, n)) == 0  # the record length alone
+    assert np.allclose(rigid_body_poles(np.exp(s * dt), dt, n, (0.76, 1.67)), [-0.1235])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = identify(_carriage_record(seed=1, duration=60.0), [("sign(v1)", 1)], NSIOptions())
+    assert len(result.rigid_body_poles) == 1
+    assert abs(result.rigid_body_poles[0]) < 0.1 * 30.0 / 20.0  # well below the viscous pole Fv/M = 1.5 rad/s

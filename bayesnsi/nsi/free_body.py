@@ -137,7 +137,7 @@ def stabilise(signals: Signals, stiffness: float) -> Signals:
     )
 
 
-def rigid_body_poles(poles_discrete, dt: float, n_samples: int) -> np.ndarray:
+def rigid_body_poles(poles_discrete, dt: float, n_samples: int, band_hz=None) -> np.ndarray:
     """Continuous-time poles that are rigid-body poles (s ≈ 0, z ≈ 1) on this record.
 
     A pole counts as rigid when ``|s| < 2π/T`` with ``T`` the record length (the record cannot
@@ -145,7 +145,11 @@ def rigid_body_poles(poles_discrete, dt: float, n_samples: int) -> np.ndarray:
     or one of a complex pair: a body with no damping to ground has a double pole at s = 0 (position
     and velocity of the rigid-body motion), which the estimate may split into a slow complex pair.
     An eigenvalue on or outside the unit circle that is real and positive counts too (noise moves
-    z = 1 either way).
+    z = 1 either way). With the band the model was fitted on, a pole with ``|s|`` below a tenth of
+    its lower edge (``0.1 · 2π f_lo``) counts as well: there ``1/(jω - s)`` differs from ``1/jω`` by
+    less than 10 %, so the data in the band cannot tell it from zero either (a carriage with
+    friction, 60 s: the rigid-body pole estimated at s = -0.19 rad/s, above 2π/T = 0.105, next to
+    its viscous pole at -1.4 rad/s).
 
     Parameters
     ----------
@@ -155,6 +159,8 @@ def rigid_body_poles(poles_discrete, dt: float, n_samples: int) -> np.ndarray:
         Sampling interval [s].
     n_samples : int
         Record length in samples.
+    band_hz : (float, float), optional
+        The band the model was fitted on.
 
     Returns
     -------
@@ -164,7 +170,7 @@ def rigid_body_poles(poles_discrete, dt: float, n_samples: int) -> np.ndarray:
     z = np.asarray(poles_discrete, dtype=complex)
     with np.errstate(divide="ignore"):
         s = np.log(z) / dt
-    limit = 2 * np.pi / (n_samples * dt)
+    limit = max(2 * np.pi / (n_samples * dt), 0.0 if band_hz is None else 0.1 * 2 * np.pi * float(band_hz[0]))
     real = np.abs(z.imag) <= 1e-9 * np.maximum(np.abs(z), 1e-300)
     rigid = (z.real > 0) & ((np.abs(s) < limit) | (real & (np.abs(z) >= 1.0)))
     return s[rigid]

@@ -220,7 +220,8 @@ def identify(
     modes, spurious, rigid = band_modes, model.poles[:0], np.zeros(0, dtype=complex)
     if stiffness:  # the physical poles are those of the free model (spring removed)
         free = free_model(model, stiffness, signals.input_dofs, signals.output_dofs)
-        rigid = rigid_body_poles(free.poles_discrete, signals.dt, len(u))
+        rigid = rigid_body_poles(free.poles_discrete, signals.dt, len(u),
+                                 options.band_hz or default_band(band_modes, signals.fs))
         modes, spurious = split_poles(free.poles, signals.dt)
         modes = [m for m in modes if not np.any(np.isclose(m.pole, rigid))]  # a slow pair of the double s = 0
         if physical := physical_mirrored(virtual_mode, modes, signals.dt):

@@ -335,3 +335,25 @@ def test_rigid_body_pole_of_a_carriage_is_reported_on_a_long_record():
         result = identify(_carriage_record(seed=1, duration=60.0), [("sign(v1)", 1)], NSIOptions())
     assert len(result.rigid_body_poles) == 1
     assert abs(result.rigid_body_poles[0]) < 0.1 * 30.0 / 20.0  # well below the viscous pole Fv/M = 1.5 rad/s
+
+
+def test_loop_step_of_a_free_body_with_several_dofs_has_short_horizon_errors():
+    """Open-loop simulation of the free-free rig drifts; the step documents 1 s windows instead
+    (they were computed for one-DOF free bodies only: NaN here)."""
+    from bayesnsi.diagnose.guards import documented
+    from bayesnsi.diagnose.results import LoopStep
+    from bayesnsi.models import effect_dictionary
+
+    rig = _two_mass_record(duration=20.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        after = identify(rig, [("sign(v2)", 2)], NSIOptions())
+        before = identify(rig, None, NSIOptions(virtual_stiffness=after.virtual_stiffness))
+    effect = next(e for e in effect_dictionary([1, 2], types=["sign(v)"]) if e.term.name == "sign(v2)@2")
+    step = LoopStep(effect=effect, accepted=True, reason="accepted", coefficient=after.coefficient_values[0],
+                    ci95=(1.4, 1.6), imag_ratio=0.1, half_coefficients=(1.5, 1.5), log_bayes_factor=100.0,
+                    nrmse_before=0.02, nrmse_after=0.01, candidate=after.candidate)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        step = documented(step, before, after, rig)
+    assert step.short_horizon_nrmse_after < 0.5 * step.short_horizon_nrmse_before

@@ -339,7 +339,7 @@ def _closed_loop_nrmse(result, signals) -> float:
 def documented(step: LoopStep, before, after, signals) -> LoopStep:
     """``step`` with its closed-loop errors and residual-force view (accepted steps, docs/method.md §7)."""
     short = (step.short_horizon_nrmse_before, step.short_horizon_nrmse_after)
-    if is_free_body(after):  # open-loop simulation drifts: windows of one second instead
+    if after.virtual_stiffness:  # a free body (any number of DOFs) drifts open loop: windows of one second
         horizon = max(4, int(round(signals.fs)))
         short = (_short_horizon(before, signals, horizon), _short_horizon(after, signals, horizon))
     return replace(

@@ -19,8 +19,10 @@ linear``, at default settings:
   Candidates: linear, Coulomb (true), v|v|, x³.
 
 Printed per record: the selected candidate and its probability, the elastic mode (two-mass), the
-true term's coefficient in the selected model, the loop's added effects and its validation error
-before and after, and the warnings select gave (shortened).
+true term's coefficient in the selected model, the loop's added effects, its validation error
+before and after (force prediction for a one-DOF free body, else the measured quantity in closed
+loop), the number of warnings select gave, and the loop's short-horizon simulation error (1 s
+windows) before and after (free bodies).
 
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/free_body_trial.py --out /tmp/fbtrial-bench [--cases twomass-1um]
 """
@@ -203,12 +205,20 @@ def summarise(name, folder: Path) -> dict:
         added = [f"{s['added']['expr']}@{s['added']['at']}" for s in diag["loop"] if s.get("accepted")]
         before = diag.get("validation_before") or [{}]
         after = diag.get("validation") or [{}]
+        accepted = [s for s in diag["loop"] if s.get("accepted")]
+        out["short"] = ((accepted[0].get("short_horizon_nrmse_before"), accepted[-1].get("short_horizon_nrmse_after"))
+                        if accepted else (None, None))
         out.update(added=",".join(added) or "-", loop_coef=_coefficient(diag.get("final_coefficients", []), true_term)
                    / true_value - 1, before=before[0].get("nrmse", np.nan), after=after[0].get("nrmse", np.nan),
                    quantity=after[0].get("quantity", "-"))
     else:
-        out.update(added="(diagnose failed)", loop_coef=np.nan, before=np.nan, after=np.nan, quantity="-")
+        out.update(added="(diagnose failed)", loop_coef=np.nan, before=np.nan, after=np.nan, quantity="-",
+                   short=(None, None))
     return out
+
+
+def _text(value) -> str:
+    return "-" if value is None or not np.isfinite(value) else f"{value:.3f}"
 
 
 def main(argv=None) -> int:
@@ -217,7 +227,8 @@ def main(argv=None) -> int:
     parser.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES))
     args = parser.parse_args(argv)
     print(f"{'case':<16} {'selected':<23} {'P(ar1)':>7} {'f [Hz]':>7} {'zeta':>6} {'rigid':>5} {'true coef':>9}  "
-          f"{'loop added':<22} {'loop coef':>9} {'valid. before->after':>22} {'warn':>4}")
+          f"{'loop added':<22} {'loop coef':>9} {'valid. before->after':>22} {'warn':>4} "
+          f"{'1 s windows before->after':>26}")
     for name in args.cases:
         folder = args.out / name
         config = write_case(name, folder)
@@ -227,7 +238,8 @@ def main(argv=None) -> int:
         s = summarise(name, folder)
         print(f"{s['case']:<16} {s['selected']:<23} {s['P']:>7.3f} {s['f_hz']:>7.3f} {s['zeta']:>6.4f} {s['rigid']:>5} "
               f"{100 * s['true_coef']:>+8.1f}%  {s['added'][:22]:<22} {100 * s['loop_coef']:>+8.1f}% "
-              f"{s['before']:>9.3f} -> {s['after']:.3f} {s['quantity'][:5]:<5} {s['warnings']:>4}", flush=True)
+              f"{s['before']:>9.3f} -> {s['after']:.3f} {s['quantity'][:5]:<5} {s['warnings']:>4} "
+              f"{_text(s['short'][0]):>12} -> {_text(s['short'][1])}", flush=True)
     print(f"truth: elastic mode {np.sqrt(K * (1 / M1 + 1 / M2)) / (2 * np.pi):.3f} Hz, zeta "
           f"{C * np.sqrt(K * (1 / M1 + 1 / M2)) / (2 * K):.4f}; Coulomb {FC2} N at mass 2 (two-mass), "
           f"{FC} N (carriage)")

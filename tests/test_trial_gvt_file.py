@@ -27,8 +27,8 @@ CUBIC = [Term("x1**3", 1)]
 def _integrated_record(seed: int = 0):
     """Steady-state periods of a cubic 2-DOF chain, accelerometer noise integrated line by line.
 
-    Returns the Signals and the displacement noise alone (the same integration applied to the
-    added acceleration noise: integration is linear), the independent reference.
+    Returns the Signals and the displacement and velocity noise alone (the same integration applied
+    to the added acceleration noise: integration is linear), the independent reference.
     """
     rng = np.random.default_rng(seed)
     force = multisine(P, FS, BAND, 5.0, rng, n_periods=N_PERIODS + TRANSIENT)
@@ -37,14 +37,14 @@ def _integrated_record(seed: int = 0):
     acc = response.acceleration[keep]
     noise = 0.02 * acc.std(axis=0) * rng.standard_normal(acc.shape)
     v, x = periodic_integration(acc + noise, FS, P, BAND)
-    _, x_noise = periodic_integration(noise, FS, P, BAND)
+    v_noise, x_noise = periodic_integration(noise, FS, P, BAND)
     signals = Signals(force=response.force[keep], displacement=x, velocity=v, fs=FS, input_dofs=(2,),
                       output_dofs=(1, 2), period=P)
-    return signals, x_noise
+    return signals, x_noise, v_noise
 
 
 def test_replicate_noise_level_of_integrated_periodic_accelerations_is_the_period_scatter():
-    signals, x_noise = _integrated_record(0)
+    signals, x_noise, _ = _integrated_record(0)
     result = identify(signals, CUBIC, NSIOptions(domain="frequency", order=4))
     noise_std, coefs, *_ = noise_replicates(result, signals, NSIOptions(domain="frequency", order=4), n_replicates=2)
     truth = x_noise.std(axis=0)
@@ -58,7 +58,7 @@ def test_replicate_noise_level_of_integrated_periodic_accelerations_is_the_perio
 def test_period_noise_draws_keep_the_scatter_spectrum_and_channel_link():
     from bayesnsi.evidence._period_noise import period_noise
 
-    signals, _ = _integrated_record(1)
+    signals, _, _ = _integrated_record(1)
     y = np.column_stack([signals.displacement, signals.velocity])
     scatter = period_noise(y, P)
     assert period_noise(y, None) is None and period_noise(y[: P + 10], P) is None  # not two whole periods
@@ -135,7 +135,8 @@ def test_loading_a_window_with_a_transient_warns_in_one_plain_line(tmp_path, cap
     assert "samples [0, 8000): period 1 of 8" in str(caught[0].message)
     with warnings.catch_warnings():
         warnings.simplefilter("always", PeriodicityWarning)  # as for a user (the suite turns warnings into errors)
-        assert main(["identify", str(tmp_path / "gvt.toml"), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+        assert main(["identify", str(tmp_path / "gvt.toml"), "--out", str(tmp_path / "out"), "--quiet",
+                     "--no-figures"]) == 0
     err = capsys.readouterr().err
     assert "warning: " in err and "period 1 of 8" in err and "PeriodicityWarning" not in err
 
@@ -208,3 +209,13 @@ def test_a_periodic_record_without_period_gets_a_note_naming_the_period(tmp_path
                  "--no-figures"]) == 0
     err = capsys.readouterr().err
     assert f"note: the force repeats every {P} samples" in err and f"[data] period = {P}" in err
+
+
+def test_predictor_noise_of_integrated_periodic_accelerations_is_the_period_scatter():
+    """The errors-in-variables predictor (default evidence residual) read 5e-18 m of noise on the trial."""
+    from bayesnsi.nsi._noise import measured_noise_std
+
+    signals, x_noise, v_noise = _integrated_record(0)
+    disp, vel = measured_noise_std(signals)
+    assert np.allclose(disp, x_noise.std(axis=0), rtol=0.1)  # same reference as the replicates' test
+    assert vel is not None and np.allclose(vel, v_noise.std(axis=0), rtol=0.1)

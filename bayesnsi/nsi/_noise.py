@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..signals import Signals
+from .steady import period_scatter_std
 
 __all__ = ["column_std", "measured_noise_std", "row_var", "white_noise_std"]
 
@@ -83,7 +84,10 @@ def measured_noise_std(signals: Signals):
     spectrum of ``r`` (relative least squares) gives both stds; records shorter than 256 samples,
     or fits that fail, fall back to :func:`white_noise_std`. High-order differences alone
     (:func:`white_noise_std`) cannot tell a velocity's noise from its broadband content, and
-    overestimate it at a driven DOF.
+    overestimate it at a driven DOF. On two or more whole periods (``signals.period``) both are the
+    scatter between periods (:func:`bayesnsi.nsi.steady.period_scatter_std`): accelerations integrated
+    line by line carry their noise inside the integration band only, where differences and the
+    (exactly consistent) v - dx/dt see none (trial of a GVT file: 5e-18 m against 1.6e-4 m).
 
     Parameters
     ----------
@@ -96,6 +100,10 @@ def measured_noise_std(signals: Signals):
         None when the signals carry no velocities.
     """
     x = np.asarray(signals.displacement, dtype=float)
+    scatter = period_scatter_std(x, getattr(signals, "period", None))
+    if scatter is not None:  # whole periods: the noise is what changes between them (integrated too)
+        v = signals.velocity
+        return scatter, None if v is None else period_scatter_std(np.asarray(v, dtype=float), signals.period)
     disp = white_noise_std(x)
     if signals.velocity is None:
         return disp, None

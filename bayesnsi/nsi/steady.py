@@ -13,7 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["FORCE_SCATTER_LIMIT", "PERIOD_OUTLIER_LIMIT", "REPEAT_CORRELATION", "period_problems", "repeating_period"]
+__all__ = [
+    "FORCE_SCATTER_LIMIT", "PERIOD_OUTLIER_LIMIT", "REPEAT_CORRELATION", "period_problems", "period_scatter_std",
+    "repeating_period",
+]
 
 FORCE_SCATTER_LIMIT = 0.1
 """Largest period-to-period scatter of the force over the power of its period mean."""
@@ -140,3 +143,30 @@ def period_problems(force, response, period, offset: int = 0, step: int = 1) -> 
             "frequency route would count that as noise"
         )
     return out
+
+
+def period_scatter_std(signal, period) -> np.ndarray | None:
+    """Noise std per channel from the scatter between whole periods, or None without two of them.
+
+    Parameters
+    ----------
+    signal : array_like, shape (n_samples, n_channels)
+        A periodic record (a trailing part period is left out).
+    period : int or None
+        Samples per period.
+
+    Returns
+    -------
+    ndarray, shape (n_channels,) or None
+        ``sqrt(Σ_p Σ_t (y_{p,t} - ȳ_t)² / (P (n - 1)))`` over the n whole periods.
+    """
+    if not period:
+        return None
+    y = np.asarray(signal, dtype=float)
+    y = y.reshape(len(y), -1)
+    period = int(period)
+    n = len(y) // period
+    if n < 2:
+        return None
+    periods = y[: n * period].reshape(n, period, y.shape[1])
+    return np.sqrt(np.sum((periods - periods.mean(axis=0)) ** 2, axis=(0, 1)) / (period * (n - 1)))

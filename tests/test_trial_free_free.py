@@ -357,3 +357,21 @@ def test_loop_step_of_a_free_body_with_several_dofs_has_short_horizon_errors():
         warnings.simplefilter("ignore")
         step = documented(step, before, after, rig)
     assert step.short_horizon_nrmse_after < 0.5 * step.short_horizon_nrmse_before
+
+
+def test_identify_command_gives_every_candidate_of_a_free_body_the_same_view(tmp_path, capsys):
+    import json
+
+    from bayesnsi.cli import main
+
+    carriage = _carriage_record()
+    rows = np.column_stack([np.asarray(carriage.force)[:, 0], np.asarray(carriage.displacement)[:, 0]])
+    np.savetxt(tmp_path / "rec.csv", rows, delimiter=",", header="tau,q", comments="", fmt="%.9g")
+    (tmp_path / "c.toml").write_text(
+        f'[data]\nfile = "rec.csv"\nfs = {FS}\ninputs = {{ tau = 1 }}\noutputs = {{ q = 1 }}\n'
+        '[[candidates]]\nname = "linear"\nterms = []\n'
+        '[[candidates]]\nname = "Coulomb"\nterms = [{ expr = "sign(v1)", at = 1 }]\n')
+    assert main(["identify", str(tmp_path / "c.toml"), "--out", str(tmp_path / "out"), "--no-figures", "--quiet"]) == 0
+    records = json.loads((tmp_path / "out" / "results.json").read_text())["candidates"]
+    assert all(r["virtual_stiffness"] > 0 for r in records)
+    assert "identified again with its virtual spring" in capsys.readouterr().err

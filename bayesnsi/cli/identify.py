@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 from ._common import add_run_arguments, execution, progress, refuse_if_nothing_identified, start_run
 
 __all__ = ["add_parser", "run"]
@@ -24,10 +26,14 @@ def run(args) -> int:
     """Execute the command."""
     from ..io import RESULTS_FILENAME, atomic_write_json, identification_payload
     from ..run import run_candidates
+    from ..run.free_view import one_view
 
     config, out, signals = start_run(args)
     with execution(args, out, config) as options:
         outcomes = run_candidates(signals, config.candidates, config.nsi, execution=options)
+        outcomes, notes = one_view(signals, outcomes, config.nsi, None, options)  # free bodies: one view
+    for note in notes:
+        print(f"warning: {note}", file=sys.stderr)
     payload = identification_payload(outcomes, "identify", config)
     if not args.no_figures:
         from ._report import held_figures, identification_answer, identification_report, report_units

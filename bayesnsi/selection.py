@@ -19,7 +19,7 @@ import numpy as np
 
 from .exceptions import AdequacyWarning, BayesNSIError
 from .options import EvidenceOptions, ExecutionOptions, NSIOptions
-from .run.adequacy import ModelCheck, adequacy_warnings, model_checks
+from .run.adequacy import ModelCheck, adequacy_warnings, model_checks, widen_inadequate
 from .run.batch import CandidateOutcome, run_candidates
 from .run.free_view import one_view
 from .run.velocity_noise import velocity_noise_messages
@@ -209,6 +209,7 @@ def select(
             continue  # the outcome already says why this candidate has no evidence
     limits = {"max_noise_ratio": evidence.max_noise_ratio, "max_imag_ratio": evidence.max_imag_ratio}
     fits = model_checks(outcomes, signals, checks, **limits)
+    outcomes, fits = widen_inadequate(outcomes, fits)  # their intervals carry the model error too
     selection = Selection(outcomes, table, nsi or NSIOptions(), evidence, checks, adequacy, fits)
     messages = adequacy_warnings(fits, selection.selected, **limits)
     messages += view_notes + tuple(velocity_noise_messages(signals, candidates, (nsi or NSIOptions()).velocity_method))

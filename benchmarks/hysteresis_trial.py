@@ -23,8 +23,9 @@ the time route (sign(v1) = -5.8 N: negative dissipation, warned) and quadratic d
 frequency route; ``bayesnsi diagnose --start linear`` adds nothing (every effect's |Im|/|Re| is
 0.94-23) and says why; with ``--max-imag-ratio 1.0`` it adds x1**3 (validation NRMSE 0.257 ->
 0.187). Over four realisations (seeds 1, 3, 4, 5) the time route's cubic coefficient scatters by
-3.2 % (sd) while each 95 % interval is ±0.8 %: the intervals carry the sensor noise, not the model
-error (select says so).
+3.2 % (sd) while each noise-replicate 95 % interval is ±0.8 %: the replicates carry the sensor
+noise, not the model error; select widens the intervals of an inadequate model by its residual
+over the noise (7.2x here: ±6.2 %, docs/method.md §11).
 
     .venv/bin/python benchmarks/hysteresis_trial.py --out /tmp/bw
     .venv/bin/bayesnsi select /tmp/bw/bw.toml --out /tmp/bw/sel

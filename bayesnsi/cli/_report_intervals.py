@@ -78,11 +78,24 @@ def interval_text(outcomes) -> str:
         if iv is None:
             continue
         if iv.method == "segments":
-            return INTERVAL_TEXT.format(n=iv.n_segments, samples=iv.segment_samples)
-        if iv.method == "noise":
-            return NOISE_TEXT.format(n=iv.n_segments, dof=iv.n_segments - 1)
-        return _POSTERIOR_TEXT + (" " + " ".join(iv.notes) if iv.notes else "")
+            text = INTERVAL_TEXT.format(n=iv.n_segments, samples=iv.segment_samples)
+        elif iv.method == "noise":
+            text = NOISE_TEXT.format(n=iv.n_segments, dof=iv.n_segments - 1)
+        else:
+            text = _POSTERIOR_TEXT + (" " + " ".join(iv.notes) if iv.notes else "")
+        return text + _widened_text(outcomes)
     return ""
+
+
+def _widened_text(outcomes) -> str:
+    """A sentence naming the candidates whose intervals were widened for their model error."""
+    wide = [(o.name, o.intervals.widening) for o in outcomes
+            if getattr(o, "intervals", None) is not None and getattr(o.intervals, "widening", 1.0) > 1.0]
+    if not wide:
+        return ""
+    listed = ", ".join(f"{name} {factor:.2f}x" for name, factor in wide)
+    return (f" Widened for model error (residual above the sensor noise, so the model error, not the noise, "
+            f"moves the estimates from record to record; docs/method.md §11): {listed}.")
 
 
 def coefficient_intervals_frame(outcomes, likelihood: str):

@@ -20,7 +20,7 @@ from .bridge import BridgeEstimate, bridge_sampling
 from .candidate import RESIDUALS, candidate_affine, candidate_evidence, candidate_priors
 from .convergence import ConvergenceReport, convergence_report, posterior_summary, warn_if_unconverged
 from .decision import decision_table, evidence_strength
-from .intervals import INTERVAL_METHODS, Intervals, ParameterInterval, candidate_intervals, segment_estimates
+from .intervals import INTERVAL_METHODS, Intervals, ParameterInterval, candidate_intervals, segment_estimates, widen
 from .likelihood import (
     SufficientStatistics,
     log_likelihood_ar,
@@ -77,6 +77,7 @@ __all__ = [
     "ParameterInterval",
     "candidate_intervals",
     "segment_estimates",
+    "widen",
     "decision_table",
     "evidence_strength",
     # convergence

@@ -301,7 +301,7 @@ _PARAMETER_INTERVALS = _Sequence(_Struct(ParameterInterval, {
 INTERVALS = _Struct(Intervals, {
     "method": STR, "coefficients": _PARAMETER_INTERVALS, "frequencies": _PARAMETER_INTERVALS,
     "damping_ratios": _PARAMETER_INTERVALS, "n_segments": INT, "segment_samples": INT, "notes": STRS,
-}, none=True)
+}, none=True, fixed={"widening": 1.0})  # widened for inadequacy by select after the cache (run.adequacy)
 
 OUTCOME = _Struct(CandidateOutcome, {
     "candidate": CANDIDATE,

@@ -31,7 +31,9 @@ import numpy as np
 
 from ..exceptions import BayesNSIError
 
-__all__ = ["ModelCheck", "model_checks", "adequacy_warnings", "sensor_noise_std", "VALIDATION_TOLERANCE"]
+__all__ = [
+    "ModelCheck", "model_checks", "adequacy_warnings", "sensor_noise_std", "widen_inadequate", "VALIDATION_TOLERANCE",
+]
 
 VALIDATION_TOLERANCE = 0.1
 """The selected model "validates worse" when its validation NRMSE exceeds the best candidate's by more than this
@@ -183,6 +185,49 @@ def model_checks(
     return checks
 
 
+def widen_inadequate(outcomes: Sequence, checks: Mapping[str, ModelCheck]) -> tuple[tuple, dict[str, ModelCheck]]:
+    """Widen the intervals of every inadequate candidate by its residual-to-noise ratio.
+
+    The noise replicates of :func:`bayesnsi.evidence.candidate_intervals` carry the sensor noise
+    only. A model whose residual is R times the noise (R above ``max_noise_ratio``) has an error
+    that moves its estimates from record to record about R times as much (docs/method.md §11):
+    its intervals are widened by R (:func:`bayesnsi.evidence.widen`), with a note, and the
+    coefficients whose widened 95 % interval holds zero are listed again.
+
+    Parameters
+    ----------
+    outcomes : sequence of CandidateOutcome
+    checks : mapping of str to ModelCheck
+        :func:`model_checks` of those outcomes.
+
+    Returns
+    -------
+    outcomes : tuple of CandidateOutcome
+        With widened ``intervals`` where the model is inadequate.
+    checks : dict of str to ModelCheck
+        With ``unsupported`` of the widened intervals.
+    """
+    from dataclasses import replace
+
+    from ..evidence import widen
+
+    widened, new_checks = [], dict(checks)
+    for outcome in outcomes:
+        check = checks.get(outcome.name)
+        intervals = getattr(outcome, "intervals", None)
+        if check is None or check.adequate or intervals is None or not math.isfinite(check.noise_ratio):
+            widened.append(outcome)
+            continue
+        note = (
+            f"widened {check.noise_ratio:.2f}x: the model's residual is {check.noise_ratio:.2f}x the sensor noise "
+            f"({check.quantity}), so its error, not the noise, sets how far its estimates move from record to record"
+        )
+        intervals = widen(intervals, check.noise_ratio, note)
+        widened.append(replace(outcome, intervals=intervals))
+        new_checks[outcome.name] = replace(check, unsupported=_unsupported(intervals))
+    return tuple(widened), new_checks
+
+
 def sensor_noise_std(signals) -> np.ndarray:
     """Noise std of each measured output (module notes): period-to-period scatter, else high-order differences.
 
@@ -248,7 +293,7 @@ def adequacy_warnings(
         its residual is not near the noise level while another candidate's is; no candidate's
         residual is near the noise level; the candidates have linear parts of different orders.
         When the selected model's residual is not near the noise, the message says that its
-        intervals carry the sensor noise only, not its model error.
+        intervals were widened by that ratio (:func:`widen_inadequate`).
     """
     out = []
     chosen = checks.get(selected) if selected is not None else None
@@ -293,14 +338,14 @@ def adequacy_warnings(
         out.append(
             f"no candidate is adequate: every residual is more than {max_noise_ratio:g}x the sensor noise "
             f"(best {best!r}: {checks[best].noise_ratio:.2f}x{what}); the probabilities only rank wrong models"
-            + (", and the selected model's intervals carry the sensor noise only, not its model error"
+            + (f"; the selected model's intervals are widened {chosen.noise_ratio:.2f}x for its model error"
                if chosen is not None else "")
         )
     elif chosen is not None and not chosen.adequate:
         out.append(
             f"the selected model {selected!r} is not adequate: its residual is {chosen.noise_ratio:.2f}x the sensor "
-            f"noise (more than {max_noise_ratio:g}x) while another candidate's is within it; its intervals carry "
-            "the sensor noise only, not this model error"
+            f"noise (more than {max_noise_ratio:g}x) while another candidate's is within it; its intervals are "
+            f"widened {chosen.noise_ratio:.2f}x for this model error"
         )
     orders = sorted({c.order for c in checks.values()})
     if len(orders) > 1:

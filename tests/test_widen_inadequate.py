@@ -25,9 +25,9 @@ def _intervals() -> Intervals:
     return Intervals(method="noise", coefficients=(coefficient,), frequencies=(frequency,), n_segments=16)
 
 
-def _check(name: str, ratio: float) -> ModelCheck:
+def _check(name: str, ratio: float, quantity: str = "displacement") -> ModelCheck:
     return ModelCheck(name=name, order=2, residual_rms=(ratio,), noise_std=(1.0,), noise_ratio=ratio,
-                      adequate=ratio <= 1.3, quality_index=0.1, quality_ok=True)
+                      adequate=ratio <= 1.3, quality_index=0.1, quality_ok=True, quantity=quantity)
 
 
 def test_widen_scales_every_reach_about_the_bias_corrected_centre():
@@ -60,3 +60,17 @@ def test_only_inadequate_candidates_are_widened_and_zero_is_checked_again():
     assert low == pytest.approx(9.8 - 12 * 1.0) and low < 0.0 < high  # no longer supported
     assert new_checks["wrong"].unsupported == (("x1**3@1", low, high),)
     assert new_checks["fits"].unsupported == ()
+
+
+def test_a_free_body_is_not_widened_by_its_force_residual_over_the_force_noise():
+    # EMPS (workflows/emps.py): the force-prediction residual is 70x the noise of the force channel,
+    # which is not what drives it; widened, Coulomb friction read [-29, 67] N for an estimate within
+    # 3 % of the published 20.4 N.
+    from bayesnsi.run.adequacy import adequacy_warnings
+
+    checks = {"Coulomb": _check("Coulomb", 70.0, quantity="force")}
+    widened, _ = widen_inadequate([_Outcome("Coulomb", _intervals())], checks)
+    assert widened[0].intervals == _intervals()
+    said = adequacy_warnings(checks, "Coulomb")
+    assert any("intervals carry the sensor noise only" in w for w in said), said
+    assert not any("widened" in w for w in said)

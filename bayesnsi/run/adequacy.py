@@ -219,7 +219,9 @@ def widen_inadequate(outcomes: Sequence, checks: Mapping[str, ModelCheck]) -> tu
         check = checks.get(outcome.name)
         intervals = getattr(outcome, "intervals", None)
         if (check is None or check.adequate or intervals is None or not math.isfinite(check.noise_ratio)
-                or check.quantity != "displacement"):
+                or check.quantity != "displacement" or getattr(outcome.result, "virtual_stiffness", 0.0)):
+            # a free body with several DOFs: its displacement residual is the stabilised model's, which rings
+            # at the undamped virtual mode (free-free rig, true model: 1100x the 1 µm noise), not its error
             widened.append(outcome)
             continue
         note = (

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import sys
 import warnings
 
 from ..exceptions import BayesNSIWarning
@@ -13,7 +12,7 @@ __all__ = ["plain_warnings"]
 
 @contextlib.contextmanager
 def plain_warnings():
-    """Print a :class:`~bayesnsi.exceptions.BayesNSIWarning` not caught on the way as ``warning: ...``.
+    """Show a :class:`~bayesnsi.exceptions.BayesNSIWarning` not caught on the way as ``warning: ...``.
 
     Python's default shows the file, line and source line of the ``warnings.warn`` call, which
     says nothing to a user (e.g. a transient period in the estimation window, found while the data
@@ -23,19 +22,20 @@ def plain_warnings():
     ------
     None
     """
-    previous = warnings.showwarning
+    previous = warnings.formatwarning
 
-    def show(message, category, filename, lineno, file=None, line=None):
+    def plain(message, category, filename, lineno, line=None):
         if issubclass(category, BayesNSIWarning):
-            print(f"warning: {' '.join(str(message).split())}", file=sys.stderr if file is None else file)
-        else:
-            previous(message, category, filename, lineno, file, line)
+            return f"warning: {' '.join(str(message).split())}\n"
+        return previous(message, category, filename, lineno, line)
 
-    warnings.showwarning = show
+    # the format, not warnings.showwarning: warnings.catch_warnings(record=True) (pytest.warns, callers
+    # that collect the warnings) only keeps recording while showwarning is Python's own
+    warnings.formatwarning = plain
     try:
         yield
     finally:
-        warnings.showwarning = previous
+        warnings.formatwarning = previous
 
 
 def periodic_hint(config, signals) -> str | None:

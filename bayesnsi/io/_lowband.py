@@ -22,7 +22,6 @@ positive, flat: a rigid-body motion).
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import csd
 
 __all__ = ["BELOW_BAND_LIMIT", "below_band_messages"]
 
@@ -32,6 +31,8 @@ BELOW_BAND_LIMIT = 0.5
 
 def _spectra(force: np.ndarray, acc: np.ndarray, fs: float, f_lo: float):
     """Welch auto/cross spectra with lines fine enough to resolve ``f_lo / 8``."""
+    from scipy.signal import csd  # here: the loader is on every command's path, scipy.signal costs 0.2 s
+
     n = len(force)
     nperseg = int(min(n, 2 ** np.ceil(np.log2(max(16.0, 8.0 * fs / f_lo)))))
     m, l = force.shape[1], acc.shape[1]

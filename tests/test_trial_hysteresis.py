@@ -102,7 +102,7 @@ def test_selected_model_feeding_energy_in_is_warned():
     assert not any("negative dissipation" in w for w in adequacy_warnings(checks, "quadratic damping"))
 
 
-def test_intervals_of_an_inadequate_selected_model_are_said_to_be_widened():
+def test_intervals_of_an_inadequate_selected_model_are_qualified():
     # The trial's time and frequency routes gave x1**3 = 7.37e9 [7.35e9, 7.47e9] and 4.43e9 [4.02e9, 4.80e9]
     # on the same record: intervals that hold the sensor noise only cannot hold a model-form error of 40 %.
     from bayesnsi.run.adequacy import adequacy_warnings, model_checks
@@ -110,11 +110,11 @@ def test_intervals_of_an_inadequate_selected_model_are_said_to_be_widened():
     record = _periodic_noise_record()
     none_fit = model_checks([_fake_outcome("a", [("x1**3", 1.0)], 6.0), _fake_outcome("b", [], 8.0)], record)
     nothing = [w for w in adequacy_warnings(none_fit, "a") if "no candidate is adequate" in w]
-    assert len(nothing) == 1 and "intervals are widened" in nothing[0] and "x for its model error" in nothing[0]
+    assert len(nothing) == 1 and "intervals carry the sensor noise only" in nothing[0]  # none to widen here
     one_fits = model_checks([_fake_outcome("a", [("x1**3", 1.0)], 6.0), _fake_outcome("b", [], 1.0)], record)
     assert one_fits["b"].adequate and not one_fits["a"].adequate
     said = adequacy_warnings(one_fits, "a")
-    assert any("'a' is not adequate" in w and "intervals are widened" in w for w in said), said
+    assert any("'a' is not adequate" in w and "sensor noise only" in w for w in said), said
     assert adequacy_warnings(one_fits, "b") == ()
 
 

@@ -60,6 +60,12 @@ def test_only_inadequate_candidates_are_widened_and_zero_is_checked_again():
     assert low == pytest.approx(9.8 - 12 * 1.0) and low < 0.0 < high  # no longer supported
     assert new_checks["wrong"].unsupported == (("x1**3@1", low, high),)
     assert new_checks["fits"].unsupported == ()
+    assert new_checks["wrong"].to_dict()["interval_widening"] == pytest.approx(12.0)
+    from bayesnsi.run.adequacy import adequacy_warnings
+
+    said = adequacy_warnings(new_checks, "wrong")
+    assert any("'wrong' is not adequate" in w and "its intervals are widened 12.00x for its model error" in w
+               for w in said), said
 
 
 def test_a_free_body_is_not_widened_by_its_force_residual_over_the_force_noise():

@@ -77,6 +77,8 @@ class ModelCheck:
         sign(v), tanh(v/ε)) with a negative coefficient, whose force does positive work on every
         motion (:func:`bayesnsi.diagnose.guards.injects_energy`, the loop's "negative dissipation"
         guard): name and coefficient.
+    widening : float
+        Factor its intervals were widened by for its model error (:func:`widen_inadequate`; 1: not).
     """
 
     name: str
@@ -92,6 +94,7 @@ class ModelCheck:
     quantity: str = "displacement"
     unsupported: tuple[tuple[str, float, float], ...] = ()
     energy_input: tuple[tuple[str, float], ...] = ()
+    widening: float = 1.0
 
     def to_dict(self) -> dict:
         """JSON-ready record.
@@ -107,6 +110,7 @@ class ModelCheck:
             "quality_ok": self.quality_ok, "validation_nrmse": self.validation_nrmse,
             "validation_log_predictive": self.validation_log_predictive, "quantity": self.quantity,
             "negative_dissipation": [{"term": name, "coefficient": value} for name, value in self.energy_input],
+            "interval_widening": self.widening,
         }
 
 
@@ -231,13 +235,13 @@ def widen_inadequate(outcomes: Sequence, checks: Mapping[str, ModelCheck]) -> tu
         )
         intervals = widen(intervals, check.noise_ratio, note)
         widened.append(replace(outcome, intervals=intervals))
-        new_checks[outcome.name] = replace(check, unsupported=_unsupported(intervals))
+        new_checks[outcome.name] = replace(check, unsupported=_unsupported(intervals), widening=intervals.widening)
     return tuple(widened), new_checks
 
 
 def _interval_clause(check: ModelCheck, subject: str) -> str:
     """What the selected inadequate model's intervals carry (:func:`widen_inadequate`)."""
-    if check.quantity != "displacement":
+    if check.widening <= 1.0:
         return f"; {subject} carry the sensor noise only, not its model error"
     return f"; {subject} are widened {check.noise_ratio:.2f}x for its model error"
 

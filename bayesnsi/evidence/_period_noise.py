@@ -78,13 +78,7 @@ def period_noise(record, period) -> PeriodNoise | None:
         None without a period or with fewer than two whole periods; else the deviations of the
         first whole periods (a trailing part period is left out).
     """
-    if not period:
-        return None
-    y = np.asarray(record, dtype=float)
-    y = y.reshape(len(y), -1)
-    period = int(period)
-    n = len(y) // period
-    if n < 2:
-        return None
-    periods = y[: n * period].reshape(n, period, y.shape[1])
-    return PeriodNoise(periods - periods.mean(axis=0))
+    from ..nsi.steady import period_deviations
+
+    deviations = period_deviations(record, period)
+    return None if deviations is None else PeriodNoise(deviations)

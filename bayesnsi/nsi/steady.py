@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
-    "FORCE_SCATTER_LIMIT", "PERIOD_OUTLIER_LIMIT", "REPEAT_CORRELATION", "period_problems", "period_scatter_std",
-    "repeating_period",
+    "FORCE_SCATTER_LIMIT", "PERIOD_OUTLIER_LIMIT", "REPEAT_CORRELATION", "period_problems", "period_deviations",
+    "period_scatter_std", "repeating_period",
 ]
 
 FORCE_SCATTER_LIMIT = 0.1
@@ -145,6 +145,32 @@ def period_problems(force, response, period, offset: int = 0, step: int = 1) -> 
     return out
 
 
+def period_deviations(signal, period) -> np.ndarray | None:
+    """Deviations ``y_p - ȳ`` of each whole period from the period mean, or None without two periods.
+
+    Parameters
+    ----------
+    signal : array_like, shape (n_samples, n_channels)
+        A periodic record (a trailing part period is left out).
+    period : int or None
+        Samples per period.
+
+    Returns
+    -------
+    ndarray, shape (n_periods, period, n_channels) or None
+    """
+    if not period:
+        return None
+    y = np.asarray(signal, dtype=float)
+    y = y.reshape(len(y), -1)
+    period = int(period)
+    n = len(y) // period
+    if n < 2:
+        return None
+    periods = y[: n * period].reshape(n, period, y.shape[1])
+    return periods - periods.mean(axis=0)
+
+
 def period_scatter_std(signal, period) -> np.ndarray | None:
     """Noise std per channel from the scatter between whole periods, or None without two of them.
 
@@ -160,13 +186,8 @@ def period_scatter_std(signal, period) -> np.ndarray | None:
     ndarray, shape (n_channels,) or None
         ``sqrt(Σ_p Σ_t (y_{p,t} - ȳ_t)² / (P (n - 1)))`` over the n whole periods.
     """
-    if not period:
+    deviations = period_deviations(signal, period)
+    if deviations is None:
         return None
-    y = np.asarray(signal, dtype=float)
-    y = y.reshape(len(y), -1)
-    period = int(period)
-    n = len(y) // period
-    if n < 2:
-        return None
-    periods = y[: n * period].reshape(n, period, y.shape[1])
-    return np.sqrt(np.sum((periods - periods.mean(axis=0)) ** 2, axis=(0, 1)) / (period * (n - 1)))
+    n, samples = deviations.shape[:2]
+    return np.sqrt(np.sum(deviations**2, axis=(0, 1)) / (samples * (n - 1)))

@@ -262,15 +262,11 @@ def sensor_noise_std(signals) -> np.ndarray:
         :func:`bayesnsi.nsi.white_noise_std` of the record.
     """
     from ..nsi import white_noise_std
+    from ..nsi.steady import period_scatter_std
 
     x = np.asarray(signals.displacement, dtype=float).reshape(len(signals.displacement), -1)
-    period = getattr(signals, "period", None)
-    if period and len(x) // int(period) >= 2:
-        n_periods = len(x) // int(period)
-        periods = x[: n_periods * int(period)].reshape(n_periods, int(period), -1)
-        scatter = np.sum((periods - periods.mean(axis=0)) ** 2, axis=(0, 1))
-        return np.sqrt(scatter / (int(period) * (n_periods - 1)))
-    return white_noise_std(x)
+    scatter = period_scatter_std(x, getattr(signals, "period", None))
+    return white_noise_std(x) if scatter is None else scatter
 
 
 def _unsupported(intervals) -> tuple[tuple[str, float, float], ...]:

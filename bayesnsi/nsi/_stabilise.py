@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["pole_text", "reflect_out_of_band", "unexcited"]
+__all__ = ["mirror_eigenvalues", "pole_text", "reflect_out_of_band", "unexcited"]
 
 
 def _frequency_hz(z: np.ndarray, dt: float) -> np.ndarray:
@@ -94,13 +94,30 @@ def reflect_out_of_band(A: np.ndarray, dt: float, band_hz, force: np.ndarray | N
         informed |= ~unexcited(force, dt, band_hz, freqs)
     if np.any(unstable & informed):
         return None
+    stable = mirror_eigenvalues(lam, vec, unstable)
+    return None if stable is None else (stable, lam[unstable & (lam.imag >= 0)])
+
+
+def mirror_eigenvalues(lam: np.ndarray, vec: np.ndarray, which: np.ndarray) -> np.ndarray | None:
+    """The real matrix ``V diag(λ') V⁻¹`` with the chosen eigenvalues mirrored, ``λ' = 1/conj(λ)``.
+
+    Parameters
+    ----------
+    lam, vec : ndarray
+        Eigenvalues and eigenvectors of a real state matrix (:func:`numpy.linalg.eig`).
+    which : ndarray of bool
+        The eigenvalues to mirror (conjugate pairs together).
+
+    Returns
+    -------
+    ndarray or None
+        None when the result still has an eigenvalue on or outside the unit circle (a defective
+        matrix: the mirror did not hold).
+    """
     mirrored = lam.copy()
-    mirrored[unstable] = 1.0 / np.conj(lam[unstable])
+    mirrored[which] = 1.0 / np.conj(lam[which])
     stable = np.real(vec @ np.diag(mirrored) @ np.linalg.inv(vec))
-    if np.max(np.abs(np.linalg.eigvals(stable))) >= 1.0:  # defective A: the mirror did not hold
-        return None
-    shown = lam[unstable & (lam.imag >= 0)]
-    return stable, shown
+    return None if np.max(np.abs(np.linalg.eigvals(stable))) >= 1.0 else stable
 
 
 def pole_text(poles: np.ndarray, dt: float) -> str:

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._stabilise import mirror_eigenvalues
+
 __all__ = ["VIRTUAL_MODE_MAX_NEGATIVE_DAMPING", "mirror_undamped", "physical_mirrored"]
 
 VIRTUAL_MODE_MAX_NEGATIVE_DAMPING = 0.2
@@ -57,12 +59,8 @@ def mirror_undamped(A: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray] |
     oscillatory = (np.abs(lam.imag) > 0) & (zeta >= -VIRTUAL_MODE_MAX_NEGATIVE_DAMPING)
     if np.any(unstable & ~oscillatory):
         return None
-    mirrored = lam.copy()
-    mirrored[unstable] = 1.0 / np.conj(lam[unstable])
-    stable = np.real(vec @ np.diag(mirrored) @ np.linalg.inv(vec))
-    if np.max(np.abs(np.linalg.eigvals(stable))) >= 1.0:  # defective A: the mirror did not hold
-        return None
-    return stable, lam[unstable & (lam.imag >= 0)]
+    stable = mirror_eigenvalues(lam, vec, unstable)
+    return None if stable is None else (stable, lam[unstable & (lam.imag >= 0)])
 
 
 def physical_mirrored(mirrored: np.ndarray, modes, dt: float) -> list[float]:

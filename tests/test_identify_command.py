@@ -63,7 +63,7 @@ def test_open_loop_reconstruction_simulates_once_and_equals_the_two_step_form(ca
     np.testing.assert_allclose(rec.predicted, model.simulate(u, x0), rtol=0, atol=1e-12 * np.max(np.abs(y)))
 
 
-def test_identify_without_figures_imports_no_pandas_matplotlib_or_scipy_signal(tmp_path, case):
+def test_identify_without_figures_imports_no_pandas_matplotlib_scipy_signal_or_optimize(tmp_path, case):
     write_signals_csv(tmp_path / "d.csv", case.signals)
     config = tmp_path / "c.toml"
     config.write_text(
@@ -75,7 +75,7 @@ def test_identify_without_figures_imports_no_pandas_matplotlib_or_scipy_signal(t
     code = (
         "import sys\nfrom bayesnsi.cli import main\n"
         f"assert main({args!r}) == 0\n"
-        "print(sorted(m for m in ('pandas', 'matplotlib', 'scipy.signal', 'arviz_plots') if m in sys.modules))"
+        "print(sorted(m for m in ('pandas', 'matplotlib', 'scipy.signal', 'scipy.optimize', 'arviz_plots') if m in sys.modules))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"

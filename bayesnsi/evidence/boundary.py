@@ -16,7 +16,6 @@ and only the ``q`` coefficients are treated by Laplace, with a finite-difference
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import minimize
 
 from ._target import _LOG_2PI, Target
 from .collapsed import CollapsedTarget, collapsible
@@ -66,6 +65,8 @@ def collapsed_laplace_log_evidence(stats, priors, likelihood: str = "white") -> 
     if target.q == 0:
         return log_post(centre)
     scale = np.maximum(np.abs(centre), np.asarray(priors.coefficients.scale, dtype=float) * 1e-6)
+    from scipy.optimize import minimize  # here: scipy.optimize costs 0.2 s to import
+
     fit = minimize(lambda z: -log_post(centre + z * scale), np.zeros(target.q), method="Nelder-Mead",
                    options={"xatol": 1e-9, "fatol": 1e-9, "maxiter": 2000 * target.q})
     mode = centre + fit.x * scale

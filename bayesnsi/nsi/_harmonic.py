@@ -22,7 +22,6 @@ spectra of the period-averaged response (docs/method.md §11).
 from __future__ import annotations
 
 import numpy as np
-import scipy.optimize
 
 from ..exceptions import UnstableModelError
 from ..signals import Signals
@@ -169,6 +168,8 @@ def _newton(update, X: np.ndarray, residual: float):
         with np.errstate(over="ignore", invalid="ignore"):
             d = update(Z) - Z
         return np.concatenate([d.real.ravel(), d.imag.ravel()])
+
+    import scipy.optimize  # here: 0.2 s, and the module is on every command's import path
 
     try:
         z = scipy.optimize.newton_krylov(function, np.concatenate([X.real.ravel(), X.imag.ravel()]),

@@ -209,7 +209,7 @@ def select(
             continue  # the outcome already says why this candidate has no evidence
     limits = {"max_noise_ratio": evidence.max_noise_ratio, "max_imag_ratio": evidence.max_imag_ratio}
     fits = model_checks(outcomes, signals, checks, **limits)
-    outcomes, fits = widen_inadequate(outcomes, fits)  # their intervals carry the model error too
+    outcomes, fits = widen_inadequate(outcomes, fits, signals)  # their intervals carry the model error too
     selection = Selection(outcomes, table, nsi or NSIOptions(), evidence, checks, adequacy, fits)
     messages = adequacy_warnings(fits, selection.selected, **limits)
     messages += view_notes + tuple(velocity_noise_messages(signals, candidates, (nsi or NSIOptions()).velocity_method))

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import pytest
 
@@ -80,3 +81,15 @@ def test_a_free_body_is_not_widened_by_its_force_residual_over_the_force_noise()
     said = adequacy_warnings(checks, "Coulomb")
     assert any("intervals carry the sensor noise only" in w for w in said), said
     assert not any("widened" in w for w in said)
+
+
+def test_integrated_accelerations_without_periods_are_not_widened():
+    # The F-16-like trial's sweep (time route, accelerations integrated): the displacement noise the
+    # ratio divides by is what the integration filter left of it, and the ratio read 18 000x.
+    sweep = SimpleNamespace(measured="acceleration", period=None, n_samples=4000)
+    periodic = SimpleNamespace(measured="acceleration", period=1000, n_samples=4000)
+    checks = {"cubic": _check("cubic", 18000.0)}
+    kept, _ = widen_inadequate([_Outcome("cubic", _intervals())], checks, sweep)
+    assert kept[0].intervals == _intervals()
+    widened, _ = widen_inadequate([_Outcome("cubic", _intervals())], checks, periodic)
+    assert widened[0].intervals.widening == pytest.approx(18000.0)

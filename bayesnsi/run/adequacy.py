@@ -189,7 +189,9 @@ def model_checks(
     return checks
 
 
-def widen_inadequate(outcomes: Sequence, checks: Mapping[str, ModelCheck]) -> tuple[tuple, dict[str, ModelCheck]]:
+def widen_inadequate(
+    outcomes: Sequence, checks: Mapping[str, ModelCheck], signals=None,
+) -> tuple[tuple, dict[str, ModelCheck]]:
     """Widen the intervals of every inadequate candidate by its residual-to-noise ratio.
 
     The noise replicates of :func:`bayesnsi.evidence.candidate_intervals` carry the sensor noise
@@ -206,6 +208,11 @@ def widen_inadequate(outcomes: Sequence, checks: Mapping[str, ModelCheck]) -> tu
     outcomes : sequence of CandidateOutcome
     checks : mapping of str to ModelCheck
         :func:`model_checks` of those outcomes.
+    signals : Signals, optional
+        The estimation data. Nothing is widened when they are integrated from a velocity or an
+        acceleration on a record without whole periods: the noise the ratio divides by is then that
+        of the integrated signal, which the integration filter removes (a sweep of integrated
+        accelerations read 18 000x; periodic records take the period-to-period scatter instead).
 
     Returns
     -------
@@ -218,6 +225,10 @@ def widen_inadequate(outcomes: Sequence, checks: Mapping[str, ModelCheck]) -> tu
 
     from ..evidence import widen
 
+    integrated = getattr(signals, "measured", "displacement") != "displacement"
+    period = getattr(signals, "period", None)
+    if integrated and not (period and signals.n_samples // int(period) >= 2):
+        return tuple(outcomes), dict(checks)
     widened, new_checks = [], dict(checks)
     for outcome in outcomes:
         check = checks.get(outcome.name)

@@ -104,27 +104,31 @@ def noise_replicates(result, signals, options=None, n_replicates: int = 16, seed
     options = (options or NSIOptions()).replace(order=result.order, band_hz=tuple(result.band_hz))
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 15]))
     y = np.asarray(signals.displacement, dtype=float)
-    y_std = white_noise_std(y)
     v = None if signals.velocity is None else np.asarray(signals.velocity, dtype=float)
-    lowest = min((m.frequency_hz for m in result.modes), default=0.0)
-    v_std = velocity_noise_std(y, v, signals.fs, y_std, lowest) if v is not None else np.zeros(0)
+    n_y = y.shape[1]
     # whole periods: the noise is the period-to-period scatter (spectrum and channels kept, _period_noise)
     scatter = period_noise(y if v is None else np.column_stack([y, v]), getattr(signals, "period", None))
     if scatter is not None:
-        y_std = scatter.std[: y.shape[1]]
+        y_std = scatter.std[:n_y]
+
+        def draw():
+            e = scatter.draw(len(y), rng)
+            return e[:, :n_y], e[:, n_y:]
+    else:
+        y_std = white_noise_std(y)
+        lowest = min((m.frequency_hz for m in result.modes), default=0.0)
+        v_std = velocity_noise_std(y, v, signals.fs, y_std, lowest) if v is not None else np.zeros(0)
+
+        def draw():
+            e_y = rng.standard_normal(y.shape) * y_std
+            return e_y, None if v is None else rng.standard_normal(v.shape) * v_std
 
     def copies():
         for k in range(int(n_replicates)):
-            if scatter is not None:
-                e = scatter.draw(len(y), rng)
-                noisy = {"displacement": y + e[:, : y.shape[1]]}
-                if v is not None:
-                    noisy["velocity"] = v + e[:, y.shape[1] :]
-                yield f"noise replicate {k}", replace(signals, **noisy)
-                continue
-            noisy = {"displacement": y + rng.standard_normal(y.shape) * y_std}
+            e_y, e_v = draw()
+            noisy = {"displacement": y + e_y}
             if v is not None:
-                noisy["velocity"] = v + rng.standard_normal(v.shape) * v_std
+                noisy["velocity"] = v + e_v
             yield f"noise replicate {k}", replace(signals, **noisy)
 
     return (y_std, *reidentify(result, copies(), options))

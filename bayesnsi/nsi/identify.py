@@ -191,8 +191,8 @@ def identify(
     virtual_mode = eigenvalues[:0]
     if stabilised is None and stiffness:  # the virtual spring's mode of a body with no damping to ground
         mirrored = mirror_undamped(A, signals.dt)
-        stabilised, virtual_mode = (None, virtual_mode) if mirrored is None else ((mirrored[0], eigenvalues[:0]),
-                                                                                  mirrored[1])
+        if mirrored is not None:
+            stabilised, virtual_mode = (mirrored[0], eigenvalues[:0]), mirrored[1]
     if stabilised is None:
         raise UnstableModelError(
             f"candidate {cand.name!r}: the identified underlying linear model is unstable "

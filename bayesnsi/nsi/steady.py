@@ -122,8 +122,7 @@ def period_problems(force, response, period, offset: int = 0, step: int = 1) -> 
             f"{ratio:.3g} of its power, limit {FORCE_SCATTER_LIMIT:g}): check [data] period and that the window "
             "holds one realisation of the excitation"
         ]
-    yp = y[: n * period].reshape(n, period, -1)
-    dev = yp - yp.mean(axis=0)
+    dev = period_deviations(y, period)
     scale = np.sqrt(np.mean(dev**2, axis=(0, 1)))
     scale[scale == 0] = 1.0
     per_period = np.sum((dev / scale) ** 2, axis=(1, 2))

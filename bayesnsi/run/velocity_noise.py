@@ -61,7 +61,8 @@ def velocity_noise_messages(signals: Signals, candidates: Sequence, velocity_met
     if not read:
         return []
     x = np.asarray(signals.displacement, dtype=float)
-    noise = white_noise_std(x) * signals.fs * _stencil_norm(velocity_method)
+    x_noise = white_noise_std(x)
+    noise = x_noise * signals.fs * _stencil_norm(velocity_method)
     spread = differentiate(x, signals.fs, velocity_method).std(axis=0)
     out = []
     for dof in read:
@@ -72,7 +73,7 @@ def velocity_noise_messages(signals: Signals, candidates: Sequence, velocity_met
         terms = sorted({t.expr.text for c in candidates for t in c.terms if dof in t.expr.velocity_dofs})
         out.append(
             f"the velocity v{dof} is differentiated from the displacement x{dof}, whose noise "
-            f"({white_noise_std(x)[i]:.3g}, high-order differences) gives it a noise of {noise[i]:.3g} "
+            f"({x_noise[i]:.3g}, high-order differences) gives it a noise of {noise[i]:.3g} "
             f"= {ratio:.2f} of its std at {signals.fs:g} Hz: the terms of v{dof} ({', '.join(terms)}) read a "
             "noisy velocity (errors in variables: friction is attenuated and another term can take its "
             "place, whatever the probabilities say); measure the velocity ([data] velocities), use a "

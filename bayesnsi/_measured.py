@@ -30,7 +30,7 @@ __all__ = ["MeasuredError", "measured_error", "to_measured"]
 _ORDER = {q: p for p, q in enumerate(MEASURED_QUANTITIES)}
 
 
-def to_measured(displacement, fs: float, quantity: str, period: int | None = None) -> np.ndarray:
+def to_measured(displacement, fs: float, quantity: str, period: int | None = None, realisations: int = 1) -> np.ndarray:
     """Displacements differentiated into the measured ``quantity`` (see the module docstring).
 
     Parameters
@@ -43,6 +43,9 @@ def to_measured(displacement, fs: float, quantity: str, period: int | None = Non
         What the sensors measured.
     period : int, optional
         Samples per period; line by line when the record holds whole periods, else finite differences.
+    realisations : int
+        Equal-length realisations one after the other (``Signals.realisations``), each differentiated
+        line by line on its own.
 
     Returns
     -------
@@ -53,6 +56,9 @@ def to_measured(displacement, fs: float, quantity: str, period: int | None = Non
     order = _ORDER[quantity]
     if order == 0:
         return x
+    if realisations > 1 and period is not None:  # each realisation on its own lines (new phases: no continuity)
+        parts = np.split(x, realisations)
+        return np.concatenate([to_measured(part, fs, quantity, period) for part in parts])
     n = len(x)
     if period is not None and n % period == 0:
         spectrum = np.fft.rfft(x, axis=0)
@@ -113,8 +119,9 @@ def measured_error(measured, predicted, signals, skip: int = 0) -> MeasuredError
     MeasuredError
     """
     quantity = getattr(signals, "measured", "displacement")
-    y = to_measured(measured, signals.fs, quantity, signals.period)[skip:]
-    e = y - to_measured(predicted, signals.fs, quantity, signals.period)[skip:]
+    r = getattr(signals, "realisations", 1)
+    y = to_measured(measured, signals.fs, quantity, signals.period, r)[skip:]
+    e = y - to_measured(predicted, signals.fs, quantity, signals.period, r)[skip:]
     mean_square = np.mean(e**2, axis=0)
     power = np.mean(y**2, axis=0)
     ratio = mean_square / np.where(power > 0, power, np.inf)

@@ -13,7 +13,7 @@ import numpy as np
 
 from .exceptions import InputDataError, ShapeError
 
-__all__ = ["Signals", "differentiate", "MIN_FS", "MAX_FS", "MEASURED_QUANTITIES"]
+__all__ = ["Signals", "differentiate", "join_realisations", "MIN_FS", "MAX_FS", "MEASURED_QUANTITIES"]
 
 MIN_FS = 1e-6
 """Lowest accepted sampling frequency [Hz] (one sample every 11.6 days)."""
@@ -100,6 +100,86 @@ def _as_matrix(name: str, values, n_samples: int | None) -> np.ndarray:
     return arr
 
 
+def _check_realisations(realisations, period, n_samples: int) -> int:
+    """``realisations`` checked against the record: whole periods each, at least two, equal lengths."""
+    if isinstance(realisations, bool) or not isinstance(realisations, (int, np.integer)) or realisations < 1:
+        raise InputDataError(f"realisations must be a whole number >= 1, got {realisations!r}")
+    realisations = int(realisations)
+    if realisations == 1:
+        return 1
+    if period is None:
+        raise InputDataError(
+            f"realisations = {realisations} needs the period: give [data] period (samples per period), "
+            "or Signals(period=...)"
+        )
+    if n_samples % realisations or (n_samples // realisations) % period:
+        raise InputDataError(
+            f"the record of {n_samples} samples does not split into {realisations} equal realisations of whole "
+            f"periods of {period} samples; give a window of {realisations} x (a whole number of periods) after "
+            "the dropped transient periods, or join records of equal length with join_realisations"
+        )
+    if n_samples // realisations // period < 2:
+        raise InputDataError(
+            f"each of the {realisations} realisations holds {n_samples // realisations // period} period(s) "
+            "(after the dropped transient periods); the noise of a realisation comes from its period scatter: "
+            "give at least two steady periods per realisation, or drop fewer transient periods"
+        )
+    return realisations
+
+
+def join_realisations(records, drop: int = 0) -> Signals:
+    """One record of several realisations of a periodic test (one Signals each), for joint estimation.
+
+    Parameters
+    ----------
+    records : sequence of Signals
+        One per realisation: the same ``period``, ``fs``, DOFs, names, ``measured``, length and
+        velocity channels (measured or not in all).
+    drop : int
+        Leading (transient) periods left out of each realisation.
+
+    Returns
+    -------
+    Signals
+        The steady periods of the realisations one after the other, ``realisations = len(records)``.
+
+    Raises
+    ------
+    InputDataError
+        When the records differ in any of the above, or a realisation keeps fewer than two periods.
+    """
+    records = list(records)
+    if not records or not all(isinstance(r, Signals) for r in records):
+        raise InputDataError("join_realisations needs a non-empty sequence of Signals, one per realisation")
+    first = records[0]
+    if first.period is None:
+        raise InputDataError("join_realisations needs periodic records: give each Signals its period")
+    if isinstance(drop, bool) or not isinstance(drop, (int, np.integer)) or drop < 0:
+        raise InputDataError(f"drop (leading transient periods) must be an integer >= 0, got {drop!r}")
+    keys = ("period", "fs", "input_dofs", "output_dofs", "input_names", "output_names", "measured", "n_samples")
+    for k, rec in enumerate(records[1:], start=2):
+        differing = [key for key in keys if getattr(rec, key) != getattr(first, key)]
+        if (rec.velocity is None) != (first.velocity is None):
+            differing.append("velocity")
+        if rec.realisations != 1:
+            differing.append("realisations")
+        if differing:
+            raise InputDataError(
+                f"realisation {k} differs from realisation 1 in {', '.join(differing)}; realisations of one test "
+                "share the period, sampling, channels and length - cut them to the same whole periods"
+            )
+    start = int(drop) * first.period
+    if start >= first.n_samples:
+        raise InputDataError(f"dropping {drop} period(s) leaves nothing of records of {first.n_samples} samples")
+    stack = lambda name: np.concatenate([getattr(r, name)[start:] for r in records])  # noqa: E731
+    return Signals(
+        force=stack("force"), displacement=stack("displacement"),
+        velocity=None if first.velocity is None else stack("velocity"), fs=first.fs,
+        input_dofs=first.input_dofs, output_dofs=first.output_dofs, input_names=first.input_names,
+        output_names=first.output_names, period=first.period, measured=first.measured, realisations=len(records),
+    )
+
+
 def _as_dofs(name: str, dofs, n_channels: int) -> tuple[int, ...]:
     dofs = tuple(int(d) for d in np.atleast_1d(dofs))
     if len(dofs) != n_channels:
@@ -136,6 +216,13 @@ class Signals:
     measured : {"displacement", "velocity", "acceleration"}
         What the response sensors measured (``displacement`` holds it integrated when not a
         displacement); errors are reported in this quantity (bayesnsi._measured).
+    realisations : int
+        Number of realisations of a periodic test the record holds one after the other (new
+        phases of the multisine each, the same length, each of whole steady-state periods, at
+        least two; default 1). Each realisation's periods are averaged and its noise taken from
+        its own period scatter; the frequency route stacks the lines of all of them
+        (docs/method.md §11). Needs ``period``. :func:`join_realisations` builds such a record
+        from one Signals per realisation.
     """
 
     force: np.ndarray
@@ -148,6 +235,7 @@ class Signals:
     output_names: tuple[str, ...] = field(default=())
     period: int | None = None
     measured: str = "displacement"
+    realisations: int = 1
 
     def __post_init__(self):
         force = _as_matrix("force", self.force, None)
@@ -178,6 +266,7 @@ class Signals:
             set_("period", int(period))
         if self.measured not in MEASURED_QUANTITIES:
             raise InputDataError(f"measured must be one of {MEASURED_QUANTITIES}, got {self.measured!r}")
+        set_("realisations", _check_realisations(self.realisations, self.period, len(force)))
 
     @property
     def n_samples(self) -> int:
@@ -213,9 +302,34 @@ class Signals:
             velocity=None if self.velocity is None else self.velocity[start:stop],
             input_names=self.input_names,
             output_names=self.output_names,
-            period=self.period if self.period is not None and stop - start >= self.period else None,
             measured=self.measured,
+            **self._segment_period(start, stop),
         )
+
+    def _segment_period(self, start: int, stop: int) -> dict:
+        """``period`` and ``realisations`` of samples ``start:stop``: the realisations it holds whole,
+        one when inside one realisation, not periodic when it crosses a realisation boundary elsewhere."""
+        if self.period is None or stop - start < self.period:
+            return {"period": None}
+        length = self.n_samples // self.realisations
+        if self.realisations > 1 and start // length != (stop - 1) // length:
+            if start % length or stop % length:
+                return {"period": None}
+            return {"period": self.period, "realisations": (stop - start) // length}
+        return {"period": self.period}
+
+    def realisation_records(self) -> list[Signals]:
+        """The record of each realisation, as Signals of one realisation (a list of one without several).
+
+        Returns
+        -------
+        list of Signals
+            ``realisations`` records of ``n_samples / realisations`` samples each, in order.
+        """
+        if self.realisations == 1:
+            return [self]
+        length = self.n_samples // self.realisations
+        return [self.segment(r * length, (r + 1) * length) for r in range(self.realisations)]
 
     def state_rows(self, displacement_dofs, velocity_dofs, velocity_method: str = "fourth"):
         """Only the DOFs an expression reads, as mappings ``{k-1: signal}`` (memory-lean).

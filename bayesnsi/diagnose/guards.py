@@ -183,6 +183,9 @@ def half_coefficients(signals, candidate, nsi, cache=None) -> tuple[tuple[float,
         (``nsi.block_rows``, or fewer when a half is too short for them: :func:`half_block_rows`).
     """
     n = signals.n_samples // 2
+    realisations = getattr(signals, "realisations", 1)
+    if realisations > 1:  # halves of whole realisations (a cut inside one would not be periodic)
+        n = realisations // 2 * (signals.n_samples // realisations)
     parts = (signals.segment(0, n), signals.segment(n, signals.n_samples))
     n_channels = signals.force.shape[1] + len(candidate.terms) + signals.displacement.shape[1]
     rows = half_block_rows(n, nsi.block_rows, n_channels)

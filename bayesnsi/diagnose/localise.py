@@ -78,6 +78,7 @@ def location_distortion(signals: Signals, locations) -> dict[tuple[int, ...], tu
     stacked = Signals(
         force=signals.force, displacement=np.column_stack([motions[loc] for loc in measured]), fs=signals.fs,
         input_dofs=signals.input_dofs, output_dofs=tuple(range(1, len(measured) + 1)), period=signals.period,
+        realisations=getattr(signals, "realisations", 1),
     )
     with np.errstate(all="ignore"):
         bla = best_linear_approximation([stacked])

@@ -24,25 +24,32 @@ class PeriodNoise:
     Parameters
     ----------
     deviations : ndarray, shape (n_periods, period, n_channels)
-        ``y_j - ȳ`` per whole period.
+        ``y_j - ȳ`` per whole period (``ȳ`` the mean of the period's realisation).
+    realisations : int
+        Equal-length realisations the deviations come from, in order (``n_periods / realisations``
+        periods each): each realisation's noise is drawn from its own deviations.
     """
 
-    def __init__(self, deviations: np.ndarray) -> None:
+    def __init__(self, deviations: np.ndarray, realisations: int = 1) -> None:
         self.deviations = np.asarray(deviations, dtype=float)
+        self.realisations = max(int(realisations), 1)
 
     @property
     def std(self) -> np.ndarray:
-        """Noise std per channel, ``sqrt(Σ_j Σ_t d_j(t)² / (P (n - 1)))``.
+        """Noise std per channel, ``sqrt(Σ_j Σ_t d_j(t)² / (P R (n - 1)))`` (n periods in each of R realisations).
 
         Returns
         -------
         ndarray, shape (n_channels,)
         """
         n, period = self.deviations.shape[:2]
-        return np.sqrt(np.sum(self.deviations**2, axis=(0, 1)) / (period * (n - 1)))
+        return np.sqrt(np.sum(self.deviations**2, axis=(0, 1)) / (period * (n - self.realisations)))
 
     def draw(self, n_samples: int, rng: np.random.Generator) -> np.ndarray:
         """Noise for ``n_samples`` samples, a new random combination of the deviations per period.
+
+        With several realisations the record is cut into as many equal parts, each drawn from the
+        deviations of its own realisation.
 
         Parameters
         ----------
@@ -55,14 +62,20 @@ class PeriodNoise:
         -------
         ndarray, shape (n_samples, n_channels)
         """
-        n, period, channels = self.deviations.shape
-        n_draw = -(-int(n_samples) // period)
-        weights = rng.standard_normal((n_draw, n)) / np.sqrt(n - 1)
-        noise = np.einsum("kj,jtc->ktc", weights, self.deviations).reshape(n_draw * period, channels)
-        return noise[: int(n_samples)]
+        n_all, period, channels = self.deviations.shape
+        n = n_all // self.realisations
+        length = int(n_samples) // self.realisations
+        parts = []
+        for r in range(self.realisations):
+            size = length if r < self.realisations - 1 else int(n_samples) - r * length
+            n_draw = -(-size // period)
+            weights = rng.standard_normal((n_draw, n)) / np.sqrt(n - 1)
+            own = self.deviations[r * n : (r + 1) * n]
+            parts.append(np.einsum("kj,jtc->ktc", weights, own).reshape(n_draw * period, channels)[:size])
+        return np.concatenate(parts)
 
 
-def period_noise(record, period) -> PeriodNoise | None:
+def period_noise(record, period, realisations: int = 1) -> PeriodNoise | None:
     """The period-to-period deviations of ``record``, or None when it is not periodic.
 
     Parameters
@@ -71,14 +84,17 @@ def period_noise(record, period) -> PeriodNoise | None:
         Measured responses (e.g. displacements and velocities side by side).
     period : int or None
         Samples per period (``Signals.period``).
+    realisations : int
+        Equal-length realisations one after the other (``Signals.realisations``).
 
     Returns
     -------
     PeriodNoise or None
-        None without a period or with fewer than two whole periods; else the deviations of the
-        first whole periods (a trailing part period is left out).
+        None without a period or with fewer than two whole periods per realisation; else the
+        deviations of each realisation's whole periods from its own mean (a trailing part period
+        is left out).
     """
     from ..nsi.steady import period_deviations
 
-    deviations = period_deviations(record, period)
-    return None if deviations is None else PeriodNoise(deviations)
+    deviations = period_deviations(record, period, realisations)
+    return None if deviations is None else PeriodNoise(deviations, realisations)

@@ -107,7 +107,8 @@ def noise_replicates(result, signals, options=None, n_replicates: int = 16, seed
     v = None if signals.velocity is None else np.asarray(signals.velocity, dtype=float)
     n_y = y.shape[1]
     # whole periods: the noise is the period-to-period scatter (spectrum and channels kept, _period_noise)
-    scatter = period_noise(y if v is None else np.column_stack([y, v]), getattr(signals, "period", None))
+    scatter = period_noise(y if v is None else np.column_stack([y, v]), getattr(signals, "period", None),
+                           getattr(signals, "realisations", 1))  # each realisation from its own scatter
     if scatter is not None:
         y_std = scatter.std[:n_y]
 

@@ -105,13 +105,19 @@ def parse_data(table: Any, where: Where, check_files: bool) -> DataSpec:
     period = get_int(table, "period", where, None, minimum=2)
     if period is not None and period % decimate:
         raise where.error("period", f"a multiple of decimate ({decimate}) samples", period)
+    realisations = get_int(table, "realisations", where, 1, minimum=1)
+    transient = get_int(table, "transient_periods", where, 0, minimum=0)
+    if period is None and (realisations > 1 or transient):
+        raise where.problem("realisations" if realisations > 1 else "transient_periods",
+                            "needs the period of the test: add period = <samples per period>")
     scale = _scale_map(table, where, [*inputs, *outputs, *(velocities or {}), *accelerations])
     units = _units_map(table, where, [*inputs, *outputs, *(velocities or {}), *accelerations])
     return DataSpec(
         file=file, fs=fs, inputs=inputs, outputs=outputs, velocities=velocities,
         accelerations=accelerations, estimation=estimation,
         remove_mean=get_bool(table, "remove_mean", where, False), time_column=time_column, period=period,
-        integrate=integrate, decimate=decimate, scale=scale, units=units, files=files,
+        realisations=realisations, transient_periods=transient, integrate=integrate, decimate=decimate, scale=scale,
+        units=units, files=files,
     )
 
 

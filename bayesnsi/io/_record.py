@@ -18,6 +18,7 @@ from ._columns import MeasurementColumns, file_format
 from ._csv import read_csv_any
 from ._formats import read_matlike
 from ._lowband import below_band_messages
+from ._realisations import estimation_parts, joined
 from ._specs import DataSpec
 from ._split import read_split
 from ._uff import read_uff
@@ -94,26 +95,33 @@ class Record:
             )
         return start, stop
 
-    def means(self, start: int, stop: int) -> _Window:
-        """Mean of each processed channel group over the window."""
-        force, displacement, velocity = self._processed(start, stop)
+    def means(self, start: int, stop: int, estimation: bool = False) -> _Window:
+        """Mean of each processed channel group over the window (the estimation window: its steady parts)."""
+        parts = estimation_parts(self.data, self.path, start, stop, estimation)
+        force, displacement, velocity = joined([self._processed(a, b) for a, b in parts])
         return force.mean(axis=0), displacement.mean(axis=0), None if velocity is None else velocity.mean(axis=0)
 
-    def signals(self, start: int, stop: int, means: _Window | None) -> Signals:
-        """The processed window as Signals, with ``means`` (if given) subtracted."""
-        force, displacement, velocity = self._processed(start, stop)
+    def signals(self, start: int, stop: int, means: _Window | None, estimation: bool = False) -> Signals:
+        """The processed window as Signals, with ``means`` (if given) subtracted; the estimation window
+        (``estimation``) cut into its realisations without their transient periods (:mod:`._realisations`)."""
+        parts = estimation_parts(self.data, self.path, start, stop, estimation)
+        force, displacement, velocity = joined([self._processed(a, b) for a, b in parts])
         if means is not None:
             force, displacement = force - means[0], displacement - means[1]
             velocity = None if velocity is None or means[2] is None else velocity - means[2]
-        period = _period(self.data, len(force))
-        for problem in period_problems(force, displacement, period, start, self.data.decimate):  # else: "noise"
-            warnings.warn(f"{self.path}: samples [{start}, {stop}): {problem}", PeriodicityWarning, stacklevel=2)
+        period = _period(self.data, len(force) // len(parts))
+        n = len(force) // len(parts)
+        for r, (a, b) in enumerate(parts):  # each realisation on its own: their boundaries are declared
+            name = f"realisation {r + 1} of {len(parts)}, " if len(parts) > 1 else ""
+            for problem in period_problems(force[r * n : (r + 1) * n], displacement[r * n : (r + 1) * n], period, a,
+                                           self.data.decimate):  # else: "noise"
+                warnings.warn(f"{self.path}: {name}samples [{a}, {b}): {problem}", PeriodicityWarning, stacklevel=2)
         return Signals(
             force=force, displacement=displacement, velocity=velocity,
             fs=self.fs / self.data.decimate,
             input_dofs=tuple(self.data.inputs.values()), output_dofs=tuple(self.data.outputs.values()),
             input_names=tuple(self.data.inputs), output_names=tuple(self.data.outputs),
-            period=period,
+            period=period, realisations=len(parts),
             measured="acceleration" if self.integrate is not None else "displacement",
         )
 

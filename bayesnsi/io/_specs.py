@@ -106,6 +106,15 @@ class DataSpec:
         of them (start at ``period``). With ``integrate``, accelerations are then integrated line
         by line on the lines inside ``integrate.band_hz`` (exact for a steady state; the other
         lines are zeroed, the forces are not filtered; :func:`bayesnsi.nsi.periodic_integration`).
+    realisations : int
+        Realisations of the periodic test in the estimation window (``[data] realisations``, default
+        1): the window holds that many consecutive realisations of equal length (new multisine
+        phases, whole periods each). Each is processed on its own (integrated, its transient
+        periods dropped, its periods checked) and the frequency route stacks their lines into one
+        estimate (``Signals.realisations``). Needs ``period``.
+    transient_periods : int
+        Leading periods of each realisation of the estimation window left out as transient
+        (``[data] transient_periods``, default 0); at least two periods must remain in each.
     decimate : int
         Anti-aliased down-sampling factor q >= 1 (:func:`bayesnsi.preprocess.decimate`, zero-phase
         FIR): the signals have ``fs / q``. Keep the modes below ~0.75 of the new Nyquist frequency.
@@ -135,6 +144,8 @@ class DataSpec:
     integrate: IntegrationSpec | None = None
     decimate: int = 1
     period: int | None = None
+    realisations: int = 1
+    transient_periods: int = 0
     scale: dict[str, float] = field(default_factory=dict)
     units: dict[str, str] = field(default_factory=dict)
     files: dict[str, Path] = field(default_factory=dict)

@@ -174,7 +174,8 @@ def load_signals(config: ExperimentConfig) -> Signals:
     """
     record = Record(config.data.file, config.data, config.data.files)
     start, stop = record.window(config.data.estimation, "[data] estimation", config.path)
-    return record.signals(start, stop, record.means(start, stop) if config.data.remove_mean else None)
+    means = record.means(start, stop, estimation=True) if config.data.remove_mean else None
+    return record.signals(start, stop, means, estimation=True)
 
 
 def load_validation(config: ExperimentConfig) -> list[tuple[str, Signals]]:
@@ -202,7 +203,7 @@ def load_validation(config: ExperimentConfig) -> list[tuple[str, Signals]]:
     main = Record(config.data.file, config.data, config.data.files)
     means = None
     if config.data.remove_mean:
-        means = main.means(*main.window(config.data.estimation, "[data] estimation", config.path))
+        means = main.means(*main.window(config.data.estimation, "[data] estimation", config.path), estimation=True)
     out = []
     for segment in config.validation:
         same_file = not segment.files and (segment.file is None or segment.file == config.data.file)

@@ -44,6 +44,12 @@ class LineData:
     n_periods: int
     excited: np.ndarray | None = None  # (M,) bool: the force excites the line (None: all do)
     rebuild: Callable | None = field(default=None, compare=False, repr=False)  # inputs from model outputs
+    realisation: np.ndarray | None = None  # (M,) int: the realisation of each row (None: one realisation)
+
+    @property
+    def n_realisations(self) -> int:
+        """Number of realisations whose lines are stacked (rows of the same frequencies, new phases)."""
+        return 1 if self.realisation is None else int(self.realisation.max()) + 1
 
     def with_smoothed_basis(self, model_outputs: np.ndarray) -> LineData:
         """The same lines with the basis spectra evaluated on ``model_outputs`` (M, l) instead of the
@@ -66,14 +72,19 @@ class LineData:
         keep = self.excited
         return LineData(lines=self.lines[keep], freqs_hz=self.freqs_hz[keep], z=self.z[keep],
                         inputs=self.inputs[keep], outputs=self.outputs[keep], output_cov=self.output_cov[keep],
-                        n_periods=self.n_periods)
+                        n_periods=self.n_periods, realisation=None if self.realisation is None else
+                        self.realisation[keep])
 
     @property
     def output_std(self) -> np.ndarray:
         """Noise std of the averaged outputs per line and channel, smoothed over neighbouring lines."""
         cached = self.__dict__.get("_output_std")
         if cached is None:
-            cached = np.sqrt(_smoothed(np.real(np.diagonal(self.output_cov, axis1=1, axis2=2))))
+            var = np.real(np.diagonal(self.output_cov, axis1=1, axis2=2))
+            cached = np.empty_like(var)
+            blocks = np.zeros(len(var), dtype=int) if self.realisation is None else self.realisation
+            for r in np.unique(blocks):  # neighbouring lines of the same realisation
+                cached[blocks == r] = np.sqrt(_smoothed(var[blocks == r]))
             object.__setattr__(self, "_output_std", cached)
         return cached
 
@@ -85,47 +96,20 @@ def line_data(signals: Signals, terms, velocity_method: str, band_hz, drop: int 
     spectral differentiation of the averaged displacement unless velocities are measured), so
     the noise they carry is that of the average (errors in variables reduced by the number of
     periods). :meth:`LineData.with_smoothed_basis` evaluates them again with the displacement on
-    the fitted lines replaced by a model's output.
+    the fitted lines replaced by a model's output. With several ``signals.realisations`` each
+    realisation's periods are averaged and its noise taken from its own period scatter; their
+    lines are stacked as separate experiments at the same frequencies (rows ``r M .. (r+1) M - 1``
+    of realisation r), every line from the first to the last line excited in any of them.
     """
-    period = signals.period
-    if period is None:
+    if signals.period is None:
         raise InputDataError(
             'the frequency route ([nsi] domain = "frequency") needs periodic data: give [data] period '
             "(samples per period), or Signals(period=...)"
         )
-    x_periods = period_dft(signals.displacement, period, drop)
-    f_periods = period_dft(signals.force, period, drop)
-    n_periods = x_periods.shape[0]
-    if n_periods < 2:
-        raise InputDataError(
-            f"the frequency route needs at least two periods for the noise level, the record holds {n_periods}"
-        )
-    x_mean, f_mean = x_periods.mean(axis=0), f_periods.mean(axis=0)
-    omega = 2 * np.pi * np.fft.rfftfreq(period, 1.0 / signals.fs)
-    v_mean = None if signals.velocity is None else period_dft(signals.velocity, period, drop).mean(axis=0)
-    force_time = _time(f_mean, period)
-
-    def basis_spectra(x_spec, v_spec):
-        if v_spec is None:
-            v_spec = 1j * omega[:, None] * x_spec
-            if period % 2 == 0:
-                v_spec[-1] = 0.0  # the Nyquist line of a real signal has no derivative
-        averaged = Signals(
-            force=force_time, displacement=_time(x_spec, period), velocity=_time(v_spec, period), fs=signals.fs,
-            input_dofs=signals.input_dofs, output_dofs=signals.output_dofs,
-        )
-        spectra = np.fft.rfft(extended_input(averaged, terms, velocity_method, "sample"), axis=0) / period
-        spectra[:, : f_mean.shape[1]] = f_mean
-        return spectra
-
-    u_spec = basis_spectra(x_mean, v_mean)
-    dev = x_periods - x_mean
-    cov = np.einsum("pki,pkj->kij", dev, dev.conj()) / (n_periods - 1) / n_periods
-    power = np.sum(np.abs(f_mean) ** 2, axis=1)
-    noise = np.sum(np.abs(f_periods - f_mean) ** 2, axis=(0, 2)) / (n_periods - 1) / n_periods
-    excited = excited_lines(power, noise)
-    freqs = omega / (2 * np.pi)
-    mask = excited.copy()
+    parts = [_Realisation(one, terms, velocity_method, drop) for one in signals.realisation_records()]
+    first = parts[0]
+    freqs = first.omega / (2 * np.pi)
+    mask = np.any([p.excited for p in parts], axis=0)
     if band_hz is not None:
         mask &= (freqs >= band_hz[0]) & (freqs <= band_hz[1])
     lines = np.flatnonzero(mask)
@@ -136,21 +120,72 @@ def line_data(signals: Signals, terms, velocity_method: str, band_hz, drop: int 
             f"only {len(lines)} excited line(s) inside the band {band_hz} Hz; widen [nsi] band_hz or check "
             "[data] period"
         )
+    n_lines, several = len(lines), len(parts) > 1
 
     def rebuild(model_outputs):
-        x_spec = x_mean.copy()
+        return np.concatenate([p.rebuild(lines, model_outputs[r * n_lines : (r + 1) * n_lines])
+                               for r, p in enumerate(parts)])
+
+    stack = lambda arrays: np.concatenate(arrays) if several else arrays[0]  # noqa: E731
+    return LineData(
+        lines=np.tile(lines, len(parts)), freqs_hz=np.tile(freqs[lines], len(parts)),
+        z=np.tile(np.exp(1j * first.omega[lines] / signals.fs), len(parts)),
+        inputs=stack([p.basis_spectra(p.x_mean, p.v_mean)[lines] for p in parts]),
+        outputs=stack([p.x_mean[lines] for p in parts]), output_cov=stack([p.cov[lines] for p in parts]),
+        n_periods=first.n_periods, excited=stack([p.excited[lines] for p in parts]),
+        rebuild=rebuild if terms else None,
+        realisation=np.repeat(np.arange(len(parts)), n_lines) if several else None,
+    )
+
+
+class _Realisation:
+    """The period-averaged spectra of one realisation, its noise and its basis spectra (:func:`line_data`)."""
+
+    def __init__(self, signals: Signals, terms, velocity_method: str, drop: int) -> None:
+        period = int(signals.period or 0)
+        x_periods = period_dft(signals.displacement, period, drop)
+        f_periods = period_dft(signals.force, period, drop)
+        n_periods = x_periods.shape[0]
+        if n_periods < 2:
+            raise InputDataError(
+                f"the frequency route needs at least two periods for the noise level, the record holds {n_periods}"
+            )
+        self.signals, self.terms, self.velocity_method, self.period = signals, terms, velocity_method, period
+        self.n_periods = n_periods
+        self.x_mean, self.f_mean = x_periods.mean(axis=0), f_periods.mean(axis=0)
+        self.omega = 2 * np.pi * np.fft.rfftfreq(period, 1.0 / signals.fs)
+        self.v_mean = None if signals.velocity is None else period_dft(signals.velocity, period, drop).mean(axis=0)
+        self.force_time = _time(self.f_mean, period)
+        dev = x_periods - self.x_mean
+        self.cov = np.einsum("pki,pkj->kij", dev, dev.conj()) / (n_periods - 1) / n_periods
+        power = np.sum(np.abs(self.f_mean) ** 2, axis=1)
+        noise = np.sum(np.abs(f_periods - self.f_mean) ** 2, axis=(0, 2)) / (n_periods - 1) / n_periods
+        self.excited = excited_lines(power, noise)
+
+    def basis_spectra(self, x_spec, v_spec):
+        """``[F; -N]`` on every line, N from the displacement (and velocity) spectra of one period."""
+        period, signals = self.period, self.signals
+        if v_spec is None:
+            v_spec = 1j * self.omega[:, None] * x_spec
+            if period % 2 == 0:
+                v_spec[-1] = 0.0  # the Nyquist line of a real signal has no derivative
+        averaged = Signals(
+            force=self.force_time, displacement=_time(x_spec, period), velocity=_time(v_spec, period),
+            fs=signals.fs, input_dofs=signals.input_dofs, output_dofs=signals.output_dofs,
+        )
+        spectra = np.fft.rfft(extended_input(averaged, self.terms, self.velocity_method, "sample"), axis=0) / period
+        spectra[:, : self.f_mean.shape[1]] = self.f_mean
+        return spectra
+
+    def rebuild(self, lines, model_outputs):
+        """The basis spectra on ``lines`` with the displacement there replaced by ``model_outputs``."""
+        x_spec = self.x_mean.copy()
         x_spec[lines] = model_outputs
         v_spec = None
-        if v_mean is not None:
-            v_spec = v_mean.copy()
-            v_spec[lines] = 1j * omega[lines, None] * model_outputs
-        return basis_spectra(x_spec, v_spec)[lines]
-
-    return LineData(
-        lines=lines, freqs_hz=freqs[lines], z=np.exp(1j * omega[lines] / signals.fs), inputs=u_spec[lines],
-        outputs=x_mean[lines], output_cov=cov[lines], n_periods=n_periods, excited=excited[lines],
-        rebuild=rebuild if terms else None,
-    )
+        if self.v_mean is not None:
+            v_spec = self.v_mean.copy()
+            v_spec[lines] = 1j * self.omega[lines, None] * model_outputs
+        return self.basis_spectra(x_spec, v_spec)[lines]
 
 
 def subspace(data: LineData, block_rows: int, points=None):

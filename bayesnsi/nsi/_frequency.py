@@ -38,7 +38,8 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
     Parameters
     ----------
     signals : Signals
-        With ``period`` set; every whole period is used (drop a transient with ``segment``).
+        With ``period`` set; every whole period is used (drop a transient with ``segment``); with
+        several ``realisations`` their lines are stacked into one estimate (:func:`._fnsi.line_data`).
     cand : CandidateModel
     options : NSIOptions
         ``block_rows`` (r, block rows of the frequency-domain data matrices; lowered to
@@ -132,8 +133,9 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
         upsample=upsample,
         period=int(signals.period or 0),
         n_periods=int(data.n_periods),
-        n_lines=int(len(excited.lines)),
-        n_band_lines=int(len(data.lines)),
+        n_realisations=int(data.n_realisations),  # their lines stacked: each count below is per realisation
+        n_lines=int(len(excited.lines) // data.n_realisations),
+        n_band_lines=int(len(data.lines) // data.n_realisations),
         reflected_poles_hz=[float(abs(p.imag) / (2 * np.pi)) for p in reflected],
         line_misfit=float(np.sqrt(np.mean(np.abs(residual if data.excited is None else residual[data.excited]) ** 2))),
         band_misfit=float(np.sqrt(np.mean(np.abs(residual) ** 2))),  # the unexcited band lines included
@@ -211,7 +213,7 @@ def _unexcited_ratio(signals: Signals) -> dict | None:
     """
     if signals.force.shape[1] != 1:
         return None
-    ratios = best_linear_approximation([signals]).unexcited_ratio()
+    ratios = best_linear_approximation(signals.realisation_records()).unexcited_ratio()
     out = {k: [float(x) for x in v] for k, v in ratios.items() if np.all(np.isfinite(v))}
     return out or None
 

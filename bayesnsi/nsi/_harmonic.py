@@ -65,7 +65,8 @@ def periodic_closed_loop(result, signals: Signals) -> np.ndarray:
     result : NSIResult
         Identified by the frequency route (``settings["fit_band_hz"]`` are the fitted lines).
     signals : Signals
-        Whole periods of a periodic record (``period`` set).
+        Whole periods of a periodic record (``period`` set); with several ``realisations`` each is
+        solved on its own and the results follow each other.
 
     Returns
     -------
@@ -77,6 +78,8 @@ def periodic_closed_loop(result, signals: Signals) -> np.ndarray:
     UnstableModelError
         When no periodic solution is found (the iteration diverges or does not settle).
     """
+    if getattr(signals, "realisations", 1) > 1:  # each realisation has its own steady state (new phases)
+        return np.concatenate([periodic_closed_loop(result, one) for one in signals.realisation_records()])
     period = int(signals.period or 0)
     fit = result.settings.get("fit_band_hz") or result.band_hz
     freqs = np.fft.rfftfreq(period, 1.0 / signals.fs)
@@ -198,7 +201,7 @@ def periodic_affine(result, signals: Signals) -> tuple[np.ndarray, np.ndarray, n
     result : NSIResult
         Identified by the frequency route (:func:`applies`).
     signals : Signals
-        Whole periods of a periodic record.
+        Whole periods of a periodic record (several ``realisations``: each on its own, in order).
 
     Returns
     -------
@@ -207,6 +210,9 @@ def periodic_affine(result, signals: Signals) -> tuple[np.ndarray, np.ndarray, n
     signatures : ndarray, shape (n_samples, l, q)
         Response to ``-n_i`` per unit coefficient, on the fitted lines only.
     """
+    if getattr(signals, "realisations", 1) > 1:  # each realisation: its own period-averaged basis spectra
+        parts = [periodic_affine(result, one) for one in signals.realisation_records()]
+        return tuple(np.concatenate(arrays) for arrays in zip(*parts))  # type: ignore[return-value]
     period = int(signals.period or 0)
     fit = result.settings.get("fit_band_hz") or result.band_hz
     freqs = np.fft.rfftfreq(period, 1.0 / signals.fs)

@@ -100,10 +100,12 @@ def measured_noise_std(signals: Signals):
         None when the signals carry no velocities.
     """
     x = np.asarray(signals.displacement, dtype=float)
-    scatter = period_scatter_std(x, getattr(signals, "period", None))
+    realisations = getattr(signals, "realisations", 1)
+    scatter = period_scatter_std(x, getattr(signals, "period", None), realisations)
     if scatter is not None:  # whole periods: the noise is what changes between them (integrated too)
         v = signals.velocity
-        return scatter, None if v is None else period_scatter_std(np.asarray(v, dtype=float), signals.period)
+        return scatter, None if v is None else period_scatter_std(np.asarray(v, dtype=float), signals.period,
+                                                                  realisations)
     disp = white_noise_std(x)
     if signals.velocity is None:
         return disp, None

@@ -102,7 +102,8 @@ def identify(
         ``NSIOptions()``; each field is described there, measurements behind the choices in
         ``docs/measurements.md``). ``domain="frequency"`` identifies a periodic record
         (``signals.period`` set) on its excited lines instead (FNSI, :mod:`._frequency`): the
-        same result object, with ``settings["domain"] == "frequency"``.
+        same result object, with ``settings["domain"] == "frequency"``; only that route takes a
+        record of several ``signals.realisations`` (their lines stacked into one estimate).
     correlations : HankelCorrelations, optional
         Lagged products of a candidate whose terms this one's start with
         (:func:`hankel_correlations`, same data and settings): only the products of the added
@@ -165,6 +166,12 @@ def identify(
     identification_routes(cand.terms, signals.input_dofs, signals.output_dofs)
     if options.domain == "frequency":
         return identify_frequency(signals, cand, options)
+    if signals.realisations > 1:  # a Hankel block across a boundary would join two unrelated steady states
+        raise InputDataError(
+            f"the time route cannot estimate from {signals.realisations} realisations at once (its block rows would "
+            'span their boundaries); use the frequency route ([nsi] domain = "frequency"), which stacks their lines, '
+            "or estimate from one realisation (realisations = 1)"
+        )
     block_rows, upsample, velocity_method = options.block_rows, int(options.upsample), options.velocity_method
     data_fs, measured = signals.fs, signals
     stiffness = _fixed_stiffness(options)

@@ -293,7 +293,8 @@ def best_linear_approximation(
     ----------
     realisations : sequence of Signals
         M records of one force channel (the same excited lines, new phases), each of P
-        periods of ``period`` samples, the same sampling and channels.
+        periods of ``period`` samples, the same sampling and channels; a record of several
+        ``realisations`` (:func:`bayesnsi.signals.join_realisations`) counts as each of them.
     period : int, optional
         Samples per period; default each record's ``period``.
     drop : int
@@ -311,6 +312,7 @@ def best_linear_approximation(
     """
     if isinstance(realisations, Signals):
         realisations = [realisations]
+    realisations = [one for s in realisations for one in s.realisation_records()]  # a joined record: each of its own
     if not realisations:
         raise InputDataError("best_linear_approximation needs at least one record")
     spectra = [period_spectra(s, period, drop) for s in realisations]

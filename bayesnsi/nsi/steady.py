@@ -77,7 +77,7 @@ def repeating_period(force) -> int | None:
     return lag
 
 
-def period_problems(force, response, period, offset: int = 0, step: int = 1) -> list[str]:
+def period_problems(force, response, period, offset: int = 0, step: int = 1, realisations: int = 1) -> list[str]:
     """Periods of a record that do not repeat, in words (empty when every period is alike).
 
     Parameters
@@ -101,6 +101,9 @@ def period_problems(force, response, period, offset: int = 0, step: int = 1) -> 
         more than ``PERIOD_OUTLIER_LIMIT`` times the median period's power (each channel scaled
         by its own deviation), with a hint at the likely cause. Nothing with fewer than three
         whole periods (two periods deviate equally by construction) or without a period.
+    realisations : int
+        Equal-length realisations one after the other (``Signals.realisations``): each is checked on
+        its own (their boundaries are declared, not a problem) and its problems name it.
     """
     if not period:
         return []
@@ -108,6 +111,11 @@ def period_problems(force, response, period, offset: int = 0, step: int = 1) -> 
     f = np.asarray(force, dtype=float)
     y = np.asarray(response, dtype=float)
     f, y = f.reshape(len(f), -1), y.reshape(len(y), -1)
+    if int(realisations) > 1:
+        length = len(f) // int(realisations)
+        return [f"realisation {r + 1}: {problem}" for r in range(int(realisations))
+                for problem in period_problems(f[r * length : (r + 1) * length], y[r * length : (r + 1) * length],
+                                               period, offset + step * r * length, step)]
     n = len(f) // period
     if n < 3:
         return []
@@ -144,8 +152,8 @@ def period_problems(force, response, period, offset: int = 0, step: int = 1) -> 
     return out
 
 
-def period_deviations(signal, period) -> np.ndarray | None:
-    """Deviations ``y_p - ȳ`` of each whole period from the period mean, or None without two periods.
+def period_deviations(signal, period, realisations: int = 1) -> np.ndarray | None:
+    """Deviations ``y_p - ȳ`` of each whole period from its realisation's period mean, or None without two periods.
 
     Parameters
     ----------
@@ -153,24 +161,29 @@ def period_deviations(signal, period) -> np.ndarray | None:
         A periodic record (a trailing part period is left out).
     period : int or None
         Samples per period.
+    realisations : int
+        Equal-length realisations the record holds one after the other (``Signals.realisations``):
+        each period deviates from the mean of its own realisation (new phases: another mean).
 
     Returns
     -------
     ndarray, shape (n_periods, period, n_channels) or None
+        The periods of all realisations in order (``n_periods / realisations`` each).
     """
     if not period:
         return None
     y = np.asarray(signal, dtype=float)
     y = y.reshape(len(y), -1)
-    period = int(period)
-    n = len(y) // period
+    period, realisations = int(period), max(int(realisations), 1)
+    n = len(y) // realisations // period
     if n < 2:
         return None
-    periods = y[: n * period].reshape(n, period, y.shape[1])
-    return periods - periods.mean(axis=0)
+    length = len(y) // realisations
+    blocks = [y[r * length : r * length + n * period].reshape(n, period, y.shape[1]) for r in range(realisations)]
+    return np.concatenate([b - b.mean(axis=0) for b in blocks])
 
 
-def period_scatter_std(signal, period) -> np.ndarray | None:
+def period_scatter_std(signal, period, realisations: int = 1) -> np.ndarray | None:
     """Noise std per channel from the scatter between whole periods, or None without two of them.
 
     Parameters
@@ -179,14 +192,18 @@ def period_scatter_std(signal, period) -> np.ndarray | None:
         A periodic record (a trailing part period is left out).
     period : int or None
         Samples per period.
+    realisations : int
+        Realisations in the record (:func:`period_deviations`); the scatter is pooled over them.
 
     Returns
     -------
-    ndarray, shape (n_channels,) or None
-        ``sqrt(Σ_p Σ_t (y_{p,t} - ȳ_t)² / (P (n - 1)))`` over the n whole periods.
+    ndarray, shape (n_channels,)
+        ``sqrt(Σ_p Σ_t (y_{p,t} - ȳ_t)² / (P R (n - 1)))`` over the n whole periods of each of the R
+        realisations.
     """
-    deviations = period_deviations(signal, period)
+    deviations = period_deviations(signal, period, realisations)
     if deviations is None:
         return None
     n, samples = deviations.shape[:2]
-    return np.sqrt(np.sum(deviations**2, axis=(0, 1)) / (samples * (n - 1)))
+    r = max(int(realisations), 1)
+    return np.sqrt(np.sum(deviations**2, axis=(0, 1)) / (samples * (n - r)))

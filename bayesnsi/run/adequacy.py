@@ -276,7 +276,7 @@ def sensor_noise_std(signals) -> np.ndarray:
     from ..nsi.steady import period_scatter_std
 
     x = np.asarray(signals.displacement, dtype=float).reshape(len(signals.displacement), -1)
-    scatter = period_scatter_std(x, getattr(signals, "period", None))
+    scatter = period_scatter_std(x, getattr(signals, "period", None), getattr(signals, "realisations", 1))
     return white_noise_std(x) if scatter is None else scatter
 
 

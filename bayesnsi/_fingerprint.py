@@ -95,4 +95,6 @@ def signals_fingerprint(signals) -> str:
 def _plain_scalar(value):
     if isinstance(value, np.generic):
         return value.item()
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):  # Signals.acceleration_noise
+        return dataclasses.asdict(value)
     raise TypeError(f"cannot fingerprint a value of type {type(value).__name__}")

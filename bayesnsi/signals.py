@@ -8,10 +8,14 @@ frequencies ``omega`` [rad/s].
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .exceptions import InputDataError, ShapeError
+
+if TYPE_CHECKING:
+    from ._integrated_noise import AccelerationNoise
 
 __all__ = ["Signals", "differentiate", "join_realisations", "MIN_FS", "MAX_FS", "MEASURED_QUANTITIES"]
 
@@ -223,6 +227,11 @@ class Signals:
         its own period scatter; the frequency route stacks the lines of all of them
         (docs/method.md §11). Needs ``period``. :func:`join_realisations` builds such a record
         from one Signals per realisation.
+    acceleration_noise : AccelerationNoise, optional
+        With ``measured = "acceleration"`` on a record integrated in time (not line by line on
+        whole periods): the accelerometers' white noise std and the integration recipe, from which
+        the noise replicates and the adequacy check integrate the noise the data carry
+        (bayesnsi._integrated_noise; docs/method.md §11). None otherwise.
     """
 
     force: np.ndarray
@@ -236,6 +245,7 @@ class Signals:
     period: int | None = None
     measured: str = "displacement"
     realisations: int = 1
+    acceleration_noise: AccelerationNoise | None = None
 
     def __post_init__(self):
         force = _as_matrix("force", self.force, None)
@@ -266,6 +276,9 @@ class Signals:
             set_("period", int(period))
         if self.measured not in MEASURED_QUANTITIES:
             raise InputDataError(f"measured must be one of {MEASURED_QUANTITIES}, got {self.measured!r}")
+        noise = self.acceleration_noise
+        if noise is not None and len(getattr(noise, "acceleration_std", ())) != self.displacement.shape[1]:
+            raise ShapeError("acceleration_noise must give one noise std per response channel")
         set_("realisations", _check_realisations(self.realisations, self.period, len(force)))
 
     @property
@@ -303,6 +316,7 @@ class Signals:
             input_names=self.input_names,
             output_names=self.output_names,
             measured=self.measured,
+            acceleration_noise=self.acceleration_noise,
             **self._segment_period(start, stop),
         )
 

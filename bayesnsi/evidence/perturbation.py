@@ -31,6 +31,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from .._integrated_noise import acceleration_noise_of
 from ..exceptions import BayesNSIError, SpuriousPoleWarning
 from ._period_noise import period_noise
 
@@ -88,7 +89,10 @@ def noise_replicates(result, signals, options=None, n_replicates: int = 16, seed
         more whole periods (``signals.period``) it is the period-to-period scatter and each copy's
         noise is drawn from that scatter (:mod:`bayesnsi.evidence._period_noise`: its spectrum
         and channel correlation, e.g. integrated accelerations whose noise lies in the
-        integration band only); else high-order differences and white noise.
+        integration band only); for accelerations integrated in time
+        (``signals.acceleration_noise``) white acceleration noise integrated by the same recipe,
+        displacement and velocity from one draw (:mod:`bayesnsi._integrated_noise`); else
+        high-order differences and white noise.
     coefficients : ndarray, shape (n_ok, q)
         Coefficients of each copy identified successfully.
     frequencies, damping_ratios : ndarray, shape (n_ok, n_modes)
@@ -115,6 +119,12 @@ def noise_replicates(result, signals, options=None, n_replicates: int = 16, seed
         def draw():
             e = scatter.draw(len(y), rng)
             return e[:, :n_y], e[:, n_y:]
+    elif (accelerometers := acceleration_noise_of(signals)) is not None:
+        # integrated accelerations: white acceleration noise through the same integration (_integrated_noise)
+        y_std = accelerometers.std(len(y))[0]
+
+        def draw():
+            return accelerometers.draw(len(y), rng)
     else:
         y_std = white_noise_std(y)
         lowest = min((m.frequency_hz for m in result.modes), default=0.0)

@@ -10,7 +10,9 @@ from pathlib import Path
 import numpy as np
 
 from .. import preprocess
+from .._integrated_noise import AccelerationNoise
 from ..exceptions import ConfigError, InputDataError, IntegrationWarning, PeriodicityWarning
+from ..nsi._accel_noise import acceleration_noise_std
 from ..nsi.periodic import periodic_integration
 from ..nsi.steady import period_problems
 from ..signals import Signals
@@ -123,6 +125,29 @@ class Record:
             input_names=tuple(self.data.inputs), output_names=tuple(self.data.outputs),
             period=period, realisations=len(parts),
             measured="acceleration" if self.integrate is not None else "displacement",
+            acceleration_noise=self._acceleration_noise(start, stop),
+        )
+
+    def _acceleration_noise(self, start: int, stop: int) -> AccelerationNoise | None:
+        """The accelerometers' white noise and the recipe of a window integrated in time (None otherwise).
+
+        Declared (``integrate.noise_std``, times each column's scale) or estimated on the measured
+        accelerations of the window before integration (:mod:`bayesnsi.nsi._accel_noise`); whole
+        periods, integrated line by line, take their noise from the period scatter instead.
+        """
+        spec = self.integrate
+        if spec is None or self.data.period is not None:
+            return None
+        if spec.noise_std is not None:
+            gains = self.data.scale or {}
+            std = [abs(spec.noise_std * gains.get(c, 1.0)) for c in self.response_columns]
+        else:
+            std = list(acceleration_noise_std(self.response[start:stop], self.fs, self.force[start:stop],
+                                              spec.band_hz[0]))
+        return AccelerationNoise(
+            acceleration_std=tuple(std), fs=self.fs, band_hz=spec.band_hz, method=spec.method, taper=spec.taper,
+            filter_order=spec.filter_order, detrend_order=spec.detrend_order, decimate=self.data.decimate,
+            source="estimated" if spec.noise_std is None else "declared",
         )
 
     def _processed(self, start: int, stop: int) -> _Window:

@@ -41,6 +41,11 @@ class IntegrationSpec:
         Butterworth order (time method).
     detrend_order : int
         Polynomial order removed after each integration (time method).
+    noise_std : float or None
+        Declared white noise std of every accelerometer, in the file's acceleration unit (before
+        ``[data] scale``), e.g. from the sensor's data sheet; None (default): estimated from the
+        accelerations before integration (:mod:`bayesnsi.nsi._accel_noise`). On a record without
+        whole periods the noise replicates and the adequacy check integrate it by this recipe.
     """
 
     band_hz: tuple[float, float]
@@ -49,6 +54,7 @@ class IntegrationSpec:
     filter_inputs: bool = True
     filter_order: int = 4
     detrend_order: int = 2
+    noise_std: float | None = None
 
 
 @dataclass(frozen=True)

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._integrated_noise import acceleration_noise_of
 from ..exceptions import BayesNSIError
 
 __all__ = [
@@ -152,6 +153,7 @@ def model_checks(
 
     validation = validation or {}
     noise = sensor_noise_std(signals)
+    accelerometers = acceleration_noise_of(signals) if _integrated_in_time(signals) else None
     noise = np.where(noise > 0, noise, np.finfo(float).tiny)
     checks = {}
     for outcome in outcomes:
@@ -168,6 +170,8 @@ def model_checks(
                 level = np.array([max(force_noise_std(signals, fp.cutoff_hz), np.finfo(float).tiny)])
             else:
                 residual = np.asarray(result.reconstruct(signals).residual, dtype=float)
+                if accelerometers is not None:  # integrated: the edges hold the integration's error, not the model's
+                    residual = residual[accelerometers.interior(len(residual))]
                 rms = np.sqrt(np.mean(residual**2, axis=0))
         except (BayesNSIError, np.linalg.LinAlgError):
             continue
@@ -210,9 +214,11 @@ def widen_inadequate(
         :func:`model_checks` of those outcomes.
     signals : Signals, optional
         The estimation data. Nothing is widened when they are integrated from a velocity or an
-        acceleration on a record without whole periods: the noise the ratio divides by is then that
-        of the integrated signal, which the integration filter removes (a sweep of integrated
-        accelerations read 18 000x; periodic records take the period-to-period scatter instead).
+        acceleration on a record without whole periods unless the signals keep the accelerometers'
+        noise and integration recipe (``acceleration_noise``, set by the loader): the noise the ratio
+        divides by is otherwise that of the integrated signal, which the integration filter removes
+        (a sweep of integrated accelerations read 18 000x; periodic records take the
+        period-to-period scatter instead).
 
     Returns
     -------
@@ -227,7 +233,7 @@ def widen_inadequate(
 
     integrated = getattr(signals, "measured", "displacement") != "displacement"
     period = getattr(signals, "period", None)
-    if integrated and not (period and signals.n_samples // int(period) >= 2):
+    if integrated and not (period and signals.n_samples // int(period) >= 2) and not _integrated_in_time(signals):
         return tuple(outcomes), dict(checks)
     widened, new_checks = [], dict(checks)
     for outcome in outcomes:
@@ -269,15 +275,26 @@ def sensor_noise_std(signals) -> np.ndarray:
     -------
     ndarray, shape (l,)
         ``sqrt(Σ_p Σ_t (x_{p,t} - x̄_t)² / (P (n_p - 1)))`` over the ``n_p >= 2`` whole periods of
-        ``P`` samples (the first whole periods; a trailing part period is left out), else
-        :func:`bayesnsi.nsi.white_noise_std` of the record.
+        ``P`` samples (the first whole periods; a trailing part period is left out); for
+        accelerations integrated in time (``signals.acceleration_noise``) the std of their white
+        noise integrated by the same recipe (:meth:`bayesnsi._integrated_noise.AccelerationNoise.std`);
+        else :func:`bayesnsi.nsi.white_noise_std` of the record.
     """
     from ..nsi import white_noise_std
     from ..nsi.steady import period_scatter_std
 
     x = np.asarray(signals.displacement, dtype=float).reshape(len(signals.displacement), -1)
     scatter = period_scatter_std(x, getattr(signals, "period", None), getattr(signals, "realisations", 1))
+    accelerometers = acceleration_noise_of(signals) if scatter is None and _integrated_in_time(signals) else None
+    if accelerometers is not None:  # the accelerometers' noise, integrated (edges left out)
+        return accelerometers.std(len(x), interior=True)[0]
     return white_noise_std(x) if scatter is None else scatter
+
+
+def _integrated_in_time(signals) -> bool:
+    """Accelerations integrated in time with their noise and recipe kept (no two whole periods to scatter)."""
+    period = getattr(signals, "period", None)
+    return acceleration_noise_of(signals) is not None and not (period and signals.n_samples // int(period) >= 2)
 
 
 def _unsupported(intervals) -> tuple[tuple[str, float, float], ...]:

@@ -24,7 +24,7 @@ from ._resample import decimate as _decimate_signals
 from .exceptions import InputDataError
 from .preprocess import INTEGRATION_METHODS, integrate_acceleration
 
-__all__ = ["AccelerationNoise", "NOISE_SOURCES", "acceleration_noise_of"]
+__all__ = ["AccelerationNoise", "NOISE_SOURCES", "acceleration_noise_of", "edge_samples"]
 
 NOISE_SOURCES = ("estimated", "declared")
 """Where :attr:`AccelerationNoise.acceleration_std` comes from."""
@@ -56,6 +56,8 @@ class AccelerationNoise:
     source : {"estimated", "declared"}
         Estimated from the measured accelerations, or declared in the config
         (``[data] integrate = { ..., noise_std = ... }``).
+    trim : int
+        Samples (of the Signals) dropped at each end after integration (``trim_edges``; 0: none).
     """
 
     acceleration_std: tuple[float, ...]
@@ -67,6 +69,7 @@ class AccelerationNoise:
     detrend_order: int = 2
     decimate: int = 1
     source: str = "estimated"
+    trim: int = 0
 
     def __post_init__(self):
         std = tuple(float(s) for s in np.atleast_1d(self.acceleration_std))
@@ -97,7 +100,7 @@ class AccelerationNoise:
         -------
         int
         """
-        return int(np.ceil(2.0 / (max(self.taper, 0.25) * self.band_hz[0]) * self.signals_fs))
+        return edge_samples(self.band_hz, self.taper, self.signals_fs)
 
     def interior(self, n_samples: int) -> slice:
         """The samples of a record of ``n_samples`` clear of both edges (all of them when that leaves under half).
@@ -111,7 +114,7 @@ class AccelerationNoise:
         -------
         slice
         """
-        edge = self.edge_samples
+        edge = 0 if self.trim else self.edge_samples  # trimmed: the edges are gone already
         return slice(edge, n_samples - edge) if n_samples > 4 * edge else slice(0, n_samples)
 
     @property
@@ -154,10 +157,11 @@ class AccelerationNoise:
         displacement, velocity : ndarray, shape (n_samples, n_channels)
             One draw each, from the same acceleration noise.
         """
-        n_raw = int(n_samples) * int(self.decimate)
+        keep = slice(int(self.trim), int(self.trim) + int(n_samples))
+        n_raw = (int(n_samples) + 2 * int(self.trim)) * int(self.decimate)
         white = rng.standard_normal((n_raw, len(self.acceleration_std))) * np.asarray(self.acceleration_std)
         v, x = self.integrate(white)
-        return x[: int(n_samples)], v[: int(n_samples)]
+        return x[keep], v[keep]
 
     def std(self, n_samples: int, interior: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """Std of the integrated noise per channel over a record of ``n_samples`` samples.
@@ -185,10 +189,31 @@ class AccelerationNoise:
 def _unit_std(noise: AccelerationNoise, n_samples: int, interior: bool) -> tuple[float, float]:
     """Rms displacement and velocity of unit white acceleration noise through ``noise``'s recipe."""
     rng = np.random.default_rng(np.random.SeedSequence([n_samples, 20]))
-    n_raw = n_samples * int(noise.decimate)
+    n_raw = (n_samples + 2 * int(noise.trim)) * int(noise.decimate)
     v, x = noise.integrate(rng.standard_normal((n_raw, _UNIT_DRAWS)))
-    keep = noise.interior(n_samples) if interior else slice(0, n_samples)
+    inner = noise.interior(n_samples) if interior else slice(0, n_samples)
+    keep = slice(inner.start + int(noise.trim), inner.stop + int(noise.trim))
     return float(np.sqrt(np.mean(x[keep] ** 2))), float(np.sqrt(np.mean(v[keep] ** 2)))
+
+
+def edge_samples(band_hz, taper: float, fs: float) -> int:
+    """Samples at each end of a record integrated in ``band_hz`` that carry the edge error (module notes).
+
+    Parameters
+    ----------
+    band_hz : (float, float)
+        Integration band.
+    taper : float
+        Relative transition width of the band window (at least 0.25 is used).
+    fs : float
+        Sampling frequency of the integrated record [Hz] (after any decimation).
+
+    Returns
+    -------
+    int
+        ``ceil(2 / (taper f_lo) fs)``: two decay times of the band-limited integrator.
+    """
+    return int(np.ceil(2.0 / (max(float(taper), 0.25) * float(band_hz[0])) * float(fs)))
 
 
 def acceleration_noise_of(signals) -> AccelerationNoise | None:

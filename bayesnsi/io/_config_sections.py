@@ -205,6 +205,7 @@ def _parse_integrate(table: Mapping, where: Where, fs: float | None, acceleratio
         filter_order=get_int(value, "filter_order", here, defaults.filter_order, minimum=1),
         detrend_order=get_int(value, "detrend_order", here, defaults.detrend_order, minimum=0),
         noise_std=get_number(value, "noise_std", here, None, positive=True),  # accelerometer noise, declared
+        trim_edges=get_bool(value, "trim_edges", here, defaults.trim_edges),
     )
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import preprocess
-from .._integrated_noise import AccelerationNoise
+from .._integrated_noise import AccelerationNoise, edge_samples
 from ..exceptions import ConfigError, InputDataError, IntegrationWarning, PeriodicityWarning
 from ..nsi._accel_noise import acceleration_noise_std
 from ..nsi.periodic import periodic_integration
@@ -148,7 +148,22 @@ class Record:
             acceleration_std=tuple(std), fs=self.fs, band_hz=spec.band_hz, method=spec.method, taper=spec.taper,
             filter_order=spec.filter_order, detrend_order=spec.detrend_order, decimate=self.data.decimate,
             source="estimated" if spec.noise_std is None else "declared",
+            trim=self._trimmed_edge(-(-(stop - start) // self.data.decimate)),
         )
+
+    def _trimmed_edge(self, n_samples: int) -> int:
+        """Samples dropped at each end of a window integrated in time with ``trim_edges`` (0 otherwise)."""
+        spec = self.integrate
+        if spec is None or self.data.period is not None or not spec.trim_edges:
+            return 0
+        fs = self.fs / self.data.decimate
+        edge = edge_samples(spec.band_hz, spec.taper, fs)
+        if n_samples <= 4 * edge:
+            raise InputDataError(
+                f"trim_edges drops {edge} samples ({edge / fs:.3g} s = 2/(taper f_lo)) at each end, which leaves less "
+                f"than half of the window's {n_samples}; give a longer window or a higher f_lo, or trim_edges = false"
+            )
+        return edge
 
     def _processed(self, start: int, stop: int) -> _Window:
         """Window [start, stop) of the file, integrated and decimated as [data] asks (cached)."""
@@ -183,6 +198,10 @@ class Record:
             if q > 1:
                 force, displacement = preprocess.decimate(force, q), preprocess.decimate(displacement, q)
                 velocity = None if velocity is None else preprocess.decimate(velocity, q)
+            edge = self._trimmed_edge(len(force))
+            if edge:  # integrate.trim_edges: the integration's edge error left out of every window
+                force, displacement = force[edge:-edge], displacement[edge:-edge]
+                velocity = None if velocity is None else velocity[edge:-edge]
         except InputDataError as exc:
             raise InputDataError(f"{self.path}: samples [{start}, {stop}): {exc}") from exc
         self._cache[key] = (force, displacement, velocity)

@@ -46,6 +46,12 @@ class IntegrationSpec:
         ``[data] scale``), e.g. from the sensor's data sheet; None (default): estimated from the
         accelerations before integration (:mod:`bayesnsi.nsi._accel_noise`). On a record without
         whole periods the noise replicates and the adequacy check integrate it by this recipe.
+    trim_edges : bool
+        Drop ``2 / (taper f_lo)`` seconds at each end of every window after integrating it (not on
+        whole periods): there the integrated motion misses the acceleration outside the window
+        (taken as zero), an error no noise replicate carries (clean cubic chain, 60 s, band
+        1-45 Hz: k3 off by -4.2 to +3.5 % with the edges, within 0.2 % without). Default false:
+        every sample of the window is kept.
     """
 
     band_hz: tuple[float, float]
@@ -55,6 +61,7 @@ class IntegrationSpec:
     filter_order: int = 4
     detrend_order: int = 2
     noise_std: float | None = None
+    trim_edges: bool = False
 
 
 @dataclass(frozen=True)

@@ -80,6 +80,11 @@ class ModelCheck:
         guard): name and coefficient.
     widening : float
         Factor its intervals were widened by for its model error (:func:`widen_inadequate`; 1: not).
+    noise_source : str
+        Where ``noise_std`` comes from: "period scatter", "differences", "accelerometers (estimated)" or
+        "accelerometers (declared)" (their white noise integrated by the loader's recipe), or "force".
+    acceleration_noise_std : tuple of float
+        With "accelerometers": the accelerometers' white noise std per channel (acceleration unit).
     """
 
     name: str
@@ -96,6 +101,8 @@ class ModelCheck:
     unsupported: tuple[tuple[str, float, float], ...] = ()
     energy_input: tuple[tuple[str, float], ...] = ()
     widening: float = 1.0
+    noise_source: str = "differences"
+    acceleration_noise_std: tuple[float, ...] = ()
 
     def to_dict(self) -> dict:
         """JSON-ready record.
@@ -111,7 +118,8 @@ class ModelCheck:
             "quality_ok": self.quality_ok, "validation_nrmse": self.validation_nrmse,
             "validation_log_predictive": self.validation_log_predictive, "quantity": self.quantity,
             "negative_dissipation": [{"term": name, "coefficient": value} for name, value in self.energy_input],
-            "interval_widening": self.widening,
+            "interval_widening": self.widening, "noise_source": self.noise_source,
+            "acceleration_noise_std": list(self.acceleration_noise_std),
         }
 
 
@@ -154,6 +162,9 @@ def model_checks(
     validation = validation or {}
     noise = sensor_noise_std(signals)
     accelerometers = acceleration_noise_of(signals) if _integrated_in_time(signals) else None
+    period = getattr(signals, "period", None)
+    source = ("period scatter" if period and signals.n_samples // int(period) >= 2 else
+              "differences" if accelerometers is None else f"accelerometers ({accelerometers.source})")
     noise = np.where(noise > 0, noise, np.finfo(float).tiny)
     checks = {}
     for outcome in outcomes:
@@ -188,6 +199,8 @@ def model_checks(
             quality_ok=quality is None or quality <= max_imag_ratio, validation_nrmse=nrmse,
             validation_log_predictive=_log_predictive(segments, np.where(rms > 0, rms, level)) if segments else None,
             quantity=quantity, unsupported=_unsupported(getattr(outcome, "intervals", None)),
+            noise_source="force" if quantity == "force" else source,
+            acceleration_noise_std=() if accelerometers is None else accelerometers.acceleration_std,
             energy_input=_energy_input(result),
         )
     return checks

@@ -197,3 +197,23 @@ def test_trim_edges_leaves_out_the_integration_edge_error_that_no_replicate_carr
     assert x.shape == trimmed.displacement.shape
     head, middle = x[:400].std(axis=0), x[2000:2400].std(axis=0)
     assert np.all(head > 0.5 * middle)
+
+
+def test_the_recipe_follows_decimation_and_the_time_method(tmp_path):
+    signals, _ = _record(tmp_path, extra=', method = "time"')
+    (tmp_path / "config.toml").write_text((tmp_path / "config.toml").read_text().replace(
+        "[[candidates]]", "decimate = 2\n[[candidates]]"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        decimated = load_signals(load_config(tmp_path / "config.toml"))
+    noise = acceleration_noise_of(decimated)
+    assert noise is not None and noise.decimate == 2 and noise.method == "time" and noise.signals_fs == FS / 2
+    x, v = noise.draw(decimated.n_samples, np.random.default_rng(0))
+    assert x.shape == v.shape == decimated.displacement.shape
+    # the same white noise integrated at 100 Hz has the same displacement std (its power lies far below 25 Hz)
+    full_x, _ = signals.acceleration_noise.std(signals.n_samples)
+    assert np.allclose(noise.std(decimated.n_samples)[0], full_x, rtol=0.05)
+    # a copy on another grid (identify's upsampling) is not described by the recipe
+    from bayesnsi.preprocess import upsample
+
+    assert acceleration_noise_of(upsample(decimated, 2)) is None

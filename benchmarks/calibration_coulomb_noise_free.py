@@ -13,8 +13,15 @@ and sd of those K estimates (the estimator's distribution given the force record
 beside the estimate on the seed's data, the 16 noise replicates' sd and their mean shift (the
 bias estimate of :mod:`bayesnsi.evidence.perturbation`).
 
+``--pairing K`` asks whether a seed's own noise is a typical draw for its response: per seed, the
+estimate on its own data, on its clean response plus each other seed's noise (rescaled to its
+noise level per channel; ``--others``) and plus K draws from an independent stream
+(``SeedSequence([seed, 777])``) are compared, as z = (estimate - mean over the other seeds' noise)
+/ their sd; it prints the rms of z for the own noise and for the independent draws, and the
+seed-to-seed sd of the estimates with the own noise and with the first independent draw.
+
 Run: ``OMP_NUM_THREADS=1 .venv/bin/python benchmarks/calibration_coulomb_noise_free.py [--seeds 12]
-[--factors 4 --rows 40 60 100] [--noise 2] [--draws 16 --seeds 4]``
+[--factors 4 --rows 40 60 100] [--noise 2] [--draws 16 --seeds 4] [--pairing 2 --seeds 20]``
 """
 
 from __future__ import annotations
@@ -42,7 +49,12 @@ def main() -> None:
     parser.add_argument("--noise", type=float, default=0.0, help="sensor noise [%%] (the case's default: 2)")
     parser.add_argument("--rows", type=int, nargs="+", default=[60], help="block rows per data-rate sample")
     parser.add_argument("--draws", type=int, default=0, help="noise draws per seed given its force record")
+    parser.add_argument("--pairing", type=int, default=0, help="independent noise draws per seed (pairing test)")
+    parser.add_argument("--others", type=int, default=10, help="other seeds' noise per seed (pairing test)")
     args = parser.parse_args()
+    if args.pairing:
+        pairing(args.seeds, args.pairing, args.others)
+        return
     if args.draws:
         conditional(args.seeds, args.draws)
         return
@@ -94,6 +106,50 @@ def conditional(seeds: int, draws: int) -> None:
                 print(f"  {seed:<5d} {expr:12s} {values[:, k].mean():11.4f} {values[:, k].std(ddof=1):9.4f}"
                       f" {full.coefficient_values[k]:15.4f} {replicates[:, k].std(ddof=1):14.4f}"
                       f" {shift[k]:17.4f}")
+
+
+def pairing(seeds: int, draws: int, others: int) -> None:
+    """Per seed: is its own noise a typical draw for its clean response? (sign(v2), the loop's settings)."""
+    from dataclasses import replace
+
+    from bayesnsi.simulate.undeclared import undeclared_cases
+
+    nsi = NSIOptions(block_rows=240, order=4, upsample=4)
+    n_cases = max(seeds, others + 1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cases = [c.reference for c in undeclared_cases("coulomb-dof2", list(range(n_cases)))]
+        noise = [(r.signals.displacement - r.clean.displacement, r.signals.velocity - r.clean.velocity) for r in cases]
+
+        def estimate(seed, disp_noise, vel_noise):
+            clean, (own_d, own_v) = cases[seed].clean, noise[seed]
+            disp = clean.displacement + disp_noise / disp_noise.std(axis=0) * own_d.std(axis=0)
+            vel = clean.velocity + vel_noise / vel_noise.std(axis=0) * own_v.std(axis=0)
+            return identify(replace(clean, displacement=disp, velocity=vel), TERMS, nsi).coefficient_values[1]
+
+        print(f"coulomb-dof2, sign(v2) (truth 1): own noise against {others} other seeds' noise and {draws}"
+              " independent draws")
+        print("  seed   own      others mean  others sd   z own   z independent")
+        z_own, z_ind, own_values, ind_values = [], [], [], []
+        for seed in range(seeds):
+            rng = np.random.default_rng(np.random.SeedSequence([seed, 777]))
+            shape_d, shape_v = noise[seed][0].shape, noise[seed][1].shape
+            independent = [estimate(seed, rng.standard_normal(shape_d), rng.standard_normal(shape_v))
+                           for _ in range(draws)]
+            own = estimate(seed, *noise[seed])
+            reference = np.array([estimate(seed, *noise[o]) for o in range(n_cases) if o != seed][:others])
+            mean, sd = reference.mean(), reference.std(ddof=1)
+            z_own.append((own - mean) / sd)
+            z_ind.extend((v - mean) / sd for v in independent)
+            own_values.append(own)
+            ind_values.append(independent[0])
+            print(f"  {seed:<5d} {own:8.4f} {mean:12.4f} {sd:10.4f} {z_own[-1]:7.2f}   "
+                  + " ".join(f"{(v - mean) / sd:.2f}" for v in independent), flush=True)
+    rms = lambda z: float(np.sqrt(np.mean(np.square(z))))  # noqa: E731
+    print(f"  rms z: own noise {rms(z_own):.2f} ({seeds} seeds), independent draws {rms(z_ind):.2f} ({len(z_ind)});"
+          f" a t-distributed z with {others - 1} dof has rms {np.sqrt((others - 1) / (others - 3)):.2f}")
+    print(f"  seed-to-seed sd of sign(v2): own noise {np.std(own_values, ddof=1):.4f},"
+          f" independent noise {np.std(ind_values, ddof=1):.4f}")
 
 
 if __name__ == "__main__":

@@ -13,7 +13,8 @@ import pytest
 
 from bayesnsi.exceptions import BayesNSIError, ConfigError, InputDataError, PeriodicityWarning
 from bayesnsi.models import Term
-from bayesnsi.nsi import best_linear_approximation, identify, reconstruct
+from bayesnsi.evidence.perturbation import noise_replicates
+from bayesnsi.nsi import best_linear_approximation, identify, predictor_reconstruction, reconstruct
 from bayesnsi.nsi.steady import period_problems, period_scatter_std
 from bayesnsi.options import NSIOptions
 from bayesnsi.signals import Signals, join_realisations
@@ -94,6 +95,13 @@ def test_noise_and_reconstruction_per_realisation():
     assert np.all(nrmse < 0.05), nrmse
     separately = [reconstruct(result, one, closed_loop=True).predicted for one in records]
     assert np.allclose(predicted, np.concatenate(separately))
+    # open loop and innovations: each realisation from its own initial state (no state across the boundary)
+    for build in (lambda sig: reconstruct(result, sig).predicted,
+                  lambda sig: predictor_reconstruction(result, sig, noise.std(axis=0)).baseline):
+        assert np.allclose(build(joined), np.concatenate([build(one) for one in records]))
+    # noise replicates: each realisation's noise drawn from its own period scatter, at the true level
+    noise_std, coefs, *_ = noise_replicates(result, joined, FREQ, n_replicates=2)
+    assert np.allclose(noise_std, noise.std(axis=0), rtol=0.1) and np.all(np.isfinite(coefs))
     # the best linear approximation takes the realisations of the joined record: distortion from 2 of them
     bla = best_linear_approximation([joined])
     assert bla.n_realisations == 2 and bla.n_periods == KEEP

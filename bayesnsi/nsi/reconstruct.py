@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -134,7 +134,7 @@ def reconstruct(result, signals: Signals, closed_loop: bool = False, n_init: int
     ----------
     result : NSIResult
     signals : Signals
-        Data to reconstruct (estimation or validation data).
+        Data to reconstruct (estimation or validation data); several ``realisations`` each on its own.
     closed_loop : bool
         Open loop (default): the model driven by ``[f, -n_i(y_measured)]``. Closed loop: the
         nonlinear inputs evaluated on the model's own simulated displacements and velocities
@@ -156,6 +156,12 @@ def reconstruct(result, signals: Signals, closed_loop: bool = False, n_init: int
         When the closed-loop simulation diverges (a wrong model can be unstable in feedback).
     """
     model = result.model
+    if signals.realisations > 1 and not (closed_loop and _harmonic.applies(result, signals)):
+        parts = [reconstruct(result, one, closed_loop, n_init) for one in signals.realisation_records()]
+        predicted = np.concatenate([p.predicted for p in parts])  # each realisation from its own initial state
+        per, overall = nrmse(np.asarray(signals.displacement), predicted)
+        return Reconstruction(measured=np.asarray(signals.displacement), predicted=predicted, closed_loop=closed_loop,
+                              x0=parts[0].x0, nrmse_per_channel=per, nrmse=overall)
     if closed_loop and _harmonic.applies(result, signals):  # periodic record, frequency route: steady state
         predicted = _harmonic.periodic_closed_loop(result, signals)
         per, overall = nrmse(np.asarray(signals.displacement), predicted)
@@ -382,6 +388,11 @@ def predictor_reconstruction(result, signals: Signals, noise_std=None) -> Affine
     from ._eiv import input_noise, kalman_gain
     from ._noise import measured_noise_std
 
+    if signals.realisations > 1:  # each realisation's predictor starts afresh: no state across a boundary
+        noise_std = measured_noise_std(signals)[0] if noise_std is None else noise_std
+        parts = [predictor_reconstruction(result, one, noise_std) for one in signals.realisation_records()]
+        return replace(parts[0], **{k: np.concatenate([getattr(p, k) for p in parts])
+                                   for k in ("measured", "baseline", "signatures")})
     model = result.model
     m = len(result.input_dofs)
     estimate = result.coefficient_values

@@ -117,6 +117,27 @@ class AccelerationNoise:
         edge = 0 if self.trim else self.edge_samples  # trimmed: the edges are gone already
         return slice(edge, n_samples - edge) if n_samples > 4 * edge else slice(0, n_samples)
 
+    def edge_ratio(self, residual) -> float | None:
+        """Rms of ``residual`` over both edges over its rms over :meth:`interior` (largest channel).
+
+        Parameters
+        ----------
+        residual : array_like, shape (n_samples, n_channels)
+            E.g. a model's open-loop residual on the Signals.
+
+        Returns
+        -------
+        float or None
+            None when the edges were trimmed or the record is too short to have an interior.
+        """
+        r = np.asarray(residual, dtype=float).reshape(len(residual), -1)
+        inner = self.interior(len(r))
+        if self.trim or inner.start == 0:
+            return None
+        edges = np.concatenate([r[: inner.start], r[inner.stop :]])
+        inside = np.sqrt(np.mean(r[inner] ** 2, axis=0))
+        return float(np.max(np.sqrt(np.mean(edges**2, axis=0)) / np.where(inside > 0, inside, np.finfo(float).tiny)))
+
     @property
     def signals_fs(self) -> float:
         """Sampling frequency of the Signals it describes [Hz]: ``fs / decimate``."""

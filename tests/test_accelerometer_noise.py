@@ -129,6 +129,11 @@ def test_adequacy_of_the_true_model_on_integrated_accelerations_is_near_one(tmp_
     record = checks[TRUE.name].to_dict()  # results.json model_check says where the noise came from
     assert record["noise_source"] == "accelerometers (estimated)" and len(record["acceleration_noise_std"]) == 2
     assert old[TRUE.name].to_dict()["noise_source"] == "differences"
+    # the record ends moving: the residual in the last and first 4 s is the integration's edge error
+    from bayesnsi.run.adequacy import adequacy_warnings
+
+    assert checks[TRUE.name].edge_ratio > 2.0 and old[TRUE.name].edge_ratio is None
+    assert any("trim_edges = true" in w for w in adequacy_warnings(checks, TRUE.name))
 
 
 def test_noise_replicate_intervals_of_integrated_accelerations_are_not_zero_wide(tmp_path):
@@ -189,9 +194,11 @@ def test_trim_edges_leaves_out_the_integration_edge_error_that_no_replicate_carr
     edge = 400  # 2 / (taper f_lo) = 4 s at 100 Hz
     assert trimmed.n_samples == kept.n_samples - 2 * edge
     assert trimmed.acceleration_noise.trim == edge and kept.acceleration_noise.trim == 0
-    k3_kept = identify(kept, TRUE, NSI).coefficient_values[0] / 1e5 - 1
-    k3_trimmed = identify(trimmed, TRUE, NSI).coefficient_values[0] / 1e5 - 1
+    results = [identify(signals, TRUE, NSI) for signals in (kept, trimmed)]
+    k3_kept, k3_trimmed = (r.coefficient_values[0] / 1e5 - 1 for r in results)
     assert abs(k3_kept) > 0.015 and abs(k3_trimmed) < 0.005
+    outcomes = [SimpleNamespace(name=TRUE.name, result=results[1], intervals=None)]
+    assert model_checks(outcomes, trimmed)[TRUE.name].edge_ratio is None  # nothing left to warn about
     # the replicate noise of trimmed signals is the middle of a longer integrated draw (its edges gone too)
     x, _ = trimmed.acceleration_noise.draw(trimmed.n_samples, np.random.default_rng(0))
     assert x.shape == trimmed.displacement.shape

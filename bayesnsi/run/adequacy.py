@@ -36,6 +36,9 @@ __all__ = [
     "ModelCheck", "model_checks", "adequacy_warnings", "sensor_noise_std", "widen_inadequate", "VALIDATION_TOLERANCE",
 ]
 
+EDGE_LIMIT = 2.0
+"""Residual rms at the ends of an integrated record over the interior's above which ``adequacy_warnings`` says so."""
+
 VALIDATION_TOLERANCE = 0.1
 """The selected model "validates worse" when its validation NRMSE exceeds the best candidate's by more than this
 (closed-loop simulation; a free body's force prediction, which does not drift, is compared without tolerance)."""
@@ -85,6 +88,11 @@ class ModelCheck:
         "accelerometers (declared)" (their white noise integrated by the loader's recipe), or "force".
     acceleration_noise_std : tuple of float
         With "accelerometers": the accelerometers' white noise std per channel (acceleration unit).
+    edge_ratio : float or None
+        Accelerations integrated without whole periods and kept to the window's ends: the residual rms
+        over the two edges (:meth:`~bayesnsi._integrated_noise.AccelerationNoise.interior`) over that
+        of the interior, largest channel; None otherwise. Well above 1 it is the integration's edge error,
+        which enters the identification and that no replicate carries (``trim_edges``).
     """
 
     name: str
@@ -103,6 +111,7 @@ class ModelCheck:
     widening: float = 1.0
     noise_source: str = "differences"
     acceleration_noise_std: tuple[float, ...] = ()
+    edge_ratio: float | None = None
 
     def to_dict(self) -> dict:
         """JSON-ready record.
@@ -119,7 +128,7 @@ class ModelCheck:
             "validation_log_predictive": self.validation_log_predictive, "quantity": self.quantity,
             "negative_dissipation": [{"term": name, "coefficient": value} for name, value in self.energy_input],
             "interval_widening": self.widening, "noise_source": self.noise_source,
-            "acceleration_noise_std": list(self.acceleration_noise_std),
+            "acceleration_noise_std": list(self.acceleration_noise_std), "edge_ratio": self.edge_ratio,
         }
 
 
@@ -171,7 +180,7 @@ def model_checks(
         result = outcome.result
         if result is None:
             continue
-        quantity, level = "displacement", noise
+        quantity, level, edges = "displacement", noise, None
         try:
             if is_free_body(result):
                 # a free body's displacement residual is the drift of its rigid-body mode: judge the
@@ -182,6 +191,7 @@ def model_checks(
             else:
                 residual = np.asarray(result.reconstruct(signals).residual, dtype=float)
                 if accelerometers is not None:  # integrated: the edges hold the integration's error, not the model's
+                    edges = accelerometers.edge_ratio(residual)
                     residual = residual[accelerometers.interior(len(residual))]
                 rms = np.sqrt(np.mean(residual**2, axis=0))
         except (BayesNSIError, np.linalg.LinAlgError):
@@ -201,6 +211,7 @@ def model_checks(
             quantity=quantity, unsupported=_unsupported(getattr(outcome, "intervals", None)),
             noise_source="force" if quantity == "force" else source,
             acceleration_noise_std=() if accelerometers is None else accelerometers.acceleration_std,
+            edge_ratio=edges,
             energy_input=_energy_input(result),
         )
     return checks
@@ -400,6 +411,13 @@ def adequacy_warnings(
             f"the selected model {selected!r} is not adequate: its residual is {chosen.noise_ratio:.2f}x the sensor "
             f"noise (more than {max_noise_ratio:g}x) while another candidate's is within it"
             + _interval_clause(chosen, "its intervals")
+        )
+    if chosen is not None and chosen.edge_ratio is not None and chosen.edge_ratio > EDGE_LIMIT:
+        out.append(
+            f"the selected model's residual is {chosen.edge_ratio:.1f}x larger at the ends of the record than inside "
+            "it: the integrated accelerations miss the motion outside the window there (edge error of the "
+            "integration), which biases the estimates and the evidence and which the intervals do not carry; set "
+            "[data] integrate = { ..., trim_edges = true } (docs/method.md §11)"
         )
     orders = sorted({c.order for c in checks.values()})
     if len(orders) > 1:

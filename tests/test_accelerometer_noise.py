@@ -129,11 +129,16 @@ def test_adequacy_of_the_true_model_on_integrated_accelerations_is_near_one(tmp_
     record = checks[TRUE.name].to_dict()  # results.json model_check says where the noise came from
     assert record["noise_source"] == "accelerometers (estimated)" and len(record["acceleration_noise_std"]) == 2
     assert old[TRUE.name].to_dict()["noise_source"] == "differences"
-    # the record ends moving: the residual in the last and first 4 s is the integration's edge error
+    # kept whole, the record ends moving: the residual in the last and first 4 s is the integration's edge
+    # error (trimmed by default: nothing to say)
     from bayesnsi.run.adequacy import adequacy_warnings
 
-    assert checks[TRUE.name].edge_ratio > 2.0 and old[TRUE.name].edge_ratio is None
-    assert any("trim_edges = true" in w for w in adequacy_warnings(checks, TRUE.name))
+    assert checks[TRUE.name].edge_ratio is None and old[TRUE.name].edge_ratio is None
+    whole, _ = _record(tmp_path, extra=", trim_edges = false")
+    kept = model_checks([SimpleNamespace(name=TRUE.name, result=identify(whole, TRUE, NSI), intervals=None)], whole)
+    assert kept[TRUE.name].edge_ratio > 2.0
+    assert any("trim_edges = true" in w for w in adequacy_warnings(kept, TRUE.name))
+    assert not any("trim_edges" in w for w in adequacy_warnings(checks, TRUE.name))
 
 
 def test_noise_replicate_intervals_of_integrated_accelerations_are_not_zero_wide(tmp_path):
@@ -186,11 +191,11 @@ def test_signals_with_their_accelerometer_noise_have_a_cache_fingerprint(tmp_pat
     assert signals_fingerprint(signals) == signals_fingerprint(replace(signals))
 
 
-def test_trim_edges_leaves_out_the_integration_edge_error_that_no_replicate_carries(tmp_path):
+def test_trimmed_edges_leave_out_the_integration_edge_error_that_no_replicate_carries(tmp_path):
     # noise-free accelerations: the record ends moving, and the displacement integrated over the window
     # misses the acceleration after it: k3 +2.9 % from the last 4 s alone (seed 0), -0.15 % without them
-    kept, _ = _record(tmp_path, noise=0.0)
-    trimmed, _ = _record(tmp_path, noise=0.0, extra=", trim_edges = true")
+    kept, _ = _record(tmp_path, noise=0.0, extra=", trim_edges = false")
+    trimmed, _ = _record(tmp_path, noise=0.0)  # the default
     edge = 400  # 2 / (taper f_lo) = 4 s at 100 Hz
     assert trimmed.n_samples == kept.n_samples - 2 * edge
     assert trimmed.acceleration_noise.trim == edge and kept.acceleration_noise.trim == 0
@@ -224,3 +229,14 @@ def test_the_recipe_follows_decimation_and_the_time_method(tmp_path):
     from bayesnsi.preprocess import upsample
 
     assert acceleration_noise_of(upsample(decimated, 2)) is None
+
+
+def test_a_window_too_short_to_trim_is_kept_whole_with_a_warning(tmp_path):
+    from bayesnsi.exceptions import IntegrationWarning
+
+    _record(tmp_path)
+    text = (tmp_path / "config.toml").read_text().replace("[[candidates]]", "estimation = [0, 1500]\n[[candidates]]")
+    (tmp_path / "config.toml").write_text(text)
+    with pytest.warns(IntegrationWarning, match="too short to drop the integration's edges"):
+        short = load_signals(load_config(tmp_path / "config.toml"))
+    assert short.n_samples == 1500 and short.acceleration_noise.trim == 0

@@ -232,7 +232,8 @@ def _acc_config(folder, name="acc.toml", integrate=None, **data):
 @pytest.mark.parametrize("method", ["frequency", "time"])
 def test_accelerations_only_identify_two_dof(acceleration_case, method):
     case, noisy, folder = acceleration_case
-    config = _acc_config(folder, f"{method}.toml", integrate={"band_hz": [1.0, 40.0], "method": method})
+    config = _acc_config(folder, f"{method}.toml",  # every sample kept, as integrate_acceleration gives them
+                         integrate={"band_hz": [1.0, 40.0], "method": method, "trim_edges": False})
     assert dict(config.data.outputs) == {"x1": 1, "x2": 2} and config.data.velocities is None
     signals = load_signals(config)
     assert signals.velocity is not None and signals.output_names == ("x1", "x2")
@@ -254,7 +255,7 @@ def test_integrated_windows_and_decimation_count_file_samples(acceleration_case)
     raw = {
         "data": {
             "file": "acc.csv", "fs": 100.0, "inputs": {"f2": 2}, "accelerations": {"a1": 1, "a2": 2},
-            "integrate": {"band_hz": [1.0, 20.0]}, "decimate": 2, "estimation": [1000, 9000],
+            "integrate": {"band_hz": [1.0, 20.0], "trim_edges": False}, "decimate": 2, "estimation": [1000, 9000],
         },
         "candidates": CANDIDATES,
         "validation": [{"name": "tail", "start": 9000, "stop": 10000}],

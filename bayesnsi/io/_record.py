@@ -151,19 +151,26 @@ class Record:
             trim=self._trimmed_edge(-(-(stop - start) // self.data.decimate)),
         )
 
-    def _trimmed_edge(self, n_samples: int) -> int:
-        """Samples dropped at each end of a window integrated in time with ``trim_edges`` (0 otherwise)."""
+    def _trimmed_edge(self, n_samples: int, where: str = "") -> int:
+        """Samples dropped at each end of a window integrated in time with ``trim_edges`` (0 otherwise).
+
+        A window too short to keep half of it is kept whole, with an IntegrationWarning when ``where`` is given.
+        """
         spec = self.integrate
         if spec is None or self.data.period is not None or not spec.trim_edges:
             return 0
         fs = self.fs / self.data.decimate
         edge = edge_samples(spec.band_hz, spec.taper, fs)
-        if n_samples <= 4 * edge:
-            raise InputDataError(
-                f"trim_edges drops {edge} samples ({edge / fs:.3g} s = 2/(taper f_lo)) at each end, which leaves less "
-                f"than half of the window's {n_samples}; give a longer window or a higher f_lo, or trim_edges = false"
+        if n_samples > 4 * edge:
+            return edge
+        if where:
+            warnings.warn(
+                f"{self.path.name}: {where}: too short to drop the integration's edges ({edge / fs:.3g} s = "
+                f"2/(taper f_lo) at each end of {n_samples / fs:.3g} s), kept whole: the integrated motion near its "
+                "ends misses the acceleration outside it; give a longer window or a higher f_lo",
+                IntegrationWarning, stacklevel=3,
             )
-        return edge
+        return 0
 
     def _processed(self, start: int, stop: int) -> _Window:
         """Window [start, stop) of the file, integrated and decimated as [data] asks (cached)."""
@@ -198,7 +205,7 @@ class Record:
             if q > 1:
                 force, displacement = preprocess.decimate(force, q), preprocess.decimate(displacement, q)
                 velocity = None if velocity is None else preprocess.decimate(velocity, q)
-            edge = self._trimmed_edge(len(force))
+            edge = self._trimmed_edge(len(force), f"samples [{start}, {stop})")
             if edge:  # integrate.trim_edges: the integration's edge error left out of every window
                 force, displacement = force[edge:-edge], displacement[edge:-edge]
                 velocity = None if velocity is None else velocity[edge:-edge]

@@ -47,11 +47,13 @@ class IntegrationSpec:
         accelerations before integration (:mod:`bayesnsi.nsi._accel_noise`). On a record without
         whole periods the noise replicates and the adequacy check integrate it by this recipe.
     trim_edges : bool
-        Drop ``2 / (taper f_lo)`` seconds at each end of every window after integrating it (not on
-        whole periods): there the integrated motion misses the acceleration outside the window
-        (taken as zero), an error no noise replicate carries (clean cubic chain, 60 s, band
-        1-45 Hz: k3 off by -4.2 to +3.5 % with the edges, within 0.2 % without). Default false:
-        every sample of the window is kept.
+        Drop ``2 / (taper f_lo)`` seconds at each end of every window after integrating (and
+        decimating) it, not on whole periods (default true): there the integrated motion misses the
+        acceleration outside the window (taken as zero), an error that biases the identification and
+        the evidence and that no noise replicate carries (clean cubic chain, 60 s, band 1-45 Hz: k3
+        off by -4.2 to +3.5 % with the edges, within 0.2 % without;
+        ``benchmarks/accelerometer_intervals.py``). A window shorter than four times that is kept
+        whole with an IntegrationWarning. False keeps every sample of the window.
     """
 
     band_hz: tuple[float, float]
@@ -61,7 +63,7 @@ class IntegrationSpec:
     filter_order: int = 4
     detrend_order: int = 2
     noise_std: float | None = None
-    trim_edges: bool = False
+    trim_edges: bool = True
 
 
 @dataclass(frozen=True)
@@ -78,10 +80,12 @@ class DataSpec:
 
     Processing order on load (:func:`bayesnsi.io.load_signals`): each window (the estimation
     window, each validation segment) is cut from the file first - so no sample outside it
-    influences it - then integrated (``integrate``), then decimated (``decimate``), then the
+    influences it - then integrated (``integrate``), then decimated (``decimate``), then, when
+    integrated without whole periods, its edges dropped (``integrate.trim_edges``), then the
     means are removed (``remove_mean``). Sample indices (``estimation``, validation ``start``/
     ``stop``) always count samples *of the file*; a decimated window ``[start, stop)`` holds
-    the file samples ``start, start + q, ...`` below ``stop``.
+    the file samples ``start, start + q, ...`` below ``stop`` (with trimmed edges, from the
+    ``edge``-th of them to the ``edge``-th before the last).
 
     Accelerations only: give ``accelerations`` and ``integrate`` and leave out ``outputs`` and
     ``velocities``; displacements and velocities are then derived on load, named ``x<dof>``

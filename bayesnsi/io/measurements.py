@@ -49,7 +49,9 @@ scalar ``fs`` or ``abscissa_inc``); ``[data] fs`` is then used.
 window is cut from the file, then integrated when ``[data] integrate`` is given
 (:func:`bayesnsi.preprocess.integrate_acceleration`; the forces are filtered with the same
 band unless ``filter_inputs = false``), then decimated when ``[data] decimate > 1``
-(:func:`bayesnsi.preprocess.decimate`), then mean-removed when ``remove_mean``. See
+(:func:`bayesnsi.preprocess.decimate`), then (integrated without whole periods) cut by
+``2 / (taper f_lo)`` seconds at each end unless ``integrate.trim_edges = false``, then
+mean-removed when ``remove_mean``. See
 :class:`~bayesnsi.io.config.DataSpec`.
 """
 

@@ -11,9 +11,9 @@ import warnings
 import numpy as np
 import pytest
 
+from bayesnsi.evidence.perturbation import noise_replicates
 from bayesnsi.exceptions import BayesNSIError, ConfigError, InputDataError, PeriodicityWarning
 from bayesnsi.models import Term
-from bayesnsi.evidence.perturbation import noise_replicates
 from bayesnsi.nsi import best_linear_approximation, identify, predictor_reconstruction, reconstruct
 from bayesnsi.nsi.steady import period_problems, period_scatter_std
 from bayesnsi.options import NSIOptions
@@ -151,10 +151,11 @@ def _config(tmp_path, records, **data):
 
     rows = np.column_stack([joint_force(records), np.concatenate([s.displacement for s in records])])
     np.savetxt(tmp_path / "gvt.csv", rows, delimiter=",", header="f,x1,x2", comments="")
+    domain = data.pop("nsi_domain", "frequency")
     extra = "\n".join(f"{k} = {v}" for k, v in data.items())
     (tmp_path / "c.toml").write_text(
         f'[data]\nfile = "gvt.csv"\nfs = {FS}\ninputs = {{ f = 2 }}\noutputs = {{ x1 = 1, x2 = 2 }}\n{extra}\n'
-        '[nsi]\ndomain = "frequency"\norder = 4\nblock_rows = 10\n'
+        f'[nsi]\ndomain = "{domain}"\norder = 4\nblock_rows = 10\n'
         '[[candidates]]\nname = "cubic"\nterms = [{ expr = "x1**3", at = [1] }]\n'
     )
     return load_config(tmp_path / "c.toml")
@@ -176,6 +177,8 @@ def test_config_declares_realisations_and_transient_periods(tmp_path):
         load_signals(_config(tmp_path, records, period=P))
     with pytest.raises(ConfigError, match="needs the period"):
         _config(tmp_path, records, realisations=2)
+    with pytest.raises(ConfigError, match='add domain = "frequency"'):
+        _config(tmp_path, records, period=P, realisations=2, nsi_domain="time")
     with pytest.raises(ConfigError, match="does not split into realisations = 4 equal parts"):
         load_signals(_config(tmp_path, records, period=P, realisations=4))
     with pytest.raises(ConfigError, match="1 after transient_periods = 2"):

@@ -282,6 +282,10 @@ def parse_nsi(table: Any, where: Where, data: DataSpec) -> NSIOptions:
             "order", f"at most block_rows x outputs = {options.block_rows} x {len(data.outputs)} = {limit}",
             options.order, "raise block_rows or lower order",
         )
+    if data.realisations > 1 and options.domain != "frequency":
+        raise where.problem("domain", f"[data] realisations = {data.realisations} are estimated together on the "
+                            'frequency route only (a time-route Hankel block would span two of them); add '
+                            'domain = "frequency", or set realisations = 1')
     fs = data.signal_fs
     for key in _BAND_KEYS:
         band = getattr(options, key)

@@ -391,8 +391,8 @@ def predictor_reconstruction(result, signals: Signals, noise_std=None) -> Affine
     if signals.realisations > 1:  # each realisation's predictor starts afresh: no state across a boundary
         noise_std = measured_noise_std(signals)[0] if noise_std is None else noise_std
         parts = [predictor_reconstruction(result, one, noise_std) for one in signals.realisation_records()]
-        return replace(parts[0], **{k: np.concatenate([getattr(p, k) for p in parts])
-                                   for k in ("measured", "baseline", "signatures")})
+        joined = (np.concatenate([getattr(p, k) for p in parts]) for k in ("measured", "baseline", "signatures"))
+        return replace(parts[0], **dict(zip(("measured", "baseline", "signatures"), joined)))  # type: ignore[arg-type]
     model = result.model
     m = len(result.input_dofs)
     estimate = result.coefficient_values

@@ -131,6 +131,7 @@ def period_problems(force, response, period, offset: int = 0, step: int = 1, rea
             "holds one realisation of the excitation"
         ]
     dev = period_deviations(y, period)
+    assert dev is not None  # three or more whole periods
     scale = np.sqrt(np.mean(dev**2, axis=(0, 1)))
     scale[scale == 0] = 1.0
     per_period = np.sum((dev / scale) ** 2, axis=(1, 2))

@@ -11,6 +11,7 @@ import warnings
 import numpy as np
 import pytest
 
+from bayesnsi.evidence.intervals import segment_estimates
 from bayesnsi.evidence.perturbation import noise_replicates
 from bayesnsi.exceptions import BayesNSIError, ConfigError, InputDataError, PeriodicityWarning
 from bayesnsi.models import Term
@@ -102,6 +103,11 @@ def test_noise_and_reconstruction_per_realisation():
     # noise replicates: each realisation's noise drawn from its own period scatter, at the true level
     noise_std, coefs, *_ = noise_replicates(result, joined, FREQ, n_replicates=2)
     assert np.allclose(noise_std, noise.std(axis=0), rtol=0.1) and np.all(np.isfinite(coefs))
+    # the segments interval re-identifies each realisation (their scatter: noise and stochastic distortion)
+    samples, seg_coefs, *_ = segment_estimates(result, joined, FREQ)
+    same = FREQ.replace(order=result.order, band_hz=tuple(result.band_hz))  # what the re-identification keeps
+    singles = [identify(one, CUBIC, same).coefficient_values for one in records]
+    assert samples == 3 * P and np.allclose(seg_coefs, singles)
     # the best linear approximation takes the realisations of the joined record: distortion from 2 of them
     bla = best_linear_approximation([joined])
     assert bla.n_realisations == 2 and bla.n_periods == KEEP

@@ -222,7 +222,8 @@ def segment_estimates(result, signals, options=None, n_segments: int = 8, fracti
         Number of sub-records, at evenly spaced offsets.
     fraction : float
         Length of a sub-record as a fraction of the record, in (0, 1); lengthened to what the
-        block rows need for this candidate, up to 90 % of the record.
+        block rows need for this candidate, up to 90 % of the record. A record of several
+        ``realisations`` is cut into them instead (``n_segments`` and ``fraction`` unused).
 
     Returns
     -------
@@ -241,6 +242,9 @@ def segment_estimates(result, signals, options=None, n_segments: int = 8, fracti
         raise ValueError(f"fraction must lie in (0, 1), got {fraction!r}")
     options = (options or NSIOptions()).replace(order=result.order, band_hz=tuple(result.band_hz))
     n = signals.n_samples
+    if getattr(signals, "realisations", 1) > 1:  # the realisations themselves: their scatter holds the distortion
+        records = enumerate(signals.realisation_records(), start=1)
+        return (n // signals.realisations, *reidentify(result, ((f"realisation {k}", s) for k, s in records), options))
     b = max(int(round(fraction * n)), min(_shortest_window(result), int(_MAX_FRACTION * n)))
     offsets = np.unique(np.linspace(0, n - b, n_segments).round().astype(int))
     windows = ((f"samples {o}..{o + b}", signals.segment(int(o), int(o) + b)) for o in offsets)

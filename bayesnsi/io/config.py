@@ -20,6 +20,8 @@ Layout (everything but ``[data]`` inputs/outputs and ``[[candidates]]`` has a de
     # accelerations only: instead of outputs/velocities
     # accelerations = { a1 = 1, a2 = 2 }
     # integrate = { band_hz = [1.0, 40.0] }   # + method, taper, filter_inputs, ... (DataSpec)
+    #   noise_std = 0.002                     # declared accelerometer noise (else estimated before integrating)
+    #   trim_edges = false                    # keep the 2/(taper f_lo) s at each end (default: dropped)
 
     [nsi]                                     # all optional
     block_rows = 40

@@ -152,23 +152,27 @@ def test_bad_realisation_input_is_refused_with_what_to_do():
     assert [s.n_samples for s in joined.realisation_records()] == [2 * P, 2 * P]
 
 
-def _config(tmp_path, records, **data):
+def _write(path, records):
+    rows = np.column_stack([joint_force(records), np.concatenate([s.displacement for s in records])])
+    np.savetxt(path, rows, delimiter=",", header="f,x1,x2", comments="")
+
+
+def _config(tmp_path, records, validation: str = "", **data):
     from bayesnsi.io import load_config
 
-    rows = np.column_stack([joint_force(records), np.concatenate([s.displacement for s in records])])
-    np.savetxt(tmp_path / "gvt.csv", rows, delimiter=",", header="f,x1,x2", comments="")
+    _write(tmp_path / "gvt.csv", records)
     domain = data.pop("nsi_domain", "frequency")
     extra = "\n".join(f"{k} = {v}" for k, v in data.items())
     (tmp_path / "c.toml").write_text(
         f'[data]\nfile = "gvt.csv"\nfs = {FS}\ninputs = {{ f = 2 }}\noutputs = {{ x1 = 1, x2 = 2 }}\n{extra}\n'
         f'[nsi]\ndomain = "{domain}"\norder = 4\nblock_rows = 10\n'
-        '[[candidates]]\nname = "cubic"\nterms = [{ expr = "x1**3", at = [1] }]\n'
+        '[[candidates]]\nname = "cubic"\nterms = [{ expr = "x1**3", at = [1] }]\n' + validation
     )
     return load_config(tmp_path / "c.toml")
 
 
 def test_config_declares_realisations_and_transient_periods(tmp_path):
-    from bayesnsi.io import load_signals
+    from bayesnsi.io import load_signals, load_validation
 
     records, _ = _realisations(4, n=2)  # 3 periods each: the first dropped as a transient
     config = _config(tmp_path, records, period=P, realisations=2, transient_periods=1)
@@ -189,3 +193,14 @@ def test_config_declares_realisations_and_transient_periods(tmp_path):
         load_signals(_config(tmp_path, records, period=P, realisations=4))
     with pytest.raises(ConfigError, match="1 after transient_periods = 2"):
         load_signals(_config(tmp_path, records, period=P, realisations=2, transient_periods=2))
+    # a validation record of realisations, declared the same way
+    others, _ = _realisations(5, n=2)
+    _write(tmp_path / "val.csv", others)
+    segment = '[[validation]]\nname = "other"\nfile = "val.csv"\nrealisations = 2\ntransient_periods = 1\n'
+    config = _config(tmp_path, records, segment, period=P, realisations=2, transient_periods=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PeriodicityWarning)
+        (name, held_out), = load_validation(config)
+    assert held_out.realisations == 2 and np.allclose(held_out.force, join_realisations(others, drop=1).force)
+    with pytest.raises(ConfigError, match="needs the period"):
+        _config(tmp_path, records, segment)

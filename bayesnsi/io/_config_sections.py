@@ -388,7 +388,12 @@ def parse_validation(items: Any, path: Path, data: DataSpec, check_files: bool) 
             raise where.error("stop", f"an index greater than start = {start}", stop)
         if not files and (file is None or file == data.file):
             _check_no_overlap(where, name, start, stop, data.estimation)
-        segments.append(ValidationSegment(name=name, start=start, stop=stop, file=file, files=files))
+        count, drop = get_int(item, "realisations", where, 1, minimum=1), get_int(item, "transient_periods", where, 0,
+                                                                                    minimum=0)
+        if data.period is None and (count > 1 or drop):
+            raise where.problem("realisations", "needs the period of the test: add [data] period")
+        segments.append(ValidationSegment(name=name, start=start, stop=stop, file=file, files=files,
+                                          realisations=count, transient_periods=drop))
     return tuple(segments)
 
 

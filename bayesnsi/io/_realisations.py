@@ -1,4 +1,4 @@
-"""The estimation window of several realisations of a periodic test (``[data] realisations``).
+"""A window of several realisations of a periodic test (``[data] realisations``, also per ``[[validation]]``).
 
 A ground vibration test ships R realisations (new multisine phases) of P periods each, often one
 after the other in one file, each starting with transient periods. The estimation window is cut
@@ -11,28 +11,38 @@ lines of all realisations (docs/method.md §11).
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
 from ..exceptions import ConfigError
-from ._specs import DataSpec
 
-__all__ = ["estimation_parts", "joined"]
+__all__ = ["Split", "joined", "split_parts"]
 
 
-def estimation_parts(data: DataSpec, path: Path, start: int, stop: int, estimation: bool) -> list[tuple[int, int]]:
+class Split(NamedTuple):
+    """How a window holds realisations: ``count`` equal parts, ``drop`` transient periods each, ``key`` for messages."""
+
+    count: int
+    drop: int
+    key: str
+
+
+def split_parts(period: int | None, path: Path, start: int, stop: int, split: Split | None) -> list[tuple[int, int]]:
     """The file windows ``[a, b)`` of the steady periods of each realisation of ``[start, stop)``.
 
     Parameters
     ----------
-    data : DataSpec
-        ``period``, ``realisations`` and ``transient_periods`` are read.
+    period : int or None
+        Samples per period (``[data] period``, file samples).
     path : Path
         The file (named in messages).
     start, stop : int
         The window [file samples].
-    estimation : bool
-        Only the estimation window is cut; any other window is one part.
+    split : Split or None
+        Realisations and transient periods of the window (``[data] realisations`` and
+        ``transient_periods`` for the estimation window, the same keys of a ``[[validation]]``
+        segment); None: one part.
 
     Returns
     -------
@@ -42,22 +52,22 @@ def estimation_parts(data: DataSpec, path: Path, start: int, stop: int, estimati
     Raises
     ------
     ConfigError
-        When the window does not split into ``realisations`` equal parts of whole periods, or a part
-        keeps fewer than two periods after its transient ones.
+        When the window does not split into ``count`` equal parts of whole periods, or a part keeps
+        fewer than two periods after its transient ones.
     """
-    count, drop, period = data.realisations, data.transient_periods, data.period
-    if not estimation or period is None or (count == 1 and drop == 0):
+    if split is None or period is None or (split.count == 1 and split.drop == 0):
         return [(start, stop)]
+    count, drop = split.count, split.drop
     length = (stop - start) // count
     if (stop - start) % count or length % period:
         raise ConfigError(
-            f"{path}: [data] estimation [{start}, {stop}) of {stop - start} samples does not split into "
+            f"{path}: {split.key} [{start}, {stop}) of {stop - start} samples does not split into "
             f"realisations = {count} equal parts of whole periods of {period} samples; give a window of {count} x "
             f"(a whole number of periods) x {period} samples that starts where the first realisation starts"
         )
     if length // period - drop < 2:
         raise ConfigError(
-            f"{path}: each of the {count} realisation(s) of [data] estimation holds {length // period} period(s) of "
+            f"{path}: each of the {count} realisation(s) of {split.key} holds {length // period} period(s) of "
             f"{period} samples, {length // period - drop} after transient_periods = {drop}; the noise needs at least "
             "two steady periods per realisation: lower transient_periods or realisations, or widen the window"
         )

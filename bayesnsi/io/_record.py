@@ -20,7 +20,7 @@ from ._columns import MeasurementColumns, file_format
 from ._csv import read_csv_any
 from ._formats import read_matlike
 from ._lowband import below_band_messages
-from ._realisations import estimation_parts, joined
+from ._realisations import Split, joined, split_parts
 from ._specs import DataSpec
 from ._split import read_split
 from ._uff import read_uff
@@ -97,16 +97,16 @@ class Record:
             )
         return start, stop
 
-    def means(self, start: int, stop: int, estimation: bool = False) -> _Window:
-        """Mean of each processed channel group over the window (the estimation window: its steady parts)."""
-        parts = estimation_parts(self.data, self.path, start, stop, estimation)
+    def means(self, start: int, stop: int, split: Split | None = None) -> _Window:
+        """Mean of each processed channel group over the window (over the steady parts of its realisations)."""
+        parts = split_parts(self.data.period, self.path, start, stop, split)
         force, displacement, velocity = joined([self._processed(a, b) for a, b in parts])
         return force.mean(axis=0), displacement.mean(axis=0), None if velocity is None else velocity.mean(axis=0)
 
-    def signals(self, start: int, stop: int, means: _Window | None, estimation: bool = False) -> Signals:
-        """The processed window as Signals, with ``means`` (if given) subtracted; the estimation window
-        (``estimation``) cut into its realisations without their transient periods (:mod:`._realisations`)."""
-        parts = estimation_parts(self.data, self.path, start, stop, estimation)
+    def signals(self, start: int, stop: int, means: _Window | None, split: Split | None = None) -> Signals:
+        """The processed window as Signals, with ``means`` (if given) subtracted; with ``split`` cut into its
+        realisations without their transient periods, each processed on its own (:mod:`._realisations`)."""
+        parts = split_parts(self.data.period, self.path, start, stop, split)
         force, displacement, velocity = joined([self._processed(a, b) for a, b in parts])
         if means is not None:
             force, displacement = force - means[0], displacement - means[1]

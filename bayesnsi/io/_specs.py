@@ -194,6 +194,9 @@ class ValidationSegment:
     files : dict of str to Path
         Another record given one channel per file, as ``[data] files`` (the same columns); empty:
         ``file``, or the estimation record.
+    realisations, transient_periods : int
+        As in ``[data]``: the segment holds that many equal realisations of whole periods, each
+        without its transient periods, validated each from its own steady state (default 1, 0).
     """
 
     name: str
@@ -201,6 +204,8 @@ class ValidationSegment:
     stop: int | None
     file: Path | None = None
     files: dict[str, Path] = field(default_factory=dict)
+    realisations: int = 1
+    transient_periods: int = 0
 
 
 @dataclass(frozen=True)

@@ -69,6 +69,7 @@ from ..exceptions import InputDataError
 from ..signals import Signals
 from ._columns import FORMATS, FS_TOLERANCE, TIME_TOLERANCE, MeasurementColumns, file_format
 from ._csv import CSVColumns, read_csv_columns
+from ._realisations import Split
 from ._record import Record, read_any
 from ._specs import DataSpec, ExperimentConfig
 from .results import atomic_open
@@ -176,8 +177,9 @@ def load_signals(config: ExperimentConfig) -> Signals:
     """
     record = Record(config.data.file, config.data, config.data.files)
     start, stop = record.window(config.data.estimation, "[data] estimation", config.path)
-    means = record.means(start, stop, estimation=True) if config.data.remove_mean else None
-    return record.signals(start, stop, means, estimation=True)
+    split = _estimation_split(config)
+    means = record.means(start, stop, split) if config.data.remove_mean else None
+    return record.signals(start, stop, means, split)
 
 
 def load_validation(config: ExperimentConfig) -> list[tuple[str, Signals]]:
@@ -205,7 +207,8 @@ def load_validation(config: ExperimentConfig) -> list[tuple[str, Signals]]:
     main = Record(config.data.file, config.data, config.data.files)
     means = None
     if config.data.remove_mean:
-        means = main.means(*main.window(config.data.estimation, "[data] estimation", config.path), estimation=True)
+        means = main.means(*main.window(config.data.estimation, "[data] estimation", config.path),
+                           _estimation_split(config))
     out = []
     for segment in config.validation:
         same_file = not segment.files and (segment.file is None or segment.file == config.data.file)
@@ -216,8 +219,14 @@ def load_validation(config: ExperimentConfig) -> list[tuple[str, Signals]]:
         start, stop = record.window(
             (segment.start, segment.stop), f"[[validation]] {segment.name!r} start/stop", config.path
         )
-        out.append((segment.name, record.signals(start, stop, means)))
+        split = Split(segment.realisations, segment.transient_periods, f"[[validation]] {segment.name!r}")
+        out.append((segment.name, record.signals(start, stop, means, split)))
     return out
+
+
+def _estimation_split(config: ExperimentConfig) -> Split:
+    """The realisations of the estimation window (``[data] realisations``, ``transient_periods``)."""
+    return Split(config.data.realisations, config.data.transient_periods, "[data] estimation")
 
 
 def write_signals_csv(

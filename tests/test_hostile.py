@@ -18,7 +18,7 @@ from bayesnsi.exceptions import OutputExistsError
 from bayesnsi.io.results import output_folder
 
 from .test_bad_input import _experiment
-from .test_reliability import EXTRA_CANDIDATES
+from .test_reliability import EXTRA_CANDIDATES, default_signals
 
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 CLI = [sys.executable, "-m", "bayesnsi.cli"]
@@ -315,20 +315,13 @@ def _alive(pid: int) -> bool:
     return state not in ("Z", "X")
 
 
-def _default_signals() -> None:
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, signal.SIG_DFL)
-
-
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads the process tree from /proc")
 @pytest.mark.parametrize("signum, code", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
 def test_signal_stops_the_worker_processes(signum, code, slow_config, tmp_path):
     out = tmp_path / "out"
     command = [*CLI, "select", str(slow_config), "--out", str(out), "--no-figures", "--quiet", "--jobs", "2"]
-    # a job started in the background by a shell (``make test &``) inherits an ignored SIGINT, which
-    # Python keeps ignored: give the command the default disposition a terminal's foreground job has
     process = subprocess.Popen(command, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               preexec_fn=_default_signals)
+                               preexec_fn=default_signals)
     workers: set[int] = set()
     deadline = time.monotonic() + 120
     while len(workers) < 2 and time.monotonic() < deadline and process.poll() is None:

@@ -66,9 +66,20 @@ def _entries(out):
     return {p.name: p.stat().st_mtime_ns for p in folder.glob(f"*{ENTRY_SUFFIX}")} if folder.is_dir() else {}
 
 
+def default_signals() -> None:
+    """``preexec_fn`` of a command the tests signal: SIGINT and SIGTERM at their default disposition.
+
+    A job started in the background by a shell (``make test &``) inherits an ignored SIGINT, which
+    Python keeps ignored; a terminal's foreground job, which these tests stand for, has the default.
+    """
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, signal.SIG_DFL)
+
+
 def _start_select(config, out):
     command = [sys.executable, "-m", "bayesnsi.cli", "select", str(config), "--out", str(out), "--no-figures"]
-    return subprocess.Popen(command, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(command, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=default_signals)
 
 
 def _wait_for_first_entry(process, out, timeout=180.0):
@@ -290,11 +301,17 @@ def test_ctrl_c_during_sampling_is_raised_after_the_emcee_run():
 
     from bayesnsi._interrupt import interrupt_after
 
+    # Python's own handler, as in a terminal (a shell's background job starts with SIGINT ignored,
+    # which interrupt_after leaves alone)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     reached_end = False
-    with pytest.raises(KeyboardInterrupt):
-        with interrupt_after():
-            os.kill(os.getpid(), signal.SIGINT)
-            time.sleep(0.05)  # a pending signal would be delivered here
-            reached_end = True
-    assert reached_end
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            with interrupt_after():
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(0.05)  # a pending signal would be delivered here
+                reached_end = True
+        assert reached_end
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, previous)

@@ -23,7 +23,7 @@ from .run.adequacy import ModelCheck, adequacy_warnings, model_checks, widen_ina
 from .run.batch import CandidateOutcome, run_candidates
 from .run.free_view import one_view
 from .run.velocity_noise import velocity_noise_messages
-from .validation import SegmentError, Whiteness, open_loop_error, residual_whiteness, validate
+from .validation import SegmentError, Whiteness, open_loop_error, residual_whiteness, validate, whiteness_applies
 
 __all__ = ["Selection", "select"]
 
@@ -51,6 +51,8 @@ class Selection:
         Whiteness test of each identified candidate's residual (the evidence's residual) on the
         estimation data (:func:`bayesnsi.validation.residual_whiteness`): the probabilities
         rank the candidates against each other, this says whether the best one explains the data.
+        Empty for responses integrated from velocities or accelerations, whose noise the integration
+        colours (:func:`bayesnsi.validation.whiteness_applies`; ``checks`` hold their adequacy).
     checks : mapping of str to ModelCheck
         Residual against the sensor noise, quality index, validation error and log predictive
         density of each identified candidate (:func:`bayesnsi.run.adequacy.model_checks`).
@@ -202,7 +204,7 @@ def select(
     segments = list(validation)
     checks = {o.name: validate(o.result, segments) for o in identified} if segments else {}
     adequacy = {}
-    for o in identified:
+    for o in identified if whiteness_applies(signals) else ():  # integrated responses: coloured noise, no test
         try:
             adequacy[o.name] = residual_whiteness(o.result, signals, evidence.residual)
         except (BayesNSIError, np.linalg.LinAlgError):

@@ -48,12 +48,13 @@ def test_select_writes_spec9_results_and_report(two_dof_config, tmp_path):
     # readable headers: no raw field names of the ranking table or the arviz summary
     for raw in ("p_ar1", "log_evidence_", "p_plain", "hdi95_lb", "ess_bulk", "nrmse_before"):
         assert raw not in html, raw
-    # every table and figure: answer, ranking, adequacy, modes, coefficients, NRMSE, one arviz summary per
-    # candidate, the intervals of coefficients and of modes (issue 15); Bayes factors, FRF, λ(ω) per
-    # nonlinear candidate, singular values per candidate, stabilisation, a measured-vs-model overlay per
+    # every table and figure: answer, ranking, adequacy, model check, modes, coefficients, NRMSE, one arviz
+    # summary per candidate, the intervals of coefficients and of modes (issue 15); Bayes factors, FRF, λ(ω)
+    # per nonlinear candidate, singular values per candidate, stabilisation, a measured-vs-model overlay per
     # output, and per candidate a pair plot + trace
     n_cand = len(results["candidates"])
-    assert html.count("<table") == 6 + n_cand + 2
+    assert html.count("<table") == 7 + n_cand + 2
+    assert "residual / noise, worst channel" in html and "Ljung-Box p, worst channel" in html
     assert html.count("class='scroll'") == html.count("<table")  # wide tables scroll, the page does not widen
     assert "Ljung-Box" in html and all(c["adequacy"]["p_value"] for c in results["candidates"])
     assert html.count("<img") == 1 + 1 + n_cand + n_cand + 1 + 2 + 2 * n_cand

@@ -17,9 +17,17 @@ from ..io.report import Report
 from ..io.units import ChannelUnits
 from ..nsi import stabilization
 from ..tables import coefficients_table, modes_table, physical_table
+from ..validation import whiteness_applies
 from ._report_intervals import interval_sections
 from ._report_periodic import periodic_section
-from ._report_tables import adequacy_frame, decision_frame, probability_text, ranking_frame, summary_frame
+from ._report_tables import (
+    adequacy_frame,
+    decision_frame,
+    model_check_frame,
+    probability_text,
+    ranking_frame,
+    summary_frame,
+)
 
 __all__ = [
     "ANSWER", "LOOP", "EVIDENCE", "MODELS", "FIGURES", "POSTERIOR", "SETTINGS", "VERSIONS",
@@ -285,6 +293,19 @@ def selection_sections(report, signals, selection, selected, units=None, role: s
             "(a white residual). The probabilities only compare the candidates with each other."
         )
         evidence.append(adequacy_frame(selection.adequacy))
+    elif selection.checks and not whiteness_applies(signals):
+        evidence.append(
+            f"Adequacy: no whiteness test - the responses were integrated from {signals.measured}s, whose noise the "
+            "integration colours, so no model's residual is white; the residual against that integrated noise (below) "
+            "says whether a model explains the data."
+        )
+    if selection.checks:
+        evidence.append(
+            "Model check: each candidate's open-loop residual rms over the sensor noise (a model that explains the "
+            "data leaves about 1x; above max_noise_ratio it is not adequate and its intervals are widened by the "
+            "ratio), the quality index of its coefficients and, with validation data, its closed-loop error."
+        )
+        evidence.append(model_check_frame(selection.checks))
     interval_sections(report, selection.outcomes, selected, opts.likelihood, answer, MODELS)
     _reconstruction_figures(report, signals, results, units)
     post = report.section("Coefficient posteriors", POSTERIOR)

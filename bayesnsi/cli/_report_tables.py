@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
-__all__ = ["adequacy_frame", "decision_frame", "loop_frame", "probability_text", "ranking_frame", "summary_frame"]
+__all__ = [
+    "adequacy_frame", "decision_frame", "loop_frame", "model_check_frame", "probability_text", "ranking_frame",
+    "summary_frame",
+]
 
 _LIKELIHOOD = {"white": "white", "ar1": "AR(1)", "arP": "AR(P)"}
 
@@ -113,6 +116,36 @@ def adequacy_frame(adequacy):
             for name, w in adequacy.items()
         }
     ).T.rename_axis("candidate")
+
+
+def model_check_frame(checks):
+    """Residual against the sensor noise, quality index and validation of each candidate.
+
+    Parameters
+    ----------
+    checks : mapping of str to ModelCheck
+        :func:`bayesnsi.run.adequacy.model_checks` (after any widening).
+
+    Returns
+    -------
+    pandas.DataFrame
+    """
+    import pandas as pd
+
+    def row(c):
+        out = {
+            "residual / noise, worst channel": f"{c.noise_ratio:.3g}x",
+            "near the noise (adequate)": "yes" if c.adequate else "no",
+            "noise from": c.noise_source,
+            "quality index |Im|/|Re|": "-" if c.quality_index is None else f"{c.quality_index:.3g}",
+        }
+        if c.validation_nrmse is not None:
+            out["validation NRMSE"] = f"{c.validation_nrmse:.4g}"
+        if c.widening != 1.0:
+            out["intervals widened"] = f"{c.widening:.3g}x"
+        return out
+
+    return pd.DataFrame({name: row(c) for name, c in checks.items()}).T.rename_axis("candidate")
 
 
 def summary_frame(summary):

@@ -31,6 +31,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUME
     os.environ[_var] = "1"
 
 import argparse  # noqa: E402
+import functools  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 import warnings  # noqa: E402
@@ -109,8 +110,6 @@ def main(argv=None) -> int:
         with open(args.tables) as fh:
             _print_tables(json.load(fh), args.cases)
         return 0
-    import functools
-
     task = functools.partial(one_seed, bit_generator=args.bit_generator)
     title = f"bayesnsi loop interval calibration (issue 15), {args.bit_generator} cases"
     records = run_seeds(title, task, args.cases, args.seeds, args.seed0, EvidenceOptions(), args.workers,

@@ -20,13 +20,26 @@ noise level per channel; ``--others``) and plus K draws from an independent stre
 / their sd; it prints the rms of z for the own noise and for the independent draws, and the
 seed-to-seed sd of the estimates with the own noise and with the first independent draw.
 
+``--reference K`` measures the same against the estimator's own distribution given the force
+record: per seed, K draws of white noise at the seed's noise level (``SeedSequence([seed, 4242])``)
+on its clean response give the reference mean and sd; it prints z = (estimate - reference mean) /
+reference sd for the seed's own data, for its own noise shifted by one sample and for one more
+independent draw, and per coefficient how the interval's parts compare with that reference over
+the seeds: the reference mean's error (rms, in reference sds), the clean estimate's, the 16 noise
+replicates' sd over the reference sd, and their mean shift against the bias of the data's estimate
+(own - reference mean) that it is meant to remove, and the 95 % coverage of the default interval
+(replicates' centre and sd) beside that of one centred on the data's estimate less the seed's own
+bias (reference mean - truth) with the reference sd.
+
 Run: ``OMP_NUM_THREADS=1 .venv/bin/python benchmarks/calibration_coulomb_noise_free.py [--seeds 12]
-[--factors 4 --rows 40 60 100] [--noise 2] [--draws 16 --seeds 4] [--pairing 2 --seeds 20]``
+[--factors 4 --rows 40 60 100] [--noise 2] [--draws 16 --seeds 4] [--pairing 2 --seeds 20]
+[--reference 20 --seeds 30]``
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import warnings
 
@@ -51,7 +64,12 @@ def main() -> None:
     parser.add_argument("--draws", type=int, default=0, help="noise draws per seed given its force record")
     parser.add_argument("--pairing", type=int, default=0, help="independent noise draws per seed (pairing test)")
     parser.add_argument("--others", type=int, default=10, help="other seeds' noise per seed (pairing test)")
+    parser.add_argument("--reference", type=int, default=0, help="reference noise draws per seed (reference test)")
+    parser.add_argument("--seed0", type=int, default=0, help="first seed")
     args = parser.parse_args()
+    if args.reference:
+        reference(list(range(args.seed0, args.seed0 + args.seeds)), args.reference)
+        return
     if args.pairing:
         pairing(args.seeds, args.pairing, args.others)
         return
@@ -150,6 +168,74 @@ def pairing(seeds: int, draws: int, others: int) -> None:
           f" a t-distributed z with {others - 1} dof has rms {np.sqrt((others - 1) / (others - 3)):.2f}")
     print(f"  seed-to-seed sd of sign(v2): own noise {np.std(own_values, ddof=1):.4f},"
           f" independent noise {np.std(ind_values, ddof=1):.4f}")
+
+
+def _fresh_noise(rng, e_x, e_v):
+    """White noise with the std of ``e_x`` and ``e_v`` per channel."""
+    return rng.standard_normal(e_x.shape) * e_x.std(axis=0), rng.standard_normal(e_v.shape) * e_v.std(axis=0)
+
+
+def reference(seeds: list[int], draws: int) -> None:
+    """Per seed: own data, shifted own noise and a fresh draw against the estimator's distribution given the force."""
+    from dataclasses import replace
+
+    from scipy import stats
+
+    from bayesnsi.evidence.perturbation import noise_replicates
+    from bayesnsi.simulate.undeclared import undeclared_cases
+
+    nsi = NSIOptions(block_rows=240, order=4, upsample=4)
+    truth = np.array([20.0, 1.0])
+    print(f"coulomb-dof2, 2 % noise, seeds {seeds[0]}-{seeds[-1]}: estimates against {draws} noise draws on each"
+          " seed's clean response (z, alpha / sign(v2))")
+    print("  seed  z own          z own shifted  z independent")
+    z = {"own": [], "shifted": [], "independent": []}
+    parts: dict[str, list] = {k: [] for k in ("mean", "clean", "sd", "shift", "covered")}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for seed, case in zip(seeds, undeclared_cases("coulomb-dof2", seeds)):
+            clean, data = case.reference.clean, case.reference.signals
+            e_x, e_v = data.displacement - clean.displacement, data.velocity - clean.velocity
+
+            def estimate(n_x, n_v, clean=clean):
+                noisy = replace(clean, displacement=clean.displacement + n_x, velocity=clean.velocity + n_v)
+                return identify(noisy, TERMS, nsi).coefficient_values
+
+            rng = np.random.default_rng(np.random.SeedSequence([seed, 4242]))
+            independent = estimate(*_fresh_noise(rng, e_x, e_v))
+            ref = np.array([estimate(*_fresh_noise(rng, e_x, e_v)) for _ in range(draws)])
+            mean, sd = ref.mean(axis=0), ref.std(axis=0, ddof=1)
+            full = identify(data, TERMS, nsi)
+            own = full.coefficient_values
+            shifted = estimate(np.roll(e_x, 1, axis=0), np.roll(e_v, 1, axis=0))
+            for key, value in (("own", own), ("shifted", shifted), ("independent", independent)):
+                z[key].append((value - mean) / sd)
+            _, replicates, *_ = noise_replicates(full, data, nsi, 16, seed=seed)
+            parts["mean"].append((mean - truth) / sd)
+            parts["clean"].append((estimate(0 * e_x, 0 * e_v) - truth) / sd)
+            parts["sd"].append(replicates.std(axis=0, ddof=1) / sd)
+            parts["shift"].append(np.column_stack([replicates.mean(axis=0) - own, own - mean]))
+            shift, q95 = replicates.mean(axis=0) - own, stats.t.ppf(0.975, len(replicates) - 1)
+            parts["covered"].append([np.abs(own - shift - truth) <= q95 * replicates.std(axis=0, ddof=1)
+                                     * np.sqrt(1 + 1 / len(replicates)),  # the default interval's centre and sd
+                                     np.abs(own - (mean - truth) - truth) <= q95 * sd])  # knowing the seed's bias
+            print(f"  {seed:<5d} " + "  ".join(f"{z[k][-1][0]:+5.2f} {z[k][-1][1]:+5.2f}" for k in z), flush=True)
+    rms = lambda values: np.sqrt(np.mean(np.square(values), axis=0))  # noqa: E731
+    t_rms = np.sqrt(1 + 1 / draws) * np.sqrt((draws - 1) / (draws - 3)) if draws > 3 else math.inf
+    print(f"  rms z (alpha, sign(v2)): own {rms(z['own']).round(2)}, own shifted {rms(z['shifted']).round(2)},"
+          f" independent {rms(z['independent']).round(2)}; {t_rms:.2f} expected")
+    shift = np.array(parts["shift"])  # seeds x coefficient x (replicate shift, own - reference mean)
+    for k, name in enumerate(("alpha", "sign(v2)")):
+        sd_ratio = np.array(parts["sd"])[:, k]
+        print(f"  {name}: reference mean - truth rms {rms(np.array(parts['mean'])[:, k]):.2f} sd,"
+              f" clean estimate - truth rms {rms(np.array(parts['clean'])[:, k]):.2f} sd;"
+              f" replicate sd / reference sd median {np.median(sd_ratio):.2f} (range {sd_ratio.min():.2f}-"
+              f"{sd_ratio.max():.2f}); replicate shift mean {shift[:, k, 0].mean():+.4g} against"
+              f" own - reference mean {shift[:, k, 1].mean():+.4g} (correlation"
+              f" {np.corrcoef(shift[:, k, 0], shift[:, k, 1])[0, 1]:.2f})")
+        covered = np.array(parts["covered"])[:, :, k].mean(axis=0)
+        print(f"    95 % coverage: replicates' centre and sd {covered[0]:.0%}; centred on the data's estimate"
+              f" less the seed's own bias (reference mean - truth), reference sd {covered[1]:.0%}")
 
 
 if __name__ == "__main__":

@@ -102,3 +102,18 @@ def test_final_intervals_replicate_with_the_final_models_upsampled_settings(monk
                                                     "evidence": {}})
     assert final_module.final_intervals(loop, "signals") == ("evidence", "intervals")
     assert seen["nsi"].upsample == 4 and seen["nsi"].block_rows == 240
+
+
+def test_loop_report_notes_a_final_model_with_a_sign_term():
+    """The loop report tells when the final model's noise intervals carry a discontinuous term."""
+    from types import SimpleNamespace
+
+    from bayesnsi.cli._loop_report import _discontinuity
+    from bayesnsi.models.terms import Term
+
+    coulomb = SimpleNamespace(final=SimpleNamespace(terms=(Term("v1*abs(v1)", 1), Term("sign(v2)", 2))))
+    smooth = SimpleNamespace(final=SimpleNamespace(terms=(Term("v1*abs(v1)", 1),)))
+    noise = {"final_intervals": {"method": "noise"}}
+    assert "sign(v2)@2 is discontinuous" in _discontinuity(noise, coulomb)
+    assert _discontinuity({"final_intervals": {"method": "segments"}}, coulomb) == ""
+    assert _discontinuity(noise, smooth) == "" and _discontinuity({}, coulomb) == ""

@@ -138,3 +138,23 @@ def test_velocity_noise_from_the_mismatch_with_the_displacement():
     assert np.all((ratios > 0.5) & (ratios < 1.6)), ratios
     assert np.all(np.abs(ratios.mean(axis=0) - 1) < 0.15), ratios.mean(axis=0)
     assert np.mean(by_differences, axis=0)[1] > 3  # the driven DOF: what the differences alone give
+
+
+def test_sign_terms_carry_a_note_on_the_bias_estimate(monkeypatch):
+    """A candidate with sign() is told that its replicates' bias estimate is only partly the bias."""
+    from bayesnsi.evidence import perturbation
+    from bayesnsi.models.terms import Term
+
+    def replicates(result, signals, options=None, n_replicates=16, seed=0):
+        coefs = np.array([[1.0, 2.0], [1.1, 2.1], [0.9, 1.9]])
+        return np.zeros(2), coefs, np.zeros((3, 0)), np.zeros((3, 0)), []
+
+    monkeypatch.setattr(perturbation, "noise_replicates", replicates)
+    for terms, named in (((Term("v1*abs(v1)", 1), Term("sign(v2)", 2)), "sign(v2)@2 is"),
+                         ((Term("v1*abs(v1)", 1), Term("(x1-x2)**3", (1, 2))), None)):
+        result = SimpleNamespace(coefficient_values=np.array([1.0, 2.0]), modes=(), terms=terms)
+        evidence = _fake_evidence([t.name for t in terms], result.coefficient_values)
+        iv = candidate_intervals(result, SimpleNamespace(n_samples=100), evidence, EvidenceOptions())
+        assert iv.method == "noise"
+        notes = [n for n in iv.notes if "discontinuous" in n]
+        assert (notes[0].startswith(named) if named else not notes), iv.notes

@@ -84,3 +84,17 @@ def test_select_report_shows_the_intervals_of_results_json(tmp_path, capsys):
     assert coefficient["interval"] == "noise"  # the default
     assert _pair(coefficient["ci95"]) in html and _pair(coefficient["ci95_posterior"]) in html
     assert _pair(record["modes"][0]["frequency_ci95"]) in html
+
+
+def test_report_says_when_a_term_is_discontinuous(outcome):
+    """A candidate with sign() gets the note on its bias estimate; the smooth two-DOF candidate does not."""
+    from types import SimpleNamespace
+
+    from bayesnsi.cli._report_intervals import interval_text
+    from bayesnsi.models.terms import Term
+
+    coulomb = SimpleNamespace(name="coulomb", intervals=outcome.intervals,
+                              result=SimpleNamespace(terms=(Term("v1*abs(v1)", 1), Term("sign(v2)", 2))))
+    assert "discontinuous" not in interval_text([outcome])
+    text = interval_text([outcome, coulomb])
+    assert "coulomb: sign(v2)@2 is discontinuous" in text and outcome.name + ":" not in text

@@ -243,7 +243,8 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
             "Coefficients of the final model (NSI estimate; quality index |Im|/|Re|). Its 95 % and 50 % intervals "
             "include the linear part's uncertainty (the identification repeated on noisy copies of the record, its "
             "errors-in-variables bias removed from the centre; or on record windows) + the posterior; "
-            "the posterior-only interval beside them takes the linear part as exact." + note
+            "the posterior-only interval beside them takes the linear part as exact."
+            + note + _discontinuity(payload, loop)
         )
         from ._report_intervals import final_coefficients_frame
 
@@ -289,3 +290,12 @@ def _final_posterior(report, loop, evidence, units=None) -> None:
         fig.set_label("Traces of six walkers, final model of the loop (arviz-plots)")
         post.append(fig)
     post.append("The candidates of the config, as selected before the loop:")
+
+
+def _discontinuity(payload, loop) -> str:
+    """The note on noise intervals of a final model with a sign() term (:mod:`bayesnsi.evidence.perturbation`)."""
+    from ..evidence.perturbation import discontinuity_notes
+
+    if (payload.get("final_intervals") or {}).get("method") != "noise":
+        return ""
+    return "".join(f" {note}." for note in discontinuity_notes(loop.final))

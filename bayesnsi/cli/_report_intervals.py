@@ -80,11 +80,23 @@ def interval_text(outcomes) -> str:
         if iv.method == "segments":
             text = INTERVAL_TEXT.format(n=iv.n_segments, samples=iv.segment_samples)
         elif iv.method == "noise":
-            text = NOISE_TEXT.format(n=iv.n_segments, dof=iv.n_segments - 1)
+            text = NOISE_TEXT.format(n=iv.n_segments, dof=iv.n_segments - 1) + _discontinuity_text(outcomes)
         else:
             text = _POSTERIOR_TEXT + (" " + " ".join(iv.notes) if iv.notes else "")
         return text + _widened_text(outcomes)
     return ""
+
+
+def _discontinuity_text(outcomes) -> str:
+    """The note of :func:`bayesnsi.evidence.perturbation.discontinuity_notes` for the candidates it concerns."""
+    from ..evidence.perturbation import discontinuity_notes
+
+    notes: dict[str, list[str]] = {}
+    for outcome in outcomes:
+        if getattr(getattr(outcome, "intervals", None), "method", None) == "noise":
+            for note in discontinuity_notes(getattr(outcome, "result", None)):
+                notes.setdefault(note, []).append(outcome.name)
+    return "".join(f" {', '.join(names)}: {note}." for note, names in notes.items())
 
 
 def _widened_text(outcomes) -> str:

@@ -389,7 +389,7 @@ _NOISE_FALLBACK = (
 
 def _noise_intervals(result, signals, options, nsi_options, posterior) -> Intervals | None:
     """Intervals from noise replicates (:mod:`.perturbation`); None (with a warning) when fewer than 2 identify."""
-    from .perturbation import noise_replicates, replicate_moments
+    from .perturbation import discontinuity_notes, noise_replicates, replicate_moments
 
     names, centres, post_sd, post_mean = posterior
     _, coefs, freqs, zetas, failures = noise_replicates(result, signals, nsi_options, options.n_replicates,
@@ -414,7 +414,8 @@ def _noise_intervals(result, signals, options, nsi_options, posterior) -> Interv
         ))
     return Intervals(
         method="noise", coefficients=out[0], frequencies=out[1], damping_ratios=out[2], n_segments=len(coefs),
-        segment_samples=int(signals.n_samples), notes=tuple(failures) + _disagreements(out[0]),
+        segment_samples=int(signals.n_samples),
+        notes=tuple(failures) + _disagreements(out[0]) + discontinuity_notes(result),
     )
 
 

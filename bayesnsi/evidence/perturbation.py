@@ -20,7 +20,10 @@ NSI takes it.
   its own variance, sd²/n, is added.
 
 What this does not carry: error that does not come from the sensor noise (discretisation of the
-simulation, a structure outside the model, coloured or force-side noise).
+simulation, a structure outside the model, coloured or force-side noise). Nor is the bias estimate
+sound for a term discontinuous in the response (sign()): the added noise re-randomises the sign
+changes that the data's own noise caused, so the replicates' mean moves back towards the estimator's
+mean and their shift mixes the bias with the data's own error (:func:`discontinuity_notes`).
 """
 
 from __future__ import annotations
@@ -35,7 +38,8 @@ from .._integrated_noise import acceleration_noise_of
 from ..exceptions import BayesNSIError, SpuriousPoleWarning
 from ._period_noise import period_noise
 
-__all__ = ["noise_replicates", "reidentify", "replicate_moments", "match_modes", "velocity_noise_std"]
+__all__ = ["noise_replicates", "reidentify", "replicate_moments", "match_modes", "velocity_noise_std",
+           "discontinuity_notes"]
 
 _MODE_MATCH = 0.1  # a replicate mode farther than 10 % in frequency from every full-record mode is not matched
 
@@ -235,6 +239,33 @@ def velocity_noise_std(displacement, velocity, fs: float, displacement_std, lowe
     power = np.mean(np.abs(V - 1j * omega[:, None] * X + W) ** 2, axis=0) / np.sum(window**2)
     by_mismatch = np.sqrt(np.maximum(power - np.mean(omega**2) * np.asarray(displacement_std) ** 2, 0.0))
     return np.minimum(by_differences, by_mismatch)
+
+
+_DISCONTINUOUS_NOTE = (
+    "{terms} {verb} discontinuous in the response: the noise replicates re-randomise the sign changes that the "
+    "data's own noise caused, so their mean shift (the bias removed from the centre) is only partly the bias; "
+    "in the calibration study the 95 % intervals of such models covered the truth on 86-98 % of seeds, "
+    "86-89 % for the loop's Coulomb case (README, 'Honest intervals')"
+)
+
+
+def discontinuity_notes(result) -> tuple[str, ...]:
+    """A note on the noise intervals of a candidate whose terms hold sign() (module notes).
+
+    Parameters
+    ----------
+    result : NSIResult
+        The identified candidate.
+
+    Returns
+    -------
+    tuple of str
+        One note naming the discontinuous terms, or none.
+    """
+    names = [t.name for t in getattr(result, "terms", ()) if "sign(" in t.expr.canonical]
+    if not names:
+        return ()
+    return (_DISCONTINUOUS_NOTE.format(terms=", ".join(names), verb="is" if len(names) == 1 else "are"),)
 
 
 def replicate_moments(full, replicates) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

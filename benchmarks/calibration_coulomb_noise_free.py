@@ -170,11 +170,6 @@ def pairing(seeds: int, draws: int, others: int) -> None:
           f" independent noise {np.std(ind_values, ddof=1):.4f}")
 
 
-def _fresh_noise(rng, e_x, e_v):
-    """White noise with the std of ``e_x`` and ``e_v`` per channel."""
-    return rng.standard_normal(e_x.shape) * e_x.std(axis=0), rng.standard_normal(e_v.shape) * e_v.std(axis=0)
-
-
 def reference(seeds: list[int], draws: int) -> None:
     """Per seed: own data, shifted own noise and a fresh draw against the estimator's distribution given the force."""
     from dataclasses import replace
@@ -202,8 +197,10 @@ def reference(seeds: list[int], draws: int) -> None:
                 return identify(noisy, TERMS, nsi).coefficient_values
 
             rng = np.random.default_rng(np.random.SeedSequence([seed, 4242]))
-            independent = estimate(*_fresh_noise(rng, e_x, e_v))
-            ref = np.array([estimate(*_fresh_noise(rng, e_x, e_v)) for _ in range(draws)])
+            x_std, v_std = e_x.std(axis=0), e_v.std(axis=0)
+            independent = identify(_noisy(clean, x_std, v_std, rng), TERMS, nsi).coefficient_values
+            ref = np.array([identify(_noisy(clean, x_std, v_std, rng), TERMS, nsi).coefficient_values
+                            for _ in range(draws)])
             mean, sd = ref.mean(axis=0), ref.std(axis=0, ddof=1)
             full = identify(data, TERMS, nsi)
             own = full.coefficient_values
@@ -212,7 +209,7 @@ def reference(seeds: list[int], draws: int) -> None:
                 z[key].append((value - mean) / sd)
             _, replicates, *_ = noise_replicates(full, data, nsi, 16, seed=seed)
             parts["mean"].append((mean - truth) / sd)
-            parts["clean"].append((estimate(0 * e_x, 0 * e_v) - truth) / sd)
+            parts["clean"].append((identify(clean, TERMS, nsi).coefficient_values - truth) / sd)
             parts["sd"].append(replicates.std(axis=0, ddof=1) / sd)
             parts["shift"].append(np.column_stack([replicates.mean(axis=0) - own, own - mean]))
             shift, q95 = replicates.mean(axis=0) - own, stats.t.ppf(0.975, len(replicates) - 1)

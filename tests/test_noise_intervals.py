@@ -146,13 +146,15 @@ def test_sign_terms_carry_a_note_on_the_bias_estimate(monkeypatch):
     from bayesnsi.models.terms import Term
 
     def replicates(result, signals, options=None, n_replicates=16, seed=0):
-        coefs = np.array([[1.0, 2.0], [1.1, 2.1], [0.9, 1.9]])
+        coefs = np.array([[1.0, 2.0], [1.1, 2.1], [0.9, 1.9]])[:, :len(result.terms)]
         return np.zeros(2), coefs, np.zeros((3, 0)), np.zeros((3, 0)), []
 
     monkeypatch.setattr(perturbation, "noise_replicates", replicates)
     for terms, named in (((Term("v1*abs(v1)", 1), Term("sign(v2)", 2)), "sign(v2)@2 is"),
-                         ((Term("v1*abs(v1)", 1), Term("(x1-x2)**3", (1, 2))), None)):
-        result = SimpleNamespace(coefficient_values=np.array([1.0, 2.0]), modes=(), terms=terms)
+                         ((Term("v1*abs(v1)", 1), Term("(x1-x2)**3", (1, 2))), None),
+                         # a clearance: sign() of a displacement, a continuous force (no jump to re-randomise)
+                         ((Term("(((abs(x1)-0.01)*(sign(abs(x1)-0.01)+1))/2)*sign(x1)", 1),), None)):
+        result = SimpleNamespace(coefficient_values=np.array([1.0, 2.0][:len(terms)]), modes=(), terms=terms)
         evidence = _fake_evidence([t.name for t in terms], result.coefficient_values)
         iv = candidate_intervals(result, SimpleNamespace(n_samples=100), evidence, EvidenceOptions())
         assert iv.method == "noise"

@@ -293,7 +293,7 @@ def _final_posterior(report, loop, evidence, units=None) -> None:
 
 
 def _discontinuity(payload, loop) -> str:
-    """The note on noise intervals of a final model with a sign() term (:mod:`bayesnsi.evidence.perturbation`)."""
+    """The note on the noise intervals of a final model with a sign() of a velocity (:mod:`bayesnsi.evidence`)."""
     from ..evidence.perturbation import discontinuity_notes
 
     if (payload.get("final_intervals") or {}).get("method") != "noise":

@@ -21,9 +21,10 @@ NSI takes it.
 
 What this does not carry: error that does not come from the sensor noise (discretisation of the
 simulation, a structure outside the model, coloured or force-side noise). Nor is the bias estimate
-sound for a term discontinuous in the response (sign()): the added noise re-randomises the sign
-changes that the data's own noise caused, so the replicates' mean moves back towards the estimator's
-mean and their shift mixes the bias with the data's own error (:func:`discontinuity_notes`).
+sound for a term that jumps at velocity reversals (a sign() of a velocity): the added noise
+re-randomises the sign changes that the data's own noise caused, so the replicates' mean moves back
+towards the estimator's mean and their shift mixes the bias with the data's own error
+(:func:`discontinuity_notes`).
 """
 
 from __future__ import annotations
@@ -242,7 +243,7 @@ def velocity_noise_std(displacement, velocity, fs: float, displacement_std, lowe
 
 
 _DISCONTINUOUS_NOTE = (
-    "{terms} {verb} discontinuous in the response: the noise replicates re-randomise the sign changes that the "
+    "{terms} {verb} discontinuous at velocity reversals: the noise replicates re-randomise the sign changes that the "
     "data's own noise caused, so their mean shift (the bias removed from the centre) is only partly the bias; "
     "in the calibration study the 95 % intervals of such models covered the truth on 86-98 % of seeds, "
     "86-89 % for the loop's Coulomb case (README, 'Honest intervals')"
@@ -250,7 +251,7 @@ _DISCONTINUOUS_NOTE = (
 
 
 def discontinuity_notes(result) -> tuple[str, ...]:
-    """A note on the noise intervals of a candidate whose terms hold sign() (module notes).
+    """A note on the noise intervals of a candidate with a term that switches with velocity (module notes).
 
     Parameters
     ----------
@@ -260,9 +261,9 @@ def discontinuity_notes(result) -> tuple[str, ...]:
     Returns
     -------
     tuple of str
-        One note naming the discontinuous terms, or none.
+        One note naming those terms (``Expression.switches_with_velocity``), or none.
     """
-    names = [t.name for t in getattr(result, "terms", ()) if "sign(" in t.expr.canonical]
+    names = [t.name for t in getattr(result, "terms", ()) if t.expr.switches_with_velocity]
     if not names:
         return ()
     return (_DISCONTINUOUS_NOTE.format(terms=", ".join(names), verb="is" if len(names) == 1 else "are"),)

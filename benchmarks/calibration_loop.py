@@ -14,7 +14,7 @@ counted and left out of the coefficient rows.
 
 ``--bit-generator`` simulates each seed's case with numpy's PCG64 (the default: ``seed`` as given
 to :func:`bayesnsi.simulate.undeclared_case`), Philox or MT19937 seeded with the seed; the force
-and then the noise are drawn from that one generator either way (README, issue 15 (vi): α's
+and then the noise are drawn from that one generator either way (docs/measurements.md, "The loop's Coulomb case" (vi): α's
 coverage is 86-89 % under all three).
 
 Run::

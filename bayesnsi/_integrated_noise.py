@@ -11,6 +11,8 @@ function, band, window and decimation - as :attr:`Signals.acceleration_noise
 <bayesnsi.signals.Signals>`; the noise replicates and the adequacy check (docs/method.md §11)
 then integrate fresh white acceleration noise through exactly that routine: integration is
 linear, so its displacement and velocity are the noise the data carry, consistent between them.
+Velocity sensors (a laser vibrometer) integrated once on load are described the same way
+(``measured = "velocity"``): their white noise reaches the displacement as ``|W(f)|²/(2πf)²``.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ import numpy as np
 
 from ._resample import decimate as _decimate_signals
 from .exceptions import InputDataError
-from .preprocess import INTEGRATION_METHODS, integrate_acceleration
+from .preprocess import INTEGRATED_QUANTITIES, INTEGRATION_METHODS, integrate_acceleration, integrate_velocity
 
 __all__ = ["AccelerationNoise", "NOISE_SOURCES", "acceleration_noise_of", "edge_samples"]
 
@@ -39,8 +41,9 @@ class AccelerationNoise:
     Parameters
     ----------
     acceleration_std : tuple of float
-        Noise std of each response channel's acceleration (in the file's acceleration unit times
-        ``[data] scale``), in the order of the Signals' output channels.
+        Noise std of each response channel as its sensor measured it (acceleration, or velocity
+        for ``measured = "velocity"``; in the file's unit times ``[data] scale``), in the order of
+        the Signals' output channels.
     fs : float
         Sampling frequency the accelerations were integrated at [Hz] (the file's, before ``decimate``).
     band_hz : (float, float)
@@ -58,6 +61,8 @@ class AccelerationNoise:
         (``[data] integrate = { ..., noise_std = ... }``).
     trim : int
         Samples (of the Signals) dropped at each end after integration (``trim_edges``; 0: none).
+    measured : {"acceleration", "velocity"}
+        What the sensors measured: integrated twice (accelerometers) or once (velocity sensors).
     """
 
     acceleration_std: tuple[float, ...]
@@ -70,6 +75,7 @@ class AccelerationNoise:
     decimate: int = 1
     source: str = "estimated"
     trim: int = 0
+    measured: str = "acceleration"
 
     def __post_init__(self):
         std = tuple(float(s) for s in np.atleast_1d(self.acceleration_std))
@@ -80,6 +86,8 @@ class AccelerationNoise:
         object.__setattr__(self, "fs", float(self.fs))
         if self.method not in INTEGRATION_METHODS:
             raise InputDataError(f"unknown integration method {self.method!r}; use one of {INTEGRATION_METHODS}")
+        if self.measured not in INTEGRATED_QUANTITIES:
+            raise InputDataError(f"measured must be one of {INTEGRATED_QUANTITIES}, got {self.measured!r}")
         if self.source not in NOISE_SOURCES:
             raise InputDataError(f"source must be one of {NOISE_SOURCES}, got {self.source!r}")
         if int(self.decimate) < 1:
@@ -144,34 +152,35 @@ class AccelerationNoise:
         return self.fs / int(self.decimate)
 
     def integrate(self, acceleration) -> tuple[np.ndarray, np.ndarray]:
-        """The recipe applied to accelerations sampled at :attr:`fs`: velocity and displacement.
+        """The recipe applied to sensor signals sampled at :attr:`fs`: velocity and displacement.
 
         Parameters
         ----------
         acceleration : array_like, shape (n_samples, n_channels)
-            Accelerations at the file's rate.
+            Accelerations (velocities for ``measured = "velocity"``) at the file's rate.
 
         Returns
         -------
         velocity, displacement : ndarray, shape (ceil(n_samples / decimate), n_channels)
             Integrated as the loader integrated the data, then decimated.
         """
-        v, x = integrate_acceleration(acceleration, self.fs, self.band_hz, self.method, taper=self.taper,
-                                      filter_order=self.filter_order, detrend_order=self.detrend_order)
+        integrate = integrate_acceleration if self.measured == "acceleration" else integrate_velocity
+        v, x = integrate(acceleration, self.fs, self.band_hz, self.method, taper=self.taper,
+                         filter_order=self.filter_order, detrend_order=self.detrend_order)
         q = int(self.decimate)
         if q > 1:
             v, x = _decimate_signals(v, q), _decimate_signals(x, q)
         return v, x
 
     def draw(self, n_samples: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-        """Displacement and velocity noise of one replicate: white acceleration noise, integrated.
+        """Displacement and velocity noise of one replicate: white sensor noise, integrated.
 
         Parameters
         ----------
         n_samples : int
             Samples of the Signals (after decimation).
         rng : numpy.random.Generator
-            Source of the white acceleration noise.
+            Source of the white sensor noise.
 
         Returns
         -------
@@ -208,7 +217,7 @@ class AccelerationNoise:
 
 @lru_cache(maxsize=16)
 def _unit_std(noise: AccelerationNoise, n_samples: int, interior: bool) -> tuple[float, float]:
-    """Rms displacement and velocity of unit white acceleration noise through ``noise``'s recipe."""
+    """Rms displacement and velocity of unit white sensor noise through ``noise``'s recipe."""
     rng = np.random.default_rng(np.random.SeedSequence([n_samples, 20]))
     n_raw = (n_samples + 2 * int(noise.trim)) * int(noise.decimate)
     v, x = noise.integrate(rng.standard_normal((n_raw, _UNIT_DRAWS)))
@@ -238,7 +247,7 @@ def edge_samples(band_hz, taper: float, fs: float) -> int:
 
 
 def acceleration_noise_of(signals) -> AccelerationNoise | None:
-    """The integrated-acceleration noise of ``signals`` when it describes them, else None.
+    """The integrated sensor noise of ``signals`` (accelerometers, velocity sensors) when it describes them, else None.
 
     Parameters
     ----------
@@ -248,11 +257,11 @@ def acceleration_noise_of(signals) -> AccelerationNoise | None:
     Returns
     -------
     AccelerationNoise or None
-        None unless the signals were integrated from accelerations with a recipe kept, at the rate
+        None unless the signals were integrated from what ``noise.measured`` names with a recipe kept, at the rate
         the recipe gives (a resampled copy, e.g. ``identify``'s upsampled grid, is not described).
     """
     noise = getattr(signals, "acceleration_noise", None)
-    if noise is None or getattr(signals, "measured", "displacement") != "acceleration":
+    if noise is None or getattr(signals, "measured", "displacement") != noise.measured:
         return None
     width = np.asarray(signals.displacement).reshape(len(signals.displacement), -1).shape[1]
     if len(noise.acceleration_std) != width or abs(noise.signals_fs - float(signals.fs)) > 1e-9 * noise.signals_fs:

@@ -7,12 +7,15 @@ array is treated as one channel and returned 1-D.
 - :func:`integrate_acceleration`: accelerometer -> (velocity, displacement), by frequency-domain
   division by jω / (jω)² with a zero-phase band window, or by the trapezoid rule with polynomial
   detrending and a zero-phase Butterworth high-pass.
+- :func:`integrate_velocity`: velocity sensor (a laser vibrometer, a geophone) -> (velocity in the
+  band, displacement), the same recipe with one integration.
 - :func:`band_filter`: the *same* zero-phase band weighting applied to other channels (the
   forces), so that input and output see one filter and the in-band input-output relation is kept.
 - :func:`detrend`, :func:`decimate`, :func:`select_segment`: on arrays or on Signals.
 
-The measured-accelerations path is used by :func:`bayesnsi.io.load_signals` when the config
-has ``[data] accelerations`` and ``[data] integrate`` (see :class:`bayesnsi.io.DataSpec`).
+The integration paths are used by :func:`bayesnsi.io.load_signals` when the config has
+``[data] integrate`` with ``accelerations`` or with ``velocities`` alone (see
+:class:`bayesnsi.io.DataSpec`).
 """
 
 from __future__ import annotations
@@ -27,7 +30,9 @@ from .exceptions import InputDataError
 
 __all__ = [
     "INTEGRATION_METHODS",
+    "INTEGRATED_QUANTITIES",
     "integrate_acceleration",
+    "integrate_velocity",
     "band_filter",
     "band_window",
     "detrend",
@@ -37,7 +42,10 @@ __all__ = [
 ]
 
 INTEGRATION_METHODS = ("frequency", "time")
-"""Methods of :func:`integrate_acceleration`."""
+"""Methods of :func:`integrate_acceleration` and :func:`integrate_velocity`."""
+
+INTEGRATED_QUANTITIES = ("acceleration", "velocity")
+"""What a sensor integrated on load measured: integrated twice or once to a displacement."""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -161,17 +169,62 @@ def integrate_acceleration(
     output carry the same filter; nonlinear terms evaluated on filtered responses are then an
     approximation, good when the filter removes little response energy.
     """
-    a = as_columns(acc, "acceleration")
+    return _integrate(acc, "acceleration", 2, fs, band_hz, method, taper, pad_s, filter_order, detrend_order)
+
+
+def integrate_velocity(
+    vel,
+    fs: float,
+    band_hz: tuple[float, float],
+    method: str = "frequency",
+    *,
+    taper: float = 0.5,
+    pad_s: float | None = None,
+    filter_order: int = 4,
+    detrend_order: int = 2,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Velocity in the band and displacement from a measured velocity (laser vibrometer, geophone).
+
+    The recipe of :func:`integrate_acceleration` with one integration: "frequency" multiplies the
+    spectrum by ``W(f)`` and ``W(f)/(jω)``; "time" integrates once by the trapezoid rule with the
+    polynomial detrend and the zero-phase Butterworth high-pass (twice) applied to both outputs.
+    The velocity is returned filtered by the same band, so that it stays the derivative of the
+    displacement; the velocity noise reaches the displacement as ``|W(f)|²/(2πf)²``, mostly near
+    ``f_lo``.
+
+    Parameters
+    ----------
+    vel : array_like, shape (n_samples,) or (n_samples, n_channels)
+        Velocities [m/s] (any unit u; the displacement is in u·s).
+    fs, band_hz, method, taper, pad_s, filter_order, detrend_order
+        As in :func:`integrate_acceleration`.
+
+    Returns
+    -------
+    velocity, displacement : ndarray
+        Same shape as ``vel``; new arrays.
+
+    Raises
+    ------
+    InputDataError
+        For a bad band, method or shape, NaN/Inf values, or fewer than 8 samples.
+    """
+    return _integrate(vel, "velocity", 1, fs, band_hz, method, taper, pad_s, filter_order, detrend_order)
+
+
+def _integrate(signal, name: str, times: int, fs, band_hz, method, taper, pad_s, filter_order, detrend_order):
+    """(velocity, displacement) of ``signal`` integrated ``times`` (1 or 2) times by ``method``."""
+    s = as_columns(signal, name)
     fs = check_fs(fs)
     lo, hi = check_band(band_hz, fs, allow_dc=False)
     if method not in INTEGRATION_METHODS:
         raise InputDataError(f"unknown integration method {method!r}; use one of {INTEGRATION_METHODS}")
     if method == "frequency":
         check_taper(taper)
-        velocity, displacement = _frequency_filter(a.array, fs, (lo, hi), taper, pad_s, powers=(1, 2))
+        velocity, displacement = _frequency_filter(s.array, fs, (lo, hi), taper, pad_s, powers=(times - 1, times))
     else:
-        velocity, displacement = _time_integrate(a.array, fs, (lo, hi), filter_order, detrend_order)
-    return a.restore(velocity), a.restore(displacement)
+        velocity, displacement = _time_integrate(s.array, fs, (lo, hi), filter_order, detrend_order, times)
+    return s.restore(velocity), s.restore(displacement)
 
 
 def band_filter(
@@ -249,7 +302,7 @@ def _frequency_filter(a, fs, band, taper, pad_s, powers):
     return out
 
 
-def _time_integrate(a, fs, band, order, detrend_order):
+def _time_integrate(a, fs, band, order, detrend_order, times: int = 2):
     from scipy import signal as _signal  # when needed: 0.4 s to import
     from scipy.integrate import cumulative_trapezoid  # 0.1 s to import
 
@@ -257,7 +310,8 @@ def _time_integrate(a, fs, band, order, detrend_order):
     check_int(order, "filter_order", 1)
     check_int(detrend_order, "detrend_order", 0)
     high = _signal.butter(order, band[0], btype="highpass", fs=fs, output="sos")
-    v0 = poly_detrend(cumulative_trapezoid(a, dx=dt, axis=0, initial=0.0), detrend_order)
+    # a velocity is detrended as measured; an acceleration is integrated to one first
+    v0 = poly_detrend(a if times == 1 else cumulative_trapezoid(a, dx=dt, axis=0, initial=0.0), detrend_order)
     v1 = _filtfilt(high, v0)
     x = _filtfilt(high, poly_detrend(cumulative_trapezoid(v1, dx=dt, axis=0, initial=0.0), detrend_order))
     v = _filtfilt(high, v1)

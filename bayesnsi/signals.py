@@ -228,8 +228,9 @@ class Signals:
         (docs/method.md §11). Needs ``period``. :func:`join_realisations` builds such a record
         from one Signals per realisation.
     acceleration_noise : AccelerationNoise, optional
-        With ``measured = "acceleration"`` on a record integrated in time (not line by line on
-        whole periods): the accelerometers' white noise std and the integration recipe, from which
+        With ``measured = "acceleration"`` (or ``"velocity"``, its ``measured`` the same) on a record
+        integrated in time (not line by line on whole periods): the sensors' white noise std and the
+        integration recipe, from which
         the noise replicates and the adequacy check integrate the noise the data carry
         (bayesnsi._integrated_noise; docs/method.md §11). None otherwise.
     """

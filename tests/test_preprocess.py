@@ -290,7 +290,7 @@ def test_decimate_measured_displacements(tmp_path):
     "change, message",
     [
         (lambda d: d.update(outputs={"x1": 1}), "with integrate, displacements and velocities are derived"),
-        (lambda d: d.pop("accelerations"), "no accelerations are given"),
+        (lambda d: d.pop("accelerations"), "from accelerations or from velocities .* but neither is given"),
         (lambda d: d.update(integrate={"band_hz": [0.0, 10.0]}), r"0 < f_lo < f_hi"),
         (lambda d: d.update(integrate={"band_hz": [60.0, 70.0]}), "Nyquist"),
         (lambda d: d.update(integrate={"band_hz": [1.0, 10.0], "methd": "time"}), "did you mean 'method'"),

@@ -69,26 +69,27 @@ def parse_data(table: Any, where: Where, check_files: bool) -> DataSpec:
     time_column = check_name(get_text(table, "time_column", where, "t"), where, "time_column")
     inputs = cast(dict[str, int], _dof_map(table, "inputs", where, required=True))
     accelerations = _dof_map(table, "accelerations", where, required=False) or {}
-    integrate = _parse_integrate(table, where, fs, accelerations)
-    if integrate is not None:
-        for key in ("outputs", "velocities"):
+    velocities = _dof_map(table, "velocities", where, required=False)
+    integrate = _parse_integrate(table, where, fs, accelerations, velocities)
+    if integrate is not None:  # displacements (and velocities) derived from the sensors' signals
+        sensors = "accelerations" if accelerations else "velocities"
+        for key in ("outputs", "velocities") if accelerations else ("outputs",):
             if key in table:
                 raise where.problem(
-                    key, "with integrate, displacements and velocities are derived from accelerations; remove "
-                    f"{key} (or remove integrate to use measured displacements)"
+                    key, f"with integrate, displacements{' and velocities' if accelerations else ''} are derived "
+                    f"from the {sensors}; remove {key} (or remove integrate to use measured displacements)"
                 )
         outputs: dict[str, int] = {}
-        velocities = None
     else:
-        if "outputs" not in table and accelerations:
+        if "outputs" not in table and (accelerations or velocities):
+            sensors = "accelerations" if accelerations else "velocities"
             raise where.error(
                 "outputs", "a table mapping displacement columns to DOFs",
-                fix="add outputs = { column_name = 1 }, or derive displacements from the accelerations with "
+                fix=f"add outputs = {{ column_name = 1 }}, or derive displacements from the {sensors} with "
                 "integrate = { band_hz = [f_lo, f_hi] }",
             )
         outputs = cast(dict[str, int], _dof_map(table, "outputs", where, required=True))
-        velocities = _dof_map(table, "velocities", where, required=False)
-    if velocities is not None and sorted(velocities.values()) != sorted(outputs.values()):
+    if integrate is None and velocities is not None and sorted(velocities.values()) != sorted(outputs.values()):
         raise where.error(
             "velocities", f"the same DOFs as outputs {sorted(outputs.values())}", velocities,
             "give one velocity column per displacement column, or drop velocities to derive them",
@@ -97,7 +98,7 @@ def parse_data(table: Any, where: Where, check_files: bool) -> DataSpec:
     if files:
         check_files_cover(files, [*inputs, *outputs, *(velocities or {}), *accelerations], where)
     if integrate is not None:
-        outputs = {f"x{dof}": dof for dof in accelerations.values()}
+        outputs = {f"x{dof}": dof for dof in (accelerations or cast(dict[str, int], velocities)).values()}
     estimation = table.get("estimation")
     if estimation is not None:
         estimation = get_window(estimation, where, "estimation")
@@ -168,7 +169,8 @@ def _scale_map(table: Mapping, where: Where, columns: list[str]) -> dict[str, fl
                        _gain)
 
 
-def _parse_integrate(table: Mapping, where: Where, fs: float | None, accelerations) -> IntegrationSpec | None:
+def _parse_integrate(table: Mapping, where: Where, fs: float | None, accelerations,
+                     velocities) -> IntegrationSpec | None:
     value = table.get("integrate")
     if value is None:
         return None
@@ -176,10 +178,11 @@ def _parse_integrate(table: Mapping, where: Where, fs: float | None, acceleratio
     example = "integrate = { band_hz = [f_lo, f_hi] }"
     if not isinstance(value, dict):
         raise where.error(key, "an inline table", value, f"write {example}")
-    if not accelerations:
+    if not accelerations and not velocities:
         raise where.problem(
-            key, "integrate derives displacements from accelerations, but no accelerations are given; add "
-            "accelerations = { column_name = 1 }"
+            key, "integrate derives displacements from accelerations or from velocities (velocity sensors, a laser "
+            "vibrometer), but neither is given; add accelerations = { column_name = 1 } or velocities = "
+            "{ column_name = 1 }"
         )
     here = Where(where.path, f"{where.section} integrate")
     check_keys(value, _INTEGRATE_KEYS, here)
@@ -204,7 +207,7 @@ def _parse_integrate(table: Mapping, where: Where, fs: float | None, acceleratio
         filter_inputs=get_bool(value, "filter_inputs", here, defaults.filter_inputs),
         filter_order=get_int(value, "filter_order", here, defaults.filter_order, minimum=1),
         detrend_order=get_int(value, "detrend_order", here, defaults.detrend_order, minimum=0),
-        noise_std=get_number(value, "noise_std", here, None, positive=True),  # accelerometer noise, declared
+        noise_std=get_number(value, "noise_std", here, None, positive=True),  # the sensors' noise, declared
         trim_edges=get_bool(value, "trim_edges", here, defaults.trim_edges),
     )
 

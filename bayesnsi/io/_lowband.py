@@ -47,21 +47,23 @@ def _spectra(force: np.ndarray, acc: np.ndarray, fs: float, f_lo: float):
     return freqs, sff, sfa
 
 
-def below_band_messages(force, acc, fs: float, band_hz, names) -> list[str]:
-    """Messages for the acceleration channels whose force-driven motion lies mostly below ``f_lo``.
+def below_band_messages(force, acc, fs: float, band_hz, names, measured: str = "acceleration") -> list[str]:
+    """Messages for the acceleration (or velocity) channels whose force-driven motion lies mostly below ``f_lo``.
 
     Parameters
     ----------
     force : array_like, shape (n_samples, m)
         Measured forces (before any band filter).
     acc : array_like, shape (n_samples, l)
-        Measured accelerations (before integration).
+        Measured accelerations (velocities for ``measured = "velocity"``) before integration.
     fs : float
         Sampling frequency [Hz].
     band_hz : (float, float)
         The integration band ``(f_lo, f_hi)``.
     names : sequence of str
         Column names of the accelerations (for the messages).
+    measured : {"acceleration", "velocity"}
+        What ``acc`` holds: its displacement is its power over (2πf)⁴ or (2πf)².
 
     Returns
     -------
@@ -85,7 +87,7 @@ def below_band_messages(force, acc, fs: float, band_hz, names) -> list[str]:
     except np.linalg.LinAlgError:
         return []
     coherent = np.real(np.einsum("kio,kio->ko", np.conj(h), sfa))
-    displacement = coherent / (2 * np.pi * freqs[:, None]) ** 4
+    displacement = coherent / (2 * np.pi * freqs[:, None]) ** (4 if measured == "acceleration" else 2)
     below = freqs < f_lo
     total = displacement.sum(axis=0)
     if not below.any():
@@ -99,14 +101,16 @@ def below_band_messages(force, acc, fs: float, band_hz, names) -> list[str]:
             continue
         k = int(np.argmax(displacement[below, o]))
         accelerance = h[below][k, :, o]
-        mass_line = bool(np.all(accelerance.real > 0) and np.all(np.abs(accelerance.imag) < accelerance.real))
+        mass_line = measured == "acceleration" and bool(
+            np.all(accelerance.real > 0) and np.all(np.abs(accelerance.imag) < accelerance.real))
         what = (" (the accelerance there is real and positive, a mass line: rigid-body motion of a free body)"
                 if mass_line else "")
         out.append(
-            f"acceleration {name!r}: {100 * share:.0f} % of the displacement the force drives lies below the "
+            f"{measured} {name!r}: {100 * share:.0f} % of the displacement the force drives lies below the "
             f"integration band's lower edge f_lo = {f_lo:g} Hz, most at {freqs[below][k]:.3g} Hz{what}; integration "
             "removes it, so the model and every term of a displacement or velocity (sign(v), v|v|, x³) see a "
-            "band-passed motion that did not happen. Measure displacement or velocity at that DOF (a free body "
-            "cannot be identified from accelerations alone), or lower f_lo if the motion is a structure's"
+            "band-passed motion that did not happen. Measure displacement"
+            f"{' or velocity' if measured == 'acceleration' else ''} at that DOF (a free body cannot be identified "
+            f"from {measured}s alone), or lower f_lo if the motion is a structure's"
         )
     return out

@@ -54,7 +54,7 @@ class Record:
         self.data = data
         self.integrate = data.integrate
         if self.integrate is not None:
-            responses = {c: "acceleration" for c in data.accelerations}
+            responses = {c: data.integrated for c in data.sensor_columns}
         else:
             responses = {c: "displacement" for c in data.outputs}
             responses.update({c: "velocity" for c in data.velocities or {}})
@@ -68,10 +68,10 @@ class Record:
         self.fs = _resolve_fs(table, data)
         _check_units(table, roles)
         self.force = _stack(table, data.inputs, data.scale)
-        # accelerations with integrate, else displacements (and measured velocities, in output order)
+        # accelerations or velocities with integrate, else displacements (and measured velocities, in output order)
         self.velocity_columns: list[str] = []
         if self.integrate is not None:
-            self.response_columns = list(data.accelerations)
+            self.response_columns = list(data.sensor_columns)
         else:
             self.response_columns = list(data.outputs)
             by_dof = {dof: column for column, dof in (data.velocities or {}).items()}
@@ -124,15 +124,15 @@ class Record:
             input_dofs=tuple(self.data.inputs.values()), output_dofs=tuple(self.data.outputs.values()),
             input_names=tuple(self.data.inputs), output_names=tuple(self.data.outputs),
             period=period, realisations=len(parts),
-            measured="acceleration" if self.integrate is not None else "displacement",
+            measured=self.data.integrated or "displacement",
             acceleration_noise=self._acceleration_noise(start, stop),
         )
 
     def _acceleration_noise(self, start: int, stop: int) -> AccelerationNoise | None:
-        """The accelerometers' white noise and the recipe of a window integrated in time (None otherwise).
+        """The sensors' white noise and the recipe of a window integrated in time (None otherwise).
 
         Declared (``integrate.noise_std``, times each column's scale) or estimated on the measured
-        accelerations of the window before integration (:mod:`bayesnsi.nsi._accel_noise`); whole
+        accelerations (or velocities) of the window before integration (:mod:`bayesnsi.nsi._accel_noise`); whole
         periods, integrated line by line, take their noise from the period scatter instead.
         """
         spec = self.integrate
@@ -148,7 +148,7 @@ class Record:
             acceleration_std=tuple(std), fs=self.fs, band_hz=spec.band_hz, method=spec.method, taper=spec.taper,
             filter_order=spec.filter_order, detrend_order=spec.detrend_order, decimate=self.data.decimate,
             source="estimated" if spec.noise_std is None else "declared",
-            trim=self._trimmed_edge(-(-(stop - start) // self.data.decimate)),
+            trim=self._trimmed_edge(-(-(stop - start) // self.data.decimate)), measured=self.data.integrated,
         )
 
     def _trimmed_edge(self, n_samples: int, where: str = "") -> int:
@@ -184,13 +184,15 @@ class Record:
         try:
             if spec is not None and self.data.period is not None:  # whole periods: exact line by line, in band
                 velocity, displacement = periodic_integration(
-                    self.response[start:stop], self.fs, self.data.period, spec.band_hz
+                    self.response[start:stop], self.fs, self.data.period, spec.band_hz, self.data.integrated
                 )
             elif spec is not None:
                 for message in below_band_messages(force, self.response[start:stop], self.fs, spec.band_hz,
-                                                   self.response_columns):
+                                                   self.response_columns, self.data.integrated):
                     warnings.warn(f"{self.path.name}: {message}", IntegrationWarning, stacklevel=2)
-                velocity, displacement = preprocess.integrate_acceleration(
+                integrate = (preprocess.integrate_acceleration if self.data.integrated == "acceleration"
+                             else preprocess.integrate_velocity)
+                velocity, displacement = integrate(
                     self.response[start:stop], self.fs, spec.band_hz, spec.method,
                     detrend_order=spec.detrend_order, taper=spec.taper, filter_order=spec.filter_order,
                 )

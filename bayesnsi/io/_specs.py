@@ -90,6 +90,9 @@ class DataSpec:
     Accelerations only: give ``accelerations`` and ``integrate`` and leave out ``outputs`` and
     ``velocities``; displacements and velocities are then derived on load, named ``x<dof>``
     (``outputs`` holds that map, so the rest of the package sees displacement channels).
+    Velocity sensors only (a laser vibrometer, geophones): give ``velocities`` and ``integrate``
+    and leave out ``outputs``; the displacements are their integral, the velocities are kept
+    (band-filtered alike), and errors are reported in velocity.
 
     Parameters
     ----------
@@ -105,7 +108,8 @@ class DataSpec:
         Displacement column -> DOF, in the order written in the config (with ``integrate``: the
         derived channels ``x<dof>`` in the order of ``accelerations``).
     velocities : dict of str to int or None
-        Measured velocity column -> DOF; the same DOFs as ``outputs``.
+        Measured velocity column -> DOF; the same DOFs as ``outputs`` (with ``integrate`` and no
+        ``accelerations``: the velocity sensors the displacements are derived from).
     accelerations : dict of str to int
         Acceleration column -> DOF; recorded only, unless ``integrate`` is given.
     estimation : (int, int) or None
@@ -115,7 +119,8 @@ class DataSpec:
     time_column : str
         Name of the time column [s], read when ``fs`` is None (and checked when present).
     integrate : IntegrationSpec or None
-        Derive displacements and velocities from ``accelerations`` (``[data] integrate``).
+        Derive displacements and velocities from ``accelerations``, or displacements from
+        ``velocities`` when no accelerations are given (``[data] integrate``).
     period : int or None
         Samples per period of a periodic test, counted at the file's rate (``[data] period``; a
         multiple of ``decimate``); the signals then carry ``period / decimate``. Give the
@@ -166,6 +171,20 @@ class DataSpec:
     scale: dict[str, float] = field(default_factory=dict)
     units: dict[str, str] = field(default_factory=dict)
     files: dict[str, Path] = field(default_factory=dict)
+
+    @property
+    def integrated(self) -> str | None:
+        """What ``integrate`` integrates: "acceleration", "velocity", or None (displacements measured)."""
+        if self.integrate is None:
+            return None
+        return "acceleration" if self.accelerations else "velocity"
+
+    @property
+    def sensor_columns(self) -> dict[str, int]:
+        """The columns ``integrate`` integrates (column -> DOF); empty without ``integrate``."""
+        if self.integrate is None:
+            return {}
+        return dict(self.accelerations) if self.accelerations else dict(self.velocities or {})
 
     @property
     def signal_fs(self) -> float | None:

@@ -22,6 +22,9 @@ Layout (everything but ``[data]`` inputs/outputs and ``[[candidates]]`` has a de
     # integrate = { band_hz = [1.0, 40.0] }   # + method, taper, filter_inputs, ... (DataSpec)
     #   noise_std = 0.002                     # declared accelerometer noise (else estimated before integrating)
     #   trim_edges = false                    # keep the 2/(taper f_lo) s at each end (default: dropped)
+    # velocity sensors only (a laser vibrometer): instead of outputs
+    # velocities = { v1 = 1, v2 = 2 }
+    # integrate = { band_hz = [1.0, 40.0] }   # the same keys; displacements integrated once
 
     [nsi]                                     # all optional
     block_rows = 40

@@ -64,7 +64,7 @@ def data_units(config) -> ChannelUnits:
     Reads only the header and units row of a CSV file (a UFF58 file is read whole for its labels);
     ``[data] units`` overrides them, and a column with a ``[data] scale`` gain keeps only a unit the
     config states (the gain changes it). With ``integrate``, the displacement unit is the
-    acceleration unit without its ``/s²``.
+    acceleration unit without its ``/s²`` (the velocity unit without its ``/s``).
 
     Parameters
     ----------
@@ -80,11 +80,15 @@ def data_units(config) -> ChannelUnits:
     stated = {column: unit for column, unit in _stated_units(data).items() if column not in data.scale}
     stated |= dict(getattr(data, "units", {}) or {})  # the config's [data] units win
     force = _common(stated, data.inputs)
-    if data.integrate is not None:
+    if data.integrate is not None and data.accelerations:
         acceleration = _common(stated, data.accelerations)
         displacement = re.sub(r"\s*/\s*s(\^2|²|2|\*\*2)$", "", acceleration) if acceleration else UNSTATED
         displacement = displacement if displacement != acceleration else UNSTATED
         velocity = f"{displacement}/s" if displacement else UNSTATED
+    elif data.integrate is not None:  # velocity sensors: the displacement unit is theirs without its /s
+        velocity = _common(stated, data.velocities or {})
+        displacement = re.sub(r"\s*/\s*s$", "", velocity) if velocity else UNSTATED
+        displacement = displacement if displacement != velocity else UNSTATED
     else:
         displacement = _common(stated, data.outputs)
         velocity = _common(stated, data.velocities or {}) or (f"{displacement}/s" if displacement else UNSTATED)
@@ -147,7 +151,7 @@ def _stated_units(data) -> dict:
     if kind == "uff":
         from .measurements import read_columns
 
-        names = list(data.inputs) + list(data.outputs or {}) + list(data.accelerations or {})
+        names = [*data.inputs, *(data.outputs or {}), *(data.velocities or {}), *(data.accelerations or {})]
         return dict(read_columns(data.file, names).units)
     return {}
 

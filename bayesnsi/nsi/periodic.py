@@ -371,24 +371,28 @@ def best_linear_approximation(
     )
 
 
-def periodic_integration(acceleration, fs: float, period: int, band_hz) -> tuple[np.ndarray, np.ndarray]:
+def periodic_integration(acceleration, fs: float, period: int, band_hz,
+                         measured: str = "acceleration") -> tuple[np.ndarray, np.ndarray]:
     """Velocity and displacement of a periodic record from its acceleration, line by line.
 
     Over whole periods the DFT lines of a steady-state response are exact, so ``V = A/(jω)`` and
     ``X = A/(jω)²`` on every line inside ``band_hz`` hold without a filter transient, a window or
     drift; the lines outside the band (the DC line always) are set to zero: below the band the
-    division amplifies noise and drift, and the frequency route fits nothing there.
+    division amplifies noise and drift, and the frequency route fits nothing there. A measured
+    velocity (``measured="velocity"``) is integrated once: ``X = V/(jω)``, V kept in the band.
 
     Parameters
     ----------
     acceleration : array_like, shape (n_samples,) or (n_samples, n_channels)
-        Whole periods of a periodic acceleration [m/s²].
+        Whole periods of a periodic acceleration [m/s²] (or velocity [m/s]).
     fs : float
         Sampling frequency [Hz].
     period : int
         Samples per period.
     band_hz : (float, float)
         Lines kept [Hz], ends included.
+    measured : {"acceleration", "velocity"}
+        What ``acceleration`` holds: integrated twice or once.
 
     Returns
     -------
@@ -414,9 +418,12 @@ def periodic_integration(acceleration, fs: float, period: int, band_hz) -> tuple
     keep = (freqs >= band_hz[0]) & (freqs <= band_hz[1]) & (freqs > 0) & (freqs < fs / 2)
     if not keep.any():
         raise InputDataError(f"band {tuple(band_hz)} Hz holds no DFT line of the record; widen the band")
+    if measured not in ("acceleration", "velocity"):
+        raise InputDataError(f"measured must be 'acceleration' or 'velocity', got {measured!r}")
+    times = 2 if measured == "acceleration" else 1
     jw = np.where(keep, 2j * np.pi * freqs, 1.0)[:, None]
-    velocity = np.fft.irfft(np.where(keep[:, None], spectrum / jw, 0.0), len(a), axis=0)
-    displacement = np.fft.irfft(np.where(keep[:, None], spectrum / jw**2, 0.0), len(a), axis=0)
+    velocity = np.fft.irfft(np.where(keep[:, None], spectrum / jw ** (times - 1), 0.0), len(a), axis=0)
+    displacement = np.fft.irfft(np.where(keep[:, None], spectrum / jw**times, 0.0), len(a), axis=0)
     return (velocity[:, 0], displacement[:, 0]) if squeeze else (velocity, displacement)
 
 

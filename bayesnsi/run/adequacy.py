@@ -85,7 +85,8 @@ class ModelCheck:
         Factor its intervals were widened by for its model error (:func:`widen_inadequate`; 1: not).
     noise_source : str
         Where ``noise_std`` comes from: "period scatter", "differences", "accelerometers (estimated)" or
-        "accelerometers (declared)" (their white noise integrated by the loader's recipe), or "force".
+        "accelerometers (declared)" (their white noise integrated by the loader's recipe; "velocity
+        sensors (...)" alike), or "force".
     acceleration_noise_std : tuple of float
         With "accelerometers": the accelerometers' white noise std per channel (acceleration unit).
     edge_ratio : float or None
@@ -172,8 +173,8 @@ def model_checks(
     noise = sensor_noise_std(signals)
     accelerometers = acceleration_noise_of(signals) if _integrated_in_time(signals) else None
     period = getattr(signals, "period", None)
-    source = ("period scatter" if period and signals.n_samples // int(period) >= 2 else
-              "differences" if accelerometers is None else f"accelerometers ({accelerometers.source})")
+    source = ("period scatter" if period and signals.n_samples // int(period) >= 2 else "differences"
+              if accelerometers is None else f"{_SENSORS[accelerometers.measured]} ({accelerometers.source})")
     noise = np.where(noise > 0, noise, np.finfo(float).tiny)
     checks = {}
     for outcome in outcomes:
@@ -313,6 +314,9 @@ def sensor_noise_std(signals) -> np.ndarray:
     if accelerometers is not None:  # the accelerometers' noise, integrated (edges left out)
         return accelerometers.std(len(x), interior=True)[0]
     return white_noise_std(x) if scatter is None else scatter
+
+
+_SENSORS = {"acceleration": "accelerometers", "velocity": "velocity sensors"}
 
 
 def _integrated_in_time(signals) -> bool:

@@ -37,3 +37,18 @@ def test_diagnose_from_a_start_keeps_the_selected_model(tmp_path):
     best = max(results["ranking"], key=lambda row: row[column])["candidate"]
     assert best == "truth"  # the simulated case holds v|v|: the ranking must give it the probability
     assert results["selected"] == best and results["start"] == "declared"
+
+
+def test_a_start_that_failed_to_identify_says_why(tmp_path, capsys):
+    # trial of a 12-DOF chain: "--start 'linear' is not an identified candidate" when the linear candidate
+    # had failed (unstable at that order); the message now says it failed, why, and what to change
+    csv = tmp_path / "qd.csv"
+    assert main(["simulate", "quadratic-damping", "--seed", "0", "--out", str(csv), "--quiet"]) == 0
+    config = csv.with_suffix(".toml")
+    config.write_text(config.read_text() + TRUTH
+                      + '\n[[candidates]]\nname = "constant"\nterms = [{ expr = "x1 - x1 + 1e-300*x1", at = 1 }]\n')
+    capsys.readouterr()
+    args = ["diagnose", str(config), "--out", str(tmp_path / "out"), "--quiet", "--no-figures", "--start", "constant"]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert "'constant' could not be identified" in err and "identifiable" in err and "block_rows or order" in err

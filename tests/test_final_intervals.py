@@ -117,3 +117,31 @@ def test_loop_report_notes_a_final_model_with_a_sign_term():
     assert "sign(v2)@2 is discontinuous" in _discontinuity(noise, coulomb)
     assert _discontinuity({"final_intervals": {"method": "segments"}}, coulomb) == ""
     assert _discontinuity(noise, smooth) == "" and _discontinuity({}, coulomb) == ""
+
+
+def test_an_inadequate_final_model_gets_select_s_widened_intervals():
+    """Trial with velocity sensors: ``select`` widened the model's intervals 43.7x for its model error, the
+    loop's final intervals of the same model were not widened (44x narrower); ``bayesnsi diagnose`` now
+    widens them with :func:`bayesnsi.run.final_adequacy.widen_final`. Reference: the quadratic-damping
+    case, whose linear model misses v|v| (residual several times the noise) and whose loop adds it."""
+    import warnings
+    from types import SimpleNamespace
+
+    from bayesnsi.diagnose import close_the_loop, final_intervals
+    from bayesnsi.options import EvidenceOptions, LoopOptions
+    from bayesnsi.run.final_adequacy import widen_final
+    from bayesnsi.simulate import undeclared_case
+
+    case = undeclared_case("quadratic-damping", seed=0)
+    evidence = EvidenceOptions(n_steps=200, n_burn=50, likelihood="white", compare=())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        loop = close_the_loop(case.signals, case.declared, LoopOptions(max_steps=1), nsi=case.nsi)
+        assert [t.name for t in loop.final.terms] == ["v1*abs(v1)@1"]
+        _, kept = final_intervals(loop, case.signals, evidence)
+        kept, check = widen_final(loop.final, kept, case.signals)
+        _, linear = final_intervals(SimpleNamespace(final=loop.start, settings=loop.settings), case.signals, evidence)
+        linear, linear_check = widen_final(loop.start, linear, case.signals)
+    assert check.adequate and not linear_check.adequate
+    assert kept.widening == 1.0  # the true model is adequate: its intervals carry the sensor noise only
+    assert linear.widening > 1.3 and any(note.startswith(f"widened {linear.widening:.2f}x") for note in linear.notes)

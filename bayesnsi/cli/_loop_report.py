@@ -188,10 +188,11 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
         "Each row is an effect examined at a step, in the order of the steps (accepted first within a step). An "
         "effect is added only if its log Bayes factor (Laplace, on the residual named in the loop settings) passes "
         "the threshold, its quality index |Im|/|Re| is small and its coefficient keeps sign and size on both record "
-        "halves. The 95 % interval is sampled (emcee) for the effects that pass: the posterior's, given the linear "
-        "part (the final model's intervals below include its uncertainty). NRMSE: open-loop reconstruction of "
-        "the estimation data; closed-loop NRMSE: simulation of it, computed for accepted effects ('—' where the "
-        "simulation diverges, e.g. chaotic responses, or was not run)."
+        "halves. The posterior 95 % interval is sampled (emcee) for the effects that pass, given the linear part: "
+        "it is not an uncertainty of the NSI coefficient beside it (a different estimator; it can exclude it), "
+        "only the final model's intervals below are, as they include the linear part's uncertainty. NRMSE: "
+        "open-loop reconstruction of the estimation data; closed-loop NRMSE: simulation of it, computed for "
+        "accepted effects ('—' where the simulation diverges, e.g. chaotic responses, or was not run)."
     )
     ordered = sorted(loop.steps, key=lambda s: (step_number(s, loop.start), not s.accepted))
     if ordered:

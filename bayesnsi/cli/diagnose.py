@@ -53,7 +53,12 @@ def run(args) -> int:
         raise ConfigError("no candidate could be identified, so there is no model to start the loop from")
     start = args.start or selection.selected or next(iter(results))
     if start not in results:
-        raise ConfigError(f"--start {start!r} is not an identified candidate; choose one of {sorted(results)}")
+        error = next((o.error for o in selection.outcomes if o.name == start), None)
+        raise ConfigError(
+            f"--start {start!r} could not be identified ({error or 'no model'}), so the loop cannot start from it; "
+            "change [nsi] block_rows or order until it identifies (bayesnsi identify shows each candidate), "
+            f"or start from one of {sorted(results)}"
+        )
     progress(f"closing the loop from {start!r} ...", args.quiet)
     execution = ExecutionOptions(jobs=getattr(args, "jobs", 1), scheduler=getattr(args, "scheduler", None))
     loop = close_the_loop(
@@ -134,16 +139,22 @@ def run(args) -> int:
 def _final_evidence(loop, signals, selection, start):
     """Evidence (primary likelihood; None when the final model is the start) and intervals of the final model.
 
-    The intervals include the linear part's uncertainty (:func:`bayesnsi.diagnose.final_intervals`);
-    when nothing was added the final model is the start, whose intervals the selection holds.
+    The intervals include the linear part's uncertainty (:func:`bayesnsi.diagnose.final_intervals`) and,
+    when the final model is not adequate, its model error (:func:`bayesnsi.run.final_adequacy.widen_final`, as
+    ``select`` widens a candidate's); when nothing was added the final model is the start, whose intervals the
+    selection holds.
     """
     if selection.evidence is None:
         return None, None
     if not loop.added and loop.final is loop.start:  # not re-identified (refine_final): the selection's intervals
         return None, selection.outcome(start).intervals
     from ..diagnose import final_intervals
+    from ..run.final_adequacy import widen_final
 
-    return final_intervals(loop, signals, selection.evidence)  # its warnings are shown by the report
+    evidence, intervals = final_intervals(loop, signals, selection.evidence)  # its warnings are shown by the report
+    limits = {"max_noise_ratio": selection.evidence.max_noise_ratio,
+              "max_imag_ratio": selection.evidence.max_imag_ratio}
+    return evidence, widen_final(loop.final, intervals, signals, **limits)[0]  # as select's: the model error too
 
 
 def _final_coefficients(loop, intervals, posterior) -> list:

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import re
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
@@ -66,7 +67,7 @@ class Record:
             table = read_any(self.path, list(roles), roles, data.time_column, present)
         self.table = table
         self.fs = _resolve_fs(table, data)
-        _check_units(table, roles)
+        _check_units(table, roles, data.units)
         self.force = _stack(table, data.inputs, data.scale)
         # accelerations or velocities with integrate, else displacements (and measured velocities, in output order)
         self.velocity_columns: list[str] = []
@@ -84,6 +85,24 @@ class Record:
     def n_samples(self) -> int:
         """Number of samples in the file."""
         return self.force.shape[0]
+
+    def check_same_units(self, other: Record, what: str) -> None:
+        """Refuse ``other`` (a validation record) where its file states another unit for a mapped column.
+
+        Raises
+        ------
+        InputDataError
+            Naming the column and both units (e.g. accelerations in g in one file, m/s² in the other).
+        """
+        stated = self.data.units or {}
+        for name in [*self.data.inputs, *self.response_columns, *self.velocity_columns]:
+            mine, theirs = self.table.units.get(name, "").strip(), other.table.units.get(name, "").strip()
+            if name not in stated and mine and theirs and mine != theirs:
+                raise InputDataError(
+                    f"{what}: {other.path.name} states {theirs!r} for column {name!r} where the estimation file "
+                    f"{self.path.name} states {mine!r}; one model needs one unit per channel - convert one of the "
+                    "files, or give the validation data in the estimation file's units"
+                )
 
     def window(self, bounds, key: str, config_path: Path) -> tuple[int, int]:
         """``[start, stop)`` of ``bounds`` (None: the whole record), checked against the record."""
@@ -264,13 +283,53 @@ def _resolve_fs(table: MeasurementColumns, data: DataSpec) -> float:
     return data.fs if data.fs is not None else table.fs
 
 
-def _check_units(table: MeasurementColumns, roles: Mapping[str, str]) -> None:
-    """Channels of one response kind must share a unit where the file states units."""
+_LENGTH = r"(?:m|mm|cm|um|µm|μm|nm|in|ft)"
+_QUANTITY_OF_UNIT = (  # unambiguous units only: a bare "g" (gravity or gram) is left alone
+    (re.compile(rf"{_LENGTH}\s*/\s*s\s*(?:\^\s*2|²|2|\*\*\s*2)", re.IGNORECASE), "acceleration"),
+    (re.compile(rf"{_LENGTH}\s*/\s*s", re.IGNORECASE), "velocity"),
+    (re.compile(_LENGTH, re.IGNORECASE), "displacement"),
+)
+_KEY_OF_ROLE = {"displacement": "outputs", "velocity": "velocities", "acceleration": "accelerations"}
+
+
+def quantity_of_unit(unit: str) -> str | None:
+    """The response quantity a unit label names unambiguously ("m/s^2" -> "acceleration"), else None.
+
+    Parameters
+    ----------
+    unit : str
+        A unit label, e.g. from a CSV file's units row.
+
+    Returns
+    -------
+    {"displacement", "velocity", "acceleration"} or None
+    """
+    text = unit.strip()
+    for pattern, quantity in _QUANTITY_OF_UNIT:
+        if pattern.fullmatch(text):
+            return quantity
+    return None
+
+
+def _check_units(table: MeasurementColumns, roles: Mapping[str, str], stated: Mapping[str, str] | None = None) -> None:
+    """Channels of one response kind must share a unit where the file states units, and a unit that
+    names another quantity than the channel's role (m/s under ``accelerations``) is refused.
+
+    ``stated`` (``[data] units``) overrides the file's units row, e.g. to correct a wrong one.
+    """
     by_role: dict[str, dict[str, str]] = {}
     for name, role in roles.items():
-        unit = table.units.get(name, "").strip()
+        unit = (stated or {}).get(name) or table.units.get(name, "").strip()
         if unit and role != "input":
             by_role.setdefault(role, {})[name] = unit
+            quantity = quantity_of_unit(unit)
+            if quantity is not None and quantity != role:
+                raise InputDataError(
+                    f"{table.path}: column {name!r} is in {unit!r}, a {quantity}, but [data] maps it under "
+                    f"{_KEY_OF_ROLE[role]} (a {role}); map it under {_KEY_OF_ROLE[quantity]}"
+                    f"{' with integrate = { band_hz = [f_lo, f_hi] }' if quantity != 'displacement' else ''}, or, if "
+                    f'the file\'s unit is wrong, state the right one with [data] units = {{ {name} = "..." }}'
+                )
     for role, units in by_role.items():
         if len(set(units.values())) > 1:
             raise InputDataError(

@@ -216,6 +216,8 @@ def load_validation(config: ExperimentConfig) -> list[tuple[str, Signals]]:
             record = Record(next(iter(segment.files.values())), config.data, segment.files)
         else:
             record = main if same_file else Record(segment.file or config.data.file, config.data)
+        if record is not main:
+            main.check_same_units(record, f"[[validation]] {segment.name!r}")
         start, stop = record.window(
             (segment.start, segment.stop), f"[[validation]] {segment.name!r} start/stop", config.path
         )

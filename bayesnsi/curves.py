@@ -3,6 +3,8 @@
 :func:`effect_curve` evaluates the force λ·n(x, v) of one identified nonlinear term on the
 measured signals, against the displacement and velocity at its location (relative ones for a
 term acting between two DOFs), thinned to a number of points a scatter plot can show.
+:func:`measured_frf` estimates the FRF of the data without a model (multiple-input H1), the
+curve an identified model is held against over the whole excited band.
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ import numpy as np
 
 from .exceptions import InputDataError
 
-__all__ = ["EffectCurve", "effect_curve"]
+__all__ = ["EffectCurve", "MeasuredFRF", "effect_curve", "measured_frf"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -90,3 +92,95 @@ def effect_curve(step, signals, max_points: int = 4000) -> EffectCurve:
         velocity_label=labels[1],
         title=f"{term.name}: λ = {step.coefficient:.4g}",
     )
+
+
+@dataclass(frozen=True, eq=False)
+class MeasuredFRF:
+    """A nonparametric FRF of the measured data: multiple-input H1 on Welch-averaged spectra.
+
+    Attributes
+    ----------
+    freqs_hz : ndarray, shape (n_lines,)
+        Frequency lines [Hz] the force drives, from the first above 0 to the excited band's upper edge.
+    frf : ndarray of complex, shape (n_lines, l, m)
+        ``H = S_yf S_ff⁻¹`` per line: displacement per unit force, every output/force pair.
+    coherence : ndarray, shape (n_lines, l)
+        Multiple coherence of each output with all forces (1: the forces explain the output
+        linearly; lower: noise, a nonlinearity or an unmeasured input).
+    excited_hz : float
+        Upper edge of the excited band: the frequency below which 99 % of the force power lies.
+    """
+
+    freqs_hz: np.ndarray
+    frf: np.ndarray
+    coherence: np.ndarray
+    excited_hz: float
+
+
+def measured_frf(signals, n_segment: int | None = None) -> MeasuredFRF:
+    """H1 estimate of the displacement-per-force FRF from the data (Welch, multiple inputs).
+
+    The curve a modal analyst compares a model with: where the identified model lacks a mode
+    the measured FRF shows a peak the model does not. On a nonlinear structure it is the linear
+    approximation at the level of the test, not the underlying linear FRF.
+
+    Parameters
+    ----------
+    signals : Signals
+        Forces and displacements (each realisation of a periodic test is taken as it comes).
+    n_segment : int, optional
+        Welch segment length [samples]; default: the period of a periodic record with a
+        rectangular window (exact lines of a steady state), else the longest power of two giving
+        at least 7 Hann-windowed segments with half overlap (at most 16384 samples): lines fine
+        enough for lightly damped modes, at the price of a noisier curve on short records.
+
+    Returns
+    -------
+    MeasuredFRF
+
+    Raises
+    ------
+    InputDataError
+        For a record shorter than 64 samples or a segment longer than the record.
+    """
+    f = np.asarray(signals.force, dtype=float).reshape(signals.n_samples, -1)
+    y = np.asarray(signals.displacement, dtype=float).reshape(signals.n_samples, -1)
+    n = len(f)
+    if n < 64:
+        raise InputDataError(f"a measured FRF needs at least 64 samples, got {n}")
+    period = getattr(signals, "period", None)
+    if n_segment is None:
+        if period and n // int(period) >= 2:
+            n_segment, window = int(period), np.ones(int(period))
+        else:
+            n_segment = int(min(16384, 2 ** np.floor(np.log2(max(n // 4, 32)))))
+            window = np.hanning(n_segment)
+    else:
+        n_segment = int(n_segment)
+        window = np.hanning(n_segment)
+    if not 8 <= n_segment <= n:
+        raise InputDataError(f"the segment of {n_segment} samples must be between 8 and the record's {n} samples")
+    step = n_segment if np.all(window == 1.0) else n_segment // 2
+    starts = range(0, n - n_segment + 1, step)
+    lines = n_segment // 2 + 1
+    sff = np.zeros((lines, f.shape[1], f.shape[1]), dtype=complex)
+    syf = np.zeros((lines, y.shape[1], f.shape[1]), dtype=complex)
+    syy = np.zeros((lines, y.shape[1]))
+    for s in starts:
+        F = np.fft.rfft(window[:, None] * (f[s : s + n_segment] - f[s : s + n_segment].mean(axis=0)), axis=0)
+        Y = np.fft.rfft(window[:, None] * (y[s : s + n_segment] - y[s : s + n_segment].mean(axis=0)), axis=0)
+        sff += F[:, :, None] * np.conj(F[:, None, :])
+        syf += Y[:, :, None] * np.conj(F[:, None, :])
+        syy += np.abs(Y) ** 2
+    freqs = np.fft.rfftfreq(n_segment, 1.0 / float(signals.fs))
+    power = np.real(np.trace(sff, axis1=1, axis2=2))
+    cumulative = np.cumsum(power) / max(float(power.sum()), np.finfo(float).tiny)
+    excited = float(freqs[min(int(np.searchsorted(cumulative, 0.99)), len(freqs) - 1)])
+    # lines the force drives (a multisine leaves lines unexcited, where H1 is noise over nothing)
+    keep = (freqs > 0) & (freqs <= excited) & (power > 1e-8 * power.max())
+    sff, syf, syy, freqs = sff[keep], syf[keep], syy[keep], freqs[keep]
+    ridge = 1e-12 * np.real(np.trace(sff, axis1=1, axis2=2))[:, None, None] * np.eye(sff.shape[1])
+    frf = np.swapaxes(np.linalg.solve(np.swapaxes(sff + ridge, 1, 2), np.swapaxes(syf, 1, 2)), 1, 2)
+    explained = np.real(np.einsum("kom,kom->ko", frf, np.conj(syf)))
+    coherence = np.clip(explained / np.where(syy > 0, syy, np.inf), 0.0, 1.0)
+    return MeasuredFRF(freqs_hz=freqs, frf=frf, coherence=coherence, excited_hz=excited)

@@ -93,7 +93,8 @@ def plot_stabilization(singular_values, diagram, ax=None, fmax_hz: float | None 
     return fig
 
 
-def plot_frf(results, freqs_hz, output_index=None, input_index=None, exact=None, labels=None, units=None):
+def plot_frf(results, freqs_hz, output_index=None, input_index=None, exact=None, labels=None, units=None,
+             measured=None, log_frequency=False):
     """Underlying linear FRF, magnitude and phase, of one or more candidates (paper Figs. 4, 8, 12).
 
     One magnitude panel (log scale) and one phase panel per input/output pair: every pair by
@@ -111,6 +112,11 @@ def plot_frf(results, freqs_hz, output_index=None, input_index=None, exact=None,
         Legend label of each result.
     units : ChannelUnits, optional
         Units of the data (:func:`bayesnsi.io.units.data_units`); "data units" when not given.
+    measured : MeasuredFRF, optional
+        The data's FRF without a model (:func:`bayesnsi.curves.measured_frf`), drawn on its own lines
+        where the forces explain the output (multiple coherence at least 0.5).
+    log_frequency : bool
+        A logarithmic frequency axis (a band much wider than the modes).
 
     Returns
     -------
@@ -138,6 +144,14 @@ def plot_frf(results, freqs_hz, output_index=None, input_index=None, exact=None,
         mag = fig.add_subplot(inner[0], sharex=fig.axes[0] if fig.axes else None)
         phase = fig.add_subplot(inner[1], sharex=mag)
         mag.tick_params(labelbottom=False)
+        if measured is not None:  # where the forces explain the output (coherence >= 0.5): elsewhere it is noise
+            out = output_index or 0 if single else o
+            h1 = measured.frf[:, out, input_index or 0] if single else measured.frf[:, o, i]
+            shown = measured.coherence[:, out] >= 0.5
+            angle = np.degrees(np.unwrap(np.angle(h1)))
+            mag.semilogy(measured.freqs_hz, np.where(shown, np.abs(h1), np.nan), "-", color="0.55", lw=0.7,
+                         label="measured (H1)")
+            phase.plot(measured.freqs_hz, np.where(shown, angle, np.nan), "-", color="0.55", lw=0.6)
         if exact is not None:
             ref = exact[:, 0, 0] if single else exact[:, o, i]
             mag.semilogy(freqs_hz, np.abs(ref), "k-", lw=2.5, alpha=0.45, label="exact")
@@ -157,6 +171,9 @@ def plot_frf(results, freqs_hz, output_index=None, input_index=None, exact=None,
         steps = max(1.0, (high - low) / 360)  # 90, 180, 360, 720, ... degrees: at most 5 ticks
         phase.yaxis.set_major_locator(MultipleLocator(90 * 2 ** int(np.ceil(np.log2(steps)))))
         phase.set_xlabel("frequency [Hz]")
+        if log_frequency:
+            phase.set_xscale("log")
+        phase.set_xlim(freqs_hz[0], freqs_hz[-1])
     fig.axes[0].legend(fontsize=8)
     fig.suptitle("Underlying linear FRF", fontsize=11, y=1 - 0.1 / height, va="top")  # above the first title
     return fig

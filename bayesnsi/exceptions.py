@@ -26,6 +26,7 @@ __all__ = [
     "AdequacyWarning",
     "PeriodicityWarning",
     "IntegrationWarning",
+    "OrderWarning",
 ]
 
 
@@ -103,6 +104,11 @@ class AdequacyWarning(BayesNSIWarning):
 
 class PeriodicityWarning(BayesNSIWarning):
     """A window of a periodic record holds a period unlike the others (transient, another realisation)."""
+
+
+class OrderWarning(BayesNSIWarning):
+    """``order = "auto"`` chose its order at the largest gap of the singular values, but a later gap is nearly
+    as large: the data may hold modes the model lacks."""
 
 
 class IntegrationWarning(BayesNSIWarning):

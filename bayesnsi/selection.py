@@ -213,9 +213,20 @@ def select(
     fits = model_checks(outcomes, signals, checks, **limits)
     outcomes, fits = widen_inadequate(outcomes, fits, signals)  # their intervals carry the model error too
     selection = Selection(outcomes, table, nsi or NSIOptions(), evidence, checks, adequacy, fits)
-    messages = adequacy_warnings(fits, selection.selected, **limits)
+    messages = adequacy_warnings(fits, selection.selected, **limits) + _order_messages(outcomes)
     messages += view_notes + tuple(velocity_noise_messages(signals, candidates, (nsi or NSIOptions()).velocity_method))
     for message in messages:
         warnings.warn(message, AdequacyWarning, stacklevel=2)
     open_loop = {o.name: e for o in identified if (e := open_loop_error(o.result, signals)) is not None}
     return replace(selection, warnings=messages, open_loop=open_loop)
+
+
+def _order_messages(outcomes) -> tuple[str, ...]:
+    """One message for the candidates whose ``order = "auto"`` may have missed modes (``nsi.order.order_note``)."""
+    from .nsi.order import ORDER_NOTE_START
+
+    notes = [(o.name, w) for o in outcomes for w in (o.warnings or ()) if str(w).startswith(ORDER_NOTE_START)]
+    if not notes:
+        return ()
+    names = ", ".join(repr(name) for name, _ in notes)
+    return (f"{names}: {notes[0][1]}",)

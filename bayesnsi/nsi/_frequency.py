@@ -23,7 +23,7 @@ from ..models import CandidateModel
 from ..options import NSIOptions
 from ..signals import Signals
 from . import _fnsi
-from .order import select_order
+from .order import auto_order
 from .periodic import best_linear_approximation
 from .physics import CoefficientEstimate, band_coefficients, coefficient_spectrum, default_band, split_poles
 from .result import NSIResult
@@ -221,7 +221,7 @@ def _unexcited_ratio(signals: Signals) -> dict | None:
 def _order(options: NSIOptions, singular_values: np.ndarray, n_out: int, block_rows: int) -> int:
     limit = block_rows * n_out - 1
     if options.order == "auto":
-        return select_order(singular_values, min(limit, options.max_order))
+        return auto_order(singular_values, min(limit, options.max_order))
     if not 1 <= int(options.order) <= limit:
         raise OrderError(
             f"order {options.order!r} is impossible with {block_rows} block rows (at most {options.block_rows}; "

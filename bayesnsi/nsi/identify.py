@@ -26,7 +26,7 @@ from ._stabilise import pole_text, reflect_out_of_band
 from ._virtual_mode import mirror_undamped, physical_mirrored
 from .feedback import as_candidate, extended_input, resolve_input_hold, working_signals
 from .free_body import auto_stiffness, free_model, rigid_body_poles, stabilise
-from .order import oblique_decomposition, scaled_stack, select_order
+from .order import auto_order, oblique_decomposition, scaled_stack
 from .physics import (
     CoefficientEstimate,
     band_coefficients,
@@ -324,7 +324,7 @@ def _model_order(options: NSIOptions, singular_values: np.ndarray, block_rows: i
     order = options.order
     limit = block_rows * n_out - 1
     if order == "auto":
-        return select_order(singular_values, min(limit, options.max_order))
+        return auto_order(singular_values, min(limit, options.max_order))
     if not isinstance(order, (int, np.integer)) or not 1 <= order <= limit:
         raise OrderError(
             f"order {order!r} is impossible with {block_rows} block rows and {n_out} outputs "

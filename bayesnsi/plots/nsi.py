@@ -148,7 +148,8 @@ def plot_frf(results, freqs_hz, output_index=None, input_index=None, exact=None,
             out = output_index or 0 if single else o
             h1 = measured.frf[:, out, input_index or 0] if single else measured.frf[:, o, i]
             shown = measured.coherence[:, out] >= 0.5
-            angle = np.degrees(np.unwrap(np.angle(h1)))
+            angle = np.full(len(h1), np.nan)  # unwrapped over the coherent lines only: noise adds no turns
+            angle[shown] = np.degrees(np.unwrap(np.angle(h1[shown])))
             mag.semilogy(measured.freqs_hz, np.where(shown, np.abs(h1), np.nan), "-", color="0.55", lw=0.7,
                          label="measured (H1)")
             phase.plot(measured.freqs_hz, np.where(shown, angle, np.nan), "-", color="0.55", lw=0.6)

@@ -11,7 +11,10 @@ An effect proposed against the current model is kept only if
   for the block rows (each half needs j >= 2 i k samples), the halves are identified with the
   most block rows a half allows, and the step's ``half_note`` says so ("record too short for the
   halves at 60 block rows: identified with 41"); only when not even that works is the effect
-  rejected with the reason "record too short for the halves".
+  rejected with the reason "record too short for the halves". The check needs halves that are the
+  same experiment: when the forces of the two halves excite different bands (spectral overlap
+  below :data:`MIN_HALF_OVERLAP`, :func:`half_overlap`: a sweep), it is skipped and ``half_note``
+  says why.
 * it does not feed energy in: a pure velocity term that is odd in the velocity and dissipative
   in shape (``n(v)·v >= 0`` with v the velocity at its location, relative for an element:
   ``v|v|``, ``v^3``, ``sign(v)``, ``tanh(v/eps)``) adds the force ``-λ l n`` (the equation of
@@ -48,8 +51,8 @@ from .separable import shared_fraction
 from .state import Baseline, LoopContext, measured_nrmse
 
 __all__ = [
-    "NEGATIVE_DISSIPATION", "TOO_SHORT", "Verdict", "check_effect", "dissipative_shape", "documented",
-    "half_block_rows", "half_coefficients", "injects_energy", "without",
+    "MIN_HALF_OVERLAP", "NEGATIVE_DISSIPATION", "TOO_SHORT", "Verdict", "check_effect", "dissipative_shape",
+    "documented", "half_block_rows", "half_coefficients", "half_overlap", "injects_energy", "without",
 ]
 
 TOO_SHORT = "record too short for the halves"
@@ -214,6 +217,43 @@ def half_coefficients(signals, candidate, nsi, cache=None) -> tuple[tuple[float,
     return (float(values[0]), float(values[1])), too_short, rows
 
 
+MIN_HALF_OVERLAP = 0.5
+"""Least spectral overlap of the two halves' forces for the half-record check to compare like with like."""
+
+
+def half_overlap(signals) -> float:
+    """Overlap of the force spectra of the record's two halves: 1 for a stationary test, near 0 for a sweep.
+
+    ``Σ_f min(p₁(f), p₂(f))`` of the halves' force power spectra (Welch, summed over the forces), each
+    normalised to unit sum. A sweep drives its first half in one band and its second in another: their
+    coefficients then come from two different experiments (a trial's swept beam: the cubic spring at the
+    tip 5.4e7 on the first half, -1.2e10 on the second, whose band holds no resonance of that DOF).
+
+    Parameters
+    ----------
+    signals : Signals
+
+    Returns
+    -------
+    float
+        In [0, 1]; 1 for a record too short to tell.
+    """
+    f = np.asarray(signals.force, dtype=float).reshape(signals.n_samples, -1)
+    n = len(f) // 2
+    segment = int(2 ** np.floor(np.log2(max(n // 8, 16))))
+    if n < 64:
+        return 1.0
+    window = np.hanning(segment)
+    spectra = []
+    for half in (f[:n], f[n : 2 * n]):
+        power = np.zeros(segment // 2 + 1)
+        for start in range(0, n - segment + 1, segment // 2):
+            piece = half[start : start + segment]
+            power += (np.abs(np.fft.rfft(window[:, None] * (piece - piece.mean(axis=0)), axis=0)) ** 2).sum(axis=1)
+        spectra.append(power / max(float(power.sum()), np.finfo(float).tiny))
+    return float(np.minimum(*spectra).sum())
+
+
 def _stable(halves, value: float, factor: float) -> bool:
     """Both halves finite, of the sign of ``value``, within ``factor`` of each other."""
     if not all(np.isfinite(halves)) or not np.sign(halves[0]) == np.sign(halves[1]) == np.sign(value):
@@ -259,14 +299,21 @@ def check_effect(
     halves: tuple[float, float] = (math.nan, math.nan)
     too_short, rows, note = False, context.nsi.block_rows, ""
     feeds_energy = injects_energy(entry.effect.term, float(np.real(coef.value)))
-    if log_bf > threshold:  # the halves cost two identifications
+    overlap = half_overlap(signals) if log_bf > threshold else 1.0
+    if log_bf > threshold and overlap >= MIN_HALF_OVERLAP:  # the halves cost two identifications
         halves, too_short, rows = half_coefficients(signals, trial.candidate, context.nsi, half_cache)
         if rows != context.nsi.block_rows:
             note = (
                 f"{TOO_SHORT} at {context.nsi.block_rows} block rows ({signals.n_samples // 2} samples each): "
                 + (f"identified with {rows}" if not too_short else "not identified")
             )
-    stable = _stable(halves, coef.value, options.stability_factor)
+    elif log_bf > threshold:
+        note = (
+            f"record halves not compared: their forces excite different bands (spectral overlap {overlap:.2f} < "
+            f"{MIN_HALF_OVERLAP:g}, e.g. a sweep), so they are two different experiments"
+        )
+    skipped = log_bf > threshold and overlap < MIN_HALF_OVERLAP
+    stable = skipped or _stable(halves, coef.value, options.stability_factor)
     shared, rho2 = "", 0.0
     if log_bf > threshold and accepted:
         terms = trial.candidate.terms
@@ -309,7 +356,7 @@ def check_effect(
         ci95=ci95,
         imag_ratio=coef.imag_ratio,
         half_coefficients=halves,
-        half_block_rows=rows if log_bf > threshold else None,
+        half_block_rows=rows if log_bf > threshold and not skipped else None,
         half_note=note,
         log_bayes_factor=float(log_bf),
         nrmse_before=baseline.nrmse,

@@ -96,6 +96,24 @@ class Selection:
         return self._best(f"p_{self.likelihood}")
 
     @property
+    def plausible(self) -> str | None:
+        """The most probable candidate (as :attr:`selected`) whose model passes every physical check.
+
+        Its quality index is below ``max_imag_ratio``, none of its friction or damping terms feeds
+        energy in (negative dissipation), and every nonlinear term's 95 % interval excludes zero
+        (:class:`~bayesnsi.run.adequacy.ModelCheck`). The evidence can favour a model that fails them:
+        on a nearly linear test a sign() of a noisy velocity with a negative coefficient whose interval
+        held zero won by 4.6e4 nat. None when no candidate passes or nothing was checked.
+        """
+        column = f"p_{self.likelihood}"
+        if self.table is None or column not in self.table or not self.checks:
+            return None
+        sound = [name for name, c in self.checks.items()
+                 if c.quality_ok and not c.energy_input and not c.unsupported and name in self.table.index
+                 and self.outcome(name).evidences is not None]
+        return max(sound, key=lambda name: float(self.table.loc[name, column])) if sound else None
+
+    @property
     def selected_gaussian(self) -> str | None:
         """Name of the candidate of highest posterior probability under the plain Gaussian likelihood."""
         return self._best("p_plain")

@@ -280,7 +280,8 @@ def selection_sections(report, signals, selection, selected, units=None, role: s
         none_adequate = bool(checks) and not any(c.adequate for c in checks.values())
         answer.append(("lead", _answer_text(decision, selected, opts, role) + (
             " The probability compares these candidates only: none of them explains the data down to the noise "
-            "(warnings below), so it says which is least wrong, not that it is right." if none_adequate else "")))
+            "(warnings below), so it says which is least wrong, not that it is right." if none_adequate else "")
+            + _plausible_text(selection, selected, decision)))
         answer.append(decision_frame(decision, selected))
         answer.append(
             f"Evidence: marginal likelihood of each candidate, the {residual} modelled as "
@@ -370,6 +371,23 @@ def _answer_text(decision, selected, opts, role) -> str:
         else:
             text += f" Every other candidate failed ({runner} first)."
     return text
+
+
+def _plausible_text(selection, selected, decision) -> str:
+    """What the answer adds when the selected model fails a physical check (``Selection.plausible``)."""
+    checks = getattr(selection, "checks", None) or {}
+    if selected not in checks or not hasattr(selection, "plausible"):
+        return ""
+    plausible = selection.plausible
+    if plausible == selected:
+        return ""
+    text = (f" But {selected} fails a physical check (below: quality index, negative dissipation or a term whose "
+            "interval holds zero), so it is not a physical model of the structure")
+    if plausible is None:
+        return text + "; no candidate passes every check."
+    behind = decision.loc[plausible, "log_bayes_factor"] if plausible in decision.index else float("nan")
+    return text + (f"; of the candidates that pass every check the most probable is {plausible}"
+                   + (f" ({behind:.3g} nat behind)." if np.isfinite(behind) else "."))
 
 
 def _warnings(selection, selected, evidences, opts):

@@ -48,6 +48,9 @@ def run(args) -> int:
     progress(f"wrote {path}", args.quiet)
     refuse_if_nothing_identified(selection.outcomes, path)
     progress(f"selected: {selection.selected}{_adequacy_text(selection)}", args.quiet)
+    if selection.checks and selection.plausible != selection.selected:
+        print(f"warning: the selected model fails a physical check (warnings below); the most probable candidate "
+              f"that passes every check: {selection.plausible or 'none'}", file=sys.stderr)
     for message in selection.warnings:  # adequacy (issue 15): shown even with --quiet
         print(f"warning: {message}", file=sys.stderr)
     return 0

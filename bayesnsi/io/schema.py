@@ -206,7 +206,9 @@ def selection_payload(selection, command: str, config, **extra) -> dict[str, Any
     -------
     dict
         JSON-ready: ``selected`` (marginal evidence), ``selected_gaussian`` (plain likelihood),
-        ``candidates`` with evidence and validation, ``ranking``, ``settings``, ``versions``.
+        ``plausible`` (the most probable candidate that passes every physical check,
+        :attr:`Selection.plausible <bayesnsi.selection.Selection.plausible>`), ``candidates`` with
+        evidence and validation, ``ranking``, ``settings``, ``versions``.
     """
     likelihood = selection.likelihood
     records = []
@@ -228,6 +230,7 @@ def selection_payload(selection, command: str, config, **extra) -> dict[str, Any
         "config": str(config.path),
         "selected": selected,
         "selected_gaussian": selection.selected_gaussian,
+        "plausible": getattr(selection, "plausible", None),
         "likelihood": likelihood,
         "candidates": records,
         "validation": [e.to_dict() for e in selection.validation.get(selected, ())] if selected else [],

@@ -1,0 +1,55 @@
+"""``Selection.plausible``: the most probable candidate whose model passes every physical check.
+
+Trial with new data (a swept beam at a nearly linear level, accelerometers): the evidence selected a
+sign() of a noisy velocity with P > 0.9999 over linear (4.6e4 nat) although its coefficient was
+negative (it feeds energy in), its interval held zero and it failed the quality index; four warnings
+said so, but the answer named it. The answer, the command line and results.json now also name the most
+probable candidate that passes the checks.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import pandas as pd
+
+from bayesnsi.options import EvidenceOptions, NSIOptions
+from bayesnsi.selection import Selection
+
+
+def _check(quality_ok=True, energy_input=(), unsupported=()):
+    return SimpleNamespace(quality_ok=quality_ok, energy_input=energy_input, unsupported=unsupported,
+                           adequate=True, noise_ratio=1.0)
+
+
+def _selection(checks):
+    names = list(checks)
+    outcomes = tuple(SimpleNamespace(name=n, status="ok", evidences={"ar1": object()}, result=object(), error=None)
+                     for n in names)
+    probabilities = {"Coulomb": 0.97, "cubic": 0.02, "linear": 0.01}
+    table = pd.DataFrame({"p_ar1": [probabilities[n] for n in names]}, index=pd.Index(names, name="candidate"))
+    return Selection(outcomes, table, NSIOptions(), EvidenceOptions(likelihood="ar1"), checks=checks)
+
+
+def test_the_most_probable_sound_candidate_is_named_beside_the_selected_one():
+    failing = _check(quality_ok=False, energy_input=(("sign(v3)@3", -8.9e-5),),
+                     unsupported=(("sign(v3)@3", -2e-4, 6e-5),))
+    selection = _selection({"Coulomb": failing, "cubic": _check(unsupported=(("x3**3@3", -1.0, 2.0),)),
+                            "linear": _check()})
+    assert selection.selected == "Coulomb" and selection.plausible == "linear"
+    sound = _selection({"Coulomb": _check(), "cubic": _check(), "linear": _check()})
+    assert sound.plausible == sound.selected == "Coulomb"
+    assert _selection({"Coulomb": failing}).plausible is None
+
+
+def test_the_answer_says_the_selected_model_fails_and_names_the_plausible_one():
+    from bayesnsi.cli._report import _plausible_text
+
+    failing = _check(quality_ok=False, energy_input=(("sign(v3)@3", -8.9e-5),))
+    selection = _selection({"Coulomb": failing, "cubic": _check(unsupported=(("x3**3@3", -1.0, 2.0),)),
+                            "linear": _check()})
+    decision = pd.DataFrame({"log_bayes_factor": [float("nan"), 120.0, 64765.3]}, index=["Coulomb", "cubic", "linear"])
+    text = _plausible_text(selection, "Coulomb", decision)
+    assert "But Coulomb fails a physical check" in text and "most probable is linear (6.48e+04 nat behind)" in text
+    sound = _selection({"Coulomb": _check(), "cubic": _check(), "linear": _check()})
+    assert _plausible_text(sound, "Coulomb", decision) == ""

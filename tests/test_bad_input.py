@@ -78,8 +78,15 @@ def test_unstable_identified_model_is_refused():
     # outputs that grow without bound: no stable underlying linear model explains them
     t = np.arange(400)[:, None]
     growing = np.exp(0.02 * t) * np.c_[np.sin(0.3 * t), np.cos(0.21 * t)] + 1e-3 * X
-    with pytest.raises(UnstableModelError, match="unstable"):
+    with pytest.raises(UnstableModelError, match="unstable") as info:
         identify(Signals(F, growing, 100.0, [1], [1, 2]), None, NSIOptions(block_rows=5, order=2))
+    # the message names the unstable pole, the one of largest |z| among them (a trial of a 12-DOF chain found
+    # "try another order" without a frequency)
+    import re
+
+    found = re.search(r"largest \|eigenvalue of A\| = (1\.\d+); unstable poles at [\d.]+ Hz \(\|z\| = (1\.\d+)\)",
+                      str(info.value))
+    assert found and float(found.group(1)) == pytest.approx(float(found.group(2)), abs=1e-3)
 
 
 def test_unstable_simulation_is_reported():

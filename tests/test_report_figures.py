@@ -256,3 +256,19 @@ def test_decision_table_compares_every_candidate_with_the_selected_one():
     assert list(decision["strength"]) == ["selected", "positive", "very strong", "very strong", "failed (no evidence)"]
     against_weak = decision_table(table, "ar1", selected="weak")
     assert against_weak.loc["both", "strength"] == "none: the data favour this candidate"
+
+
+def test_overlays_show_the_channels_where_the_terms_act():
+    # trial of a 12-DOF chain (outputs at DOFs 1, 3, 4, 6, 8, 9, 11, 12): the overlays showed x1 and x3, not x9
+    from types import SimpleNamespace
+
+    from bayesnsi.cli._report import overlay_channels
+    from bayesnsi.models import Term
+
+    signals = SimpleNamespace(output_dofs=(1, 3, 4, 6, 8, 9, 11, 12))
+    clearance = SimpleNamespace(terms=(Term("x9**3", 9),))
+    pair = SimpleNamespace(candidate=SimpleNamespace(terms=(Term("(x3-x4)**3", [3, 4]),)))
+    linear = SimpleNamespace(terms=())
+    assert overlay_channels(signals, [linear, clearance]) == [0, 5]
+    assert overlay_channels(signals, [pair, clearance]) == [0, 1, 2]  # at most three
+    assert overlay_channels(signals, [linear]) == [0, 1]  # linear models only: the first two, as before

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 from ._loop_unexamined import unexamined_note
-from ._report import ANSWER, LOOP
+from ._report import ANSWER, LOOP, overlay_channels
 
 __all__ = ["loop_sections", "loop_summary", "nothing_added_note", "step_number", "tried_with"]
 
@@ -282,9 +284,12 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
         from ..plots import plot_reconstruction
 
         recs = {f"start: {start_name}": loop.start.reconstruct(signals), "final model": loop.final.reconstruct(signals)}
-        name = signals.output_names[0] if getattr(signals, "output_names", None) else f"x{signals.output_dofs[0]}"
-        fig = plot_reconstruction(recs, signals.fs, 0, units=units, channel_name=name)
-        fig.set_label(f"Measured {name} against the starting and the final model (open loop), with the errors")
+        at_added = overlay_channels(signals, [SimpleNamespace(terms=[s.term for s in added])], limit=2)[-1]
+        name = signals.output_names[at_added] if getattr(signals, "output_names", None) else \
+            f"x{signals.output_dofs[at_added]}"
+        fig = plot_reconstruction(recs, signals.fs, at_added, units=units, channel_name=name)
+        fig.set_label(f"Measured {name} (where the loop added its effect) against the starting and the final model "
+                      "(open loop), with the errors")
         section.append(fig)
     if final_evidence is not None:
         _final_posterior(report, loop, final_evidence, units)

@@ -89,6 +89,21 @@ def _exact(config):
     return meta["exact_frequencies_hz"], meta.get("exact_damping_ratios"), coefs
 
 
+def _measured_text(config) -> str:
+    """How the displacements were obtained when the sensors measured something else (``[data] integrate``)."""
+    data = config.data
+    spec = getattr(data, "integrate", None)
+    if spec is None:
+        return ""
+    what = getattr(data, "integrated", None) or "acceleration"
+    times, plural = ("twice", "accelerations") if what == "acceleration" else ("once", "velocities")
+    text = (f" (integrated {times} from the measured {plural} on load, {spec.method} method, band "
+            f"[{spec.band_hz[0]:g}, {spec.band_hz[1]:g}] Hz: motion below {spec.band_hz[0]:g} Hz is lost")
+    if data.period is None and spec.trim_edges:
+        text += ", the integration's edges dropped from each window"
+    return text + ")"
+
+
 def _frf_band(signals, results):
     """Upper frequency of the FRF figures, the data's H1 FRF (None if the record is too short), log axis or not.
 
@@ -237,11 +252,13 @@ def _settings_sections(report, config, signals, records, units) -> None:
     stated = ", ".join(f"{q} in {getattr(units, q)}" for q in ("force", "displacement") if getattr(units, q))
     intro.append(
         f"{signals.n_samples} samples at {signals.fs:g} Hz; forces at DOFs {list(signals.input_dofs)}, "
-        f"displacements at DOFs {list(signals.output_dofs)}; "
+        f"displacements at DOFs {list(signals.output_dofs)}{_measured_text(config)}; "
         + (f"units from the data file: {stated}; " if stated else "the data file states no units; ")
         + f"config {config.path.name}; seed {config.seed}."
     )
     intro.append(("pre", "[nsi]\n" + "\n".join(f"{k} = {v!r}" for k, v in vars(config.nsi).items())))
+    if config.evidence is not None:
+        intro.append(("pre", "[evidence]\n" + "\n".join(f"{k} = {v!r}" for k, v in vars(config.evidence).items())))
     failed = [r for r in records if r.get("status") == "failed"]
     if failed:
         intro.append(("warning", "Failed candidates: " + "; ".join(f"{r['name']}: {r['error']}" for r in failed)))
@@ -416,7 +433,7 @@ def _reconstruction_figures(report, signals, results, units) -> None:
     figs = report.section("Figures", FIGURES)
     recs = {name: res.reconstruct(signals) for name, res in results.items()}
     names = list(signals.output_names) if getattr(signals, "output_names", None) else None
-    for channel in range(min(2, len(signals.output_dofs))):  # the first two outputs: the report stays quick
+    for channel in overlay_channels(signals, results.values()):  # a few outputs: the report stays quick
         label = names[channel] if names else f"x{signals.output_dofs[channel]}"
         fig = plot_reconstruction(
             recs, signals.fs, channel, units=units, channel_name=label, max_samples=_RECONSTRUCTION_SAMPLES
@@ -424,6 +441,36 @@ def _reconstruction_figures(report, signals, results, units) -> None:
         fig.set_label(f"Measured {label} and each candidate's open-loop reconstruction, with the errors, over the "
                       f"first {_RECONSTRUCTION_SAMPLES} samples (paper Figs. 9, 13)")
         figs.append(fig)
+
+
+def overlay_channels(signals, models, limit: int = 3) -> list[int]:
+    """Output channels of the measured-vs-model overlays: the first, then where the models' terms act.
+
+    A trial of a 12-DOF chain showed x1 and x3 only, not x9 where the clearance was.
+
+    Parameters
+    ----------
+    signals : Signals
+    models : iterable of NSIResult or CandidateModel
+        Anything with ``terms`` (or ``candidate.terms``).
+    limit : int
+        At most this many channels.
+
+    Returns
+    -------
+    list of int
+        Indices into ``signals.output_dofs``.
+    """
+    outputs = list(signals.output_dofs)
+    chosen = [0]
+    for model in models:
+        for term in getattr(model, "terms", None) or getattr(getattr(model, "candidate", None), "terms", ()):
+            for dof in term.at:
+                if dof in outputs and outputs.index(dof) not in chosen:
+                    chosen.append(outputs.index(dof))
+    if len(chosen) == 1 and len(outputs) > 1:  # linear models only: the first two outputs, as before
+        chosen.append(1)
+    return chosen[:limit]
 
 
 def _rigid_body_note(results) -> str:

@@ -201,11 +201,13 @@ def identify(
         if mirrored is not None:
             stabilised, virtual_mode = (mirrored[0], eigenvalues[:0]), mirrored[1]
     if stabilised is None:
+        unstable = eigenvalues[(np.abs(eigenvalues) >= 1.0) & (eigenvalues.imag >= 0)]
         raise UnstableModelError(
             f"candidate {cand.name!r}: the identified underlying linear model is unstable "
-            f"(largest |eigenvalue of A| = {radius:.4f}) inside [nsi] band_hz, at a frequency the force excites, or "
-            "with no band given; try another "
-            "order or number of block rows, or reconsider the candidate's terms"
+            f"(largest |eigenvalue of A| = {radius:.4f}; unstable poles at {pole_text(unstable, signals.dt)}) inside "
+            "[nsi] band_hz, at a frequency the force excites, or with no band given; try another order (near twice "
+            "the number of modes in the band: the stabilisation diagram, bayesnsi.nsi.stabilization, shows which "
+            "orders hold them) or number of block rows, or reconsider the candidate's terms"
         )
     A, reflected = stabilised
     if len(reflected):  # outside the band the data inform: mirrored into the unit circle (_stabilise.py)

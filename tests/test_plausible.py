@@ -43,13 +43,13 @@ def test_the_most_probable_sound_candidate_is_named_beside_the_selected_one():
 
 
 def test_the_answer_says_the_selected_model_fails_and_names_the_plausible_one():
-    from bayesnsi.cli._report import _plausible_text
+    from bayesnsi.cli._report_choices import plausible_text
 
     failing = _check(quality_ok=False, energy_input=(("sign(v3)@3", -8.9e-5),))
     selection = _selection({"Coulomb": failing, "cubic": _check(unsupported=(("x3**3@3", -1.0, 2.0),)),
                             "linear": _check()})
     decision = pd.DataFrame({"log_bayes_factor": [float("nan"), 120.0, 64765.3]}, index=["Coulomb", "cubic", "linear"])
-    text = _plausible_text(selection, "Coulomb", decision)
+    text = plausible_text(selection, "Coulomb", decision)
     assert "But Coulomb fails a physical check" in text and "most probable is linear (6.48e+04 nat behind)" in text
     sound = _selection({"Coulomb": _check(), "cubic": _check(), "linear": _check()})
-    assert _plausible_text(sound, "Coulomb", decision) == ""
+    assert plausible_text(sound, "Coulomb", decision) == ""

@@ -262,7 +262,7 @@ def test_overlays_show_the_channels_where_the_terms_act():
     # trial of a 12-DOF chain (outputs at DOFs 1, 3, 4, 6, 8, 9, 11, 12): the overlays showed x1 and x3, not x9
     from types import SimpleNamespace
 
-    from bayesnsi.cli._report import overlay_channels
+    from bayesnsi.cli._report_choices import overlay_channels
     from bayesnsi.models import Term
 
     signals = SimpleNamespace(output_dofs=(1, 3, 4, 6, 8, 9, 11, 12))

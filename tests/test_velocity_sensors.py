@@ -106,10 +106,10 @@ def test_velocities_alone_are_integrated_once_with_their_noise_kept(tmp_path):
     ratio = error.std(axis=0) / noise.std(len(signals.displacement))[0]
     assert np.all((ratio > 0.7) & (ratio < 1.4)), ratio
     assert data_units(config).displacement == "m" and data_units(config).velocity == "m/s"
-    from bayesnsi.cli._report import _measured_text  # the report's data section says how x was obtained
+    from bayesnsi.cli._report_choices import measured_text  # the report's data section says how x was obtained
 
     assert "integrated once from the measured velocities on load, frequency method, band [1, 45] Hz" in (
-        _measured_text(config))
+        measured_text(config))
 
 
 def test_adequacy_on_integrated_velocities_divides_by_their_integrated_noise(tmp_path):

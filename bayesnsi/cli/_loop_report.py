@@ -5,7 +5,8 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 from ._loop_unexamined import unexamined_note
-from ._report import ANSWER, LOOP, overlay_channels
+from ._report import ANSWER, LOOP
+from ._report_choices import overlay_channels
 
 __all__ = ["loop_sections", "loop_summary", "nothing_added_note", "step_number", "tried_with"]
 

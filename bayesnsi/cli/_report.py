@@ -18,6 +18,7 @@ from ..io.units import ChannelUnits
 from ..nsi import stabilization
 from ..tables import coefficients_table, modes_table, physical_table
 from ..validation import whiteness_applies
+from ._report_choices import frf_band, measured_text, overlay_channels, plausible_text
 from ._report_intervals import interval_sections
 from ._report_periodic import periodic_section
 from ._report_tables import (
@@ -89,41 +90,6 @@ def _exact(config):
     return meta["exact_frequencies_hz"], meta.get("exact_damping_ratios"), coefs
 
 
-def _measured_text(config) -> str:
-    """How the displacements were obtained when the sensors measured something else (``[data] integrate``)."""
-    data = config.data
-    spec = getattr(data, "integrate", None)
-    if spec is None:
-        return ""
-    what = getattr(data, "integrated", None) or "acceleration"
-    times, plural = ("twice", "accelerations") if what == "acceleration" else ("once", "velocities")
-    text = (f" (integrated {times} from the measured {plural} on load, {spec.method} method, band "
-            f"[{spec.band_hz[0]:g}, {spec.band_hz[1]:g}] Hz: motion below {spec.band_hz[0]:g} Hz is lost")
-    if data.period is None and spec.trim_edges:
-        text += ", the integration's edges dropped from each window"
-    return text + ")"
-
-
-def _frf_band(signals, results):
-    """Upper frequency of the FRF figures, the data's H1 FRF (None if the record is too short), log axis or not.
-
-    The figures reach over the band the force excites (99 % of its power), not only to 1.3x the highest
-    identified mode: a mode the models lack shows there as a peak of the data.
-    """
-    from ..curves import measured_frf
-    from ..exceptions import InputDataError
-
-    # free bodies may have no oscillatory mode: the band of the identification then sets the axis
-    modes = [m.frequency_hz for r in results.values() for m in r.modes]
-    fmax = 1.3 * max(modes or [r.band_hz[1] for r in results.values()])
-    try:
-        measured = measured_frf(signals)
-    except InputDataError:
-        return fmax, None, False
-    fmax = max(fmax, min(measured.excited_hz, 0.5 * float(signals.fs)))
-    return fmax, measured, bool(modes) and fmax > 8 * min(modes)
-
-
 def _exact_frf(config, result, freqs):
     """Exact underlying FRF (n_freq, l, m) of a simulated case whose matrices are in the config's [meta]."""
     from ..simulate import underlying_frf
@@ -185,7 +151,7 @@ def identification_report(config, signals, results, records, title, report=None,
     nrmse = {r["name"]: r.get("nrmse") for r in records}
     tables.append(pd.DataFrame({"open-loop reconstruction error (NRMSE)": nrmse}).rename_axis("candidate"))
     figs = report.section("Figures", FIGURES)
-    fmax, measured, wide = _frf_band(signals, results)
+    fmax, measured, wide = frf_band(signals, results)
     freqs = np.geomspace(fmax / 400, fmax, 800) if wide else np.linspace(fmax / 400, fmax, 800)
     first_name, first = next(iter(results.items()))
     fig = plot_frf(list(results.values()), freqs, exact=_exact_frf(config, first, freqs), units=units,
@@ -252,7 +218,7 @@ def _settings_sections(report, config, signals, records, units) -> None:
     stated = ", ".join(f"{q} in {getattr(units, q)}" for q in ("force", "displacement") if getattr(units, q))
     intro.append(
         f"{signals.n_samples} samples at {signals.fs:g} Hz; forces at DOFs {list(signals.input_dofs)}, "
-        f"displacements at DOFs {list(signals.output_dofs)}{_measured_text(config)}; "
+        f"displacements at DOFs {list(signals.output_dofs)}{measured_text(config)}; "
         + (f"units from the data file: {stated}; " if stated else "the data file states no units; ")
         + f"config {config.path.name}; seed {config.seed}."
     )
@@ -298,7 +264,7 @@ def selection_sections(report, signals, selection, selected, units=None, role: s
         answer.append(("lead", _answer_text(decision, selected, opts, role) + (
             " The probability compares these candidates only: none of them explains the data down to the noise "
             "(warnings below), so it says which is least wrong, not that it is right." if none_adequate else "")
-            + _plausible_text(selection, selected, decision)))
+            + plausible_text(selection, selected, decision)))
         answer.append(decision_frame(decision, selected))
         answer.append(
             f"Evidence: marginal likelihood of each candidate, the {residual} modelled as "
@@ -390,23 +356,6 @@ def _answer_text(decision, selected, opts, role) -> str:
     return text
 
 
-def _plausible_text(selection, selected, decision) -> str:
-    """What the answer adds when the selected model fails a physical check (``Selection.plausible``)."""
-    checks = getattr(selection, "checks", None) or {}
-    if selected not in checks or not hasattr(selection, "plausible"):
-        return ""
-    plausible = selection.plausible
-    if plausible == selected:
-        return ""
-    text = (f" But {selected} fails a physical check (below: quality index, negative dissipation or a term whose "
-            "interval holds zero), so it is not a physical model of the structure")
-    if plausible is None:
-        return text + "; no candidate passes every check."
-    behind = decision.loc[plausible, "log_bayes_factor"] if plausible in decision.index else float("nan")
-    return text + (f"; of the candidates that pass every check the most probable is {plausible}"
-                   + (f" ({behind:.3g} nat behind)." if np.isfinite(behind) else "."))
-
-
 def _warnings(selection, selected, evidences, opts):
     whiteness = selection.adequacy.get(selected) if selected else None
     if whiteness is not None and not whiteness.adequate:
@@ -441,36 +390,6 @@ def _reconstruction_figures(report, signals, results, units) -> None:
         fig.set_label(f"Measured {label} and each candidate's open-loop reconstruction, with the errors, over the "
                       f"first {_RECONSTRUCTION_SAMPLES} samples (paper Figs. 9, 13)")
         figs.append(fig)
-
-
-def overlay_channels(signals, models, limit: int = 3) -> list[int]:
-    """Output channels of the measured-vs-model overlays: the first, then where the models' terms act.
-
-    A trial of a 12-DOF chain showed x1 and x3 only, not x9 where the clearance was.
-
-    Parameters
-    ----------
-    signals : Signals
-    models : iterable of NSIResult or CandidateModel
-        Anything with ``terms`` (or ``candidate.terms``).
-    limit : int
-        At most this many channels.
-
-    Returns
-    -------
-    list of int
-        Indices into ``signals.output_dofs``.
-    """
-    outputs = list(signals.output_dofs)
-    chosen = [0]
-    for model in models:
-        for term in getattr(model, "terms", None) or getattr(getattr(model, "candidate", None), "terms", ()):
-            for dof in term.at:
-                if dof in outputs and outputs.index(dof) not in chosen:
-                    chosen.append(outputs.index(dof))
-    if len(chosen) == 1 and len(outputs) > 1:  # linear models only: the first two outputs, as before
-        chosen.append(1)
-    return chosen[:limit]
 
 
 def _rigid_body_note(results) -> str:

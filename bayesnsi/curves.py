@@ -108,7 +108,8 @@ class MeasuredFRF:
         Multiple coherence of each output with all forces (1: the forces explain the output
         linearly; lower: noise, a nonlinearity or an unmeasured input).
     excited_hz : float
-        Upper edge of the excited band: the frequency below which 99 % of the force power lies.
+        Upper edge of the excited band: the frequency below which 99 % of the force power of the
+        whole record lies.
     """
 
     freqs_hz: np.ndarray
@@ -161,7 +162,9 @@ def measured_frf(signals, n_segment: int | None = None) -> MeasuredFRF:
     if not 8 <= n_segment <= n:
         raise InputDataError(f"the segment of {n_segment} samples must be between 8 and the record's {n} samples")
     step = n_segment if np.all(window == 1.0) else n_segment // 2
-    starts = range(0, n - n_segment + 1, step)
+    starts = list(range(0, n - n_segment + 1, step))
+    if starts[-1] != n - n_segment and step != n_segment:  # the record's end too (a sweep's top lies there)
+        starts.append(n - n_segment)
     lines = n_segment // 2 + 1
     sff = np.zeros((lines, f.shape[1], f.shape[1]), dtype=complex)
     syf = np.zeros((lines, y.shape[1], f.shape[1]), dtype=complex)
@@ -174,8 +177,9 @@ def measured_frf(signals, n_segment: int | None = None) -> MeasuredFRF:
         syy += np.abs(Y) ** 2
     freqs = np.fft.rfftfreq(n_segment, 1.0 / float(signals.fs))
     power = np.real(np.trace(sff, axis1=1, axis2=2))
-    cumulative = np.cumsum(power) / max(float(power.sum()), np.finfo(float).tiny)
-    excited = float(freqs[min(int(np.searchsorted(cumulative, 0.99)), len(freqs) - 1)])
+    whole = np.sum(np.abs(np.fft.rfft(f - f.mean(axis=0), axis=0)) ** 2, axis=1)  # every sample, not the segments
+    cumulative = np.cumsum(whole) / max(float(whole.sum()), np.finfo(float).tiny)
+    excited = float(np.fft.rfftfreq(n, 1.0 / float(signals.fs))[min(int(np.searchsorted(cumulative, 0.99)), n // 2)])
     # lines the force drives (a multisine leaves lines unexcited, where H1 is noise over nothing)
     keep = (freqs > 0) & (freqs <= excited) & (power > 1e-8 * power.max())
     sff, syf, syy, freqs = sff[keep], syf[keep], syy[keep], freqs[keep]

@@ -240,11 +240,8 @@ def select(
 
 
 def _order_messages(outcomes) -> tuple[str, ...]:
-    """One message for the candidates whose ``order = "auto"`` may have missed modes (``nsi.order.order_note``)."""
+    """A message per candidate whose ``order = "auto"`` may have missed modes (``nsi.order.order_note``)."""
     from .nsi.order import ORDER_NOTE_START
 
-    notes = [(o.name, w) for o in outcomes for w in (o.warnings or ()) if str(w).startswith(ORDER_NOTE_START)]
-    if not notes:
-        return ()
-    names = ", ".join(repr(name) for name, _ in notes)
-    return (f"{names}: {notes[0][1]}",)
+    return tuple(f"{o.name!r}: {w}" for o in outcomes for w in dict.fromkeys(o.warnings or ())
+                 if str(w).startswith(ORDER_NOTE_START))

@@ -35,6 +35,8 @@ def test_a_later_gap_nearly_as_large_is_named():
     with pytest.warns(OrderWarning, match=r'order "auto" took 2'):
         assert auto_order(s, 38) == 2
     assert order_note(_singular_values({2: 1.7, 4: 2.5, 8: 1.0}), 4, 38) is None  # later gaps below half
+    # a trial's chain: "auto" took max_order (40), no gap standing out: said too
+    assert "the largest order it considers" in order_note(_singular_values({40: 0.3}, n=60), 40, 40)
 
 
 def test_the_two_dof_case_chooses_its_order_without_a_word():

@@ -51,5 +51,6 @@ def test_the_answer_says_the_selected_model_fails_and_names_the_plausible_one():
     decision = pd.DataFrame({"log_bayes_factor": [float("nan"), 120.0, 64765.3]}, index=["Coulomb", "cubic", "linear"])
     text = plausible_text(selection, "Coulomb", decision)
     assert "But Coulomb fails a physical check" in text and "most probable is linear (6.48e+04 nat behind)" in text
+    assert plausible_text(selection, "linear", decision) == ""  # diagnose --start linear: not the evidence's choice
     sound = _selection({"Coulomb": _check(), "cubic": _check(), "linear": _check()})
     assert plausible_text(sound, "Coulomb", decision) == ""

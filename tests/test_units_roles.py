@@ -8,10 +8,12 @@ and no message. Each is now an InputDataError that names the column, its unit an
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
-from bayesnsi.exceptions import InputDataError
+from bayesnsi.exceptions import InputDataError, IntegrationWarning
 from bayesnsi.io import load_config, load_signals, load_validation
 from bayesnsi.io._record import quantity_of_unit
 
@@ -20,7 +22,8 @@ from bayesnsi.io._record import quantity_of_unit
     ("m/s^2", "acceleration"), ("m/s²", "acceleration"), ("mm/s**2", "acceleration"), ("m/s2", "acceleration"),
     ("m/s", "velocity"), ("mm / s", "velocity"), ("in/s", "velocity"),
     ("m", "displacement"), ("µm", "displacement"), ("mm", "displacement"),
-    ("g", None), ("V", None), ("N", None), ("", None), ("m/s^3", None),
+    ("m s^-2", "acceleration"), ("m/s/s", "acceleration"), ("m s^-1", "velocity"),
+    ("g", "acceleration"), ("V", None), ("N", None), ("", None), ("m/s^3", None),
 ])
 def test_quantity_of_unit_names_only_unambiguous_units(unit, quantity):
     assert quantity_of_unit(unit) == quantity
@@ -68,3 +71,15 @@ def test_a_validation_file_in_other_units_is_refused(tmp_path):
         load_validation(config)
     _write(tmp_path / "val.csv", "s,N,m,m", seed=1)
     assert [name for name, _ in load_validation(config)] == ["other"]
+    # the same unit spelled another way is the same unit; a [data] units label converts nothing, so the
+    # files' own rows are still compared (a trial labelled g-valued columns "g" and validated on m/s^2)
+    _write(tmp_path / "est.csv", "s,N,m/s^2,m/s^2")
+    _write(tmp_path / "val.csv", "s,N,m s^-2,m/s2", seed=1)
+    accelerations = "accelerations = { c1 = 1, c2 = 2 }\nintegrate = { band_hz = [1, 40] }\n"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IntegrationWarning)  # random walks: the motion lies below the band
+        assert len(load_validation(_config(tmp_path, accelerations, validation))) == 1
+        _write(tmp_path / "val.csv", "s,N,g,g", seed=1)
+        labelled = accelerations + 'units = { c1 = "g", c2 = "g" }\n'
+        with pytest.raises(InputDataError, match="states 'g' for column 'c1'"):
+            load_validation(_config(tmp_path, labelled, validation))

@@ -139,7 +139,8 @@ def run(config_path=CONFIG, quiet=False) -> dict:
             "error": outcome.error,
         })
     ranking.sort(key=lambda r: -(r["log_evidence"] if r["log_evidence"] is not None else -np.inf))
-    out["select"] = {"ranking": ranking, "seconds": time.perf_counter() - t0, "warnings": list(selection.warnings)}
+    out["select"] = {"ranking": ranking, "seconds": time.perf_counter() - t0, "warnings": list(selection.warnings),
+                     "selected": selection.selected, "plausible": selection.plausible}
     if not quiet:
         print("select: " + ", ".join(f"{r['name']} ({r['log_evidence']})" for r in ranking), file=sys.stderr)
     t0 = time.perf_counter()
@@ -213,6 +214,8 @@ def main(argv=None) -> int:
     print("select ranking: " + ", ".join(
         f"{r['name']} (log Z {r['log_evidence']:.1f})" if r["log_evidence"] is not None else f"{r['name']} (failed)"
         for r in results["select"]["ranking"]))
+    print(f"select: selected {results['select']['selected']}; the most probable that passes every physical check: "
+          f"{results['select']['plausible']}")
     print("loop from linear added: " + (", ".join(
         f"{a['expr']} (log BF {a['log_bayes_factor']:.1f})" for a in results["loop"]["added"]) or "nothing"))
     return 0

@@ -124,7 +124,7 @@ def _default_band_note(steps, payload, start_record) -> str | None:
     best = max(wanted, key=lambda s: s.log_bayes_factor)
     top = max(f for f in modes if f is not None)
     return (
-        f"{best.effect.name} at {_where(best.effect)} explains the data better by {best.log_bayes_factor:.3g} nat "
+        f"{best.effect.name} {_at(best.effect)} explains the data better by {best.log_bayes_factor:.3g} nat "
         f"but failed the quality index (|Im|/|Re| = {best.imag_ratio:.2g}) averaged over the default band "
         f"[{band[0]:.3g}, {band[1]:.3g}] Hz, which reaches past the highest mode ({top:.3g} Hz), where λ(ω) means "
         f"little: if its λ(ω) is flat between the modes, give [nsi] band_hz = [{band[0]:.3g}, {top:.3g}] (or raise "
@@ -168,6 +168,12 @@ def _validation_what(payload) -> str:
     return "force-prediction (free body)" if quantities == {"force"} else "closed-loop validation"
 
 
+def _at(effect) -> str:
+    """``"at DOF 3"`` or ``"between DOFs 2 and 3"`` (:func:`_where` reads well alone, this after a name)."""
+    where = _where(effect)
+    return where if where.startswith("between") else f"at {where}"
+
+
 def _where(effect) -> str:
     location = tuple(effect.location)
     return f"DOF {location[0]}" if len(location) == 1 else f"between DOFs {location[0]} and {location[1]}"
@@ -199,7 +205,7 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
     answer = report.section("Answer", ANSWER)
     if added:
         found = "; ".join(
-            f"{s.effect.name} at {_where(s.effect)} (λ = {s.coefficient:.4g}, "
+            f"{s.effect.name} {_at(s.effect)} (λ = {s.coefficient:.4g}, "
             f"log Bayes factor {s.log_bayes_factor:.1f})"
             for s in added
         )
@@ -297,7 +303,7 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
     for step in added:
         fig = plot_effect_force(step, signals, units=units)
         fig.set_label(
-            f"Restoring-force view of {step.effect.name} at {_where(step.effect)}: the residual of the model before "
+            f"Restoring-force view of {step.effect.name} {_at(step.effect)}: the residual of the model before "
             "the step as a force (top), and after it the residual (blue), the effect's force (black) and their sum "
             "(red), against displacement and velocity"
         )

@@ -11,8 +11,8 @@ __all__ = ["frf_band", "measured_text", "overlay_channels", "plausible_text"]
 def plausible_text(selection, selected, decision) -> str:
     """What the answer adds when the selected model fails a physical check (``Selection.plausible``)."""
     checks = getattr(selection, "checks", None) or {}
-    if selected not in checks or not hasattr(selection, "plausible"):
-        return ""
+    if selected not in checks or not hasattr(selection, "plausible") or selected != selection.selected:
+        return ""  # a loop's start (diagnose --start) is not the evidence's choice: nothing to set beside it
     plausible = selection.plausible
     if plausible == selected:
         return ""

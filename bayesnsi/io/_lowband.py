@@ -111,6 +111,7 @@ def below_band_messages(force, acc, fs: float, band_hz, names, measured: str = "
             "removes it, so the model and every term of a displacement or velocity (sign(v), v|v|, x³) see a "
             "band-passed motion that did not happen. Measure displacement"
             f"{' or velocity' if measured == 'acceleration' else ''} at that DOF (a free body cannot be identified "
-            f"from {measured}s alone), or lower f_lo if the motion is a structure's"
+            f"from {'accelerations' if measured == 'acceleration' else 'velocities'} alone), or lower f_lo if the "
+            "motion is a structure's"
         )
     return out

@@ -94,10 +94,11 @@ class Record:
         InputDataError
             Naming the column and both units (e.g. accelerations in g in one file, m/s² in the other).
         """
-        stated = self.data.units or {}
         for name in [*self.data.inputs, *self.response_columns, *self.velocity_columns]:
+            # the files' own units rows, whatever [data] units labels (a label converts nothing, nor does a
+            # [data] scale gain, which multiplies every file alike)
             mine, theirs = self.table.units.get(name, "").strip(), other.table.units.get(name, "").strip()
-            if name not in stated and mine and theirs and mine != theirs:
+            if mine and theirs and normalized_unit(mine) != normalized_unit(theirs):
                 raise InputDataError(
                     f"{what}: {other.path.name} states {theirs!r} for column {name!r} where the estimation file "
                     f"{self.path.name} states {mine!r}; one model needs one unit per channel - convert one of the "
@@ -284,11 +285,29 @@ def _resolve_fs(table: MeasurementColumns, data: DataSpec) -> float:
 
 
 _LENGTH = r"(?:m|mm|cm|um|µm|μm|nm|in|ft)"
-_QUANTITY_OF_UNIT = (  # unambiguous units only: a bare "g" (gravity or gram) is left alone
-    (re.compile(rf"{_LENGTH}\s*/\s*s\s*(?:\^\s*2|²|2|\*\*\s*2)", re.IGNORECASE), "acceleration"),
-    (re.compile(rf"{_LENGTH}\s*/\s*s", re.IGNORECASE), "velocity"),
+_QUANTITY_OF_UNIT = (  # "g" is gravity here: a gram is no displacement or velocity either
+    (re.compile(rf"{_LENGTH}/s\^2|m?g|gn", re.IGNORECASE), "acceleration"),
+    (re.compile(rf"{_LENGTH}/s", re.IGNORECASE), "velocity"),
     (re.compile(_LENGTH, re.IGNORECASE), "displacement"),
 )
+
+
+def normalized_unit(unit: str) -> str:
+    """One spelling of a unit label: "m/s2", "m/s²", "m s^-2", "m/s/s" and "m/s**2" all give "m/s^2".
+
+    Parameters
+    ----------
+    unit : str
+
+    Returns
+    -------
+    str
+    """
+    text = "".join(unit.split()).replace("²", "^2").replace("**", "^").replace("·", "").replace("*", "")
+    text = re.sub(r"/s/s$", "/s^2", text)
+    text = re.sub(r"(?<=[a-zµμ])s\^-2$", "/s^2", text)
+    text = re.sub(r"(?<=[a-zµμ])s\^-1$", "/s", text)
+    return re.sub(r"/s2$", "/s^2", text)
 _KEY_OF_ROLE = {"displacement": "outputs", "velocity": "velocities", "acceleration": "accelerations"}
 
 
@@ -304,11 +323,15 @@ def quantity_of_unit(unit: str) -> str | None:
     -------
     {"displacement", "velocity", "acceleration"} or None
     """
-    text = unit.strip()
+    text = normalized_unit(unit)
     for pattern, quantity in _QUANTITY_OF_UNIT:
         if pattern.fullmatch(text):
             return quantity
     return None
+
+
+def _article(word: str) -> str:
+    return "an" if word[:1] in "aeiou" else "a"
 
 
 def _check_units(table: MeasurementColumns, roles: Mapping[str, str], stated: Mapping[str, str] | None = None) -> None:
@@ -325,13 +348,14 @@ def _check_units(table: MeasurementColumns, roles: Mapping[str, str], stated: Ma
             quantity = quantity_of_unit(unit)
             if quantity is not None and quantity != role:
                 raise InputDataError(
-                    f"{table.path}: column {name!r} is in {unit!r}, a {quantity}, but [data] maps it under "
-                    f"{_KEY_OF_ROLE[role]} (a {role}); map it under {_KEY_OF_ROLE[quantity]}"
+                    f"{table.path}: column {name!r} is in {unit!r}, {_article(quantity)} {quantity}, but [data] "
+                    f"maps it under {_KEY_OF_ROLE[role]} ({_article(role)} {role}); map it under "
+                    f"{_KEY_OF_ROLE[quantity]}"
                     f"{' with integrate = { band_hz = [f_lo, f_hi] }' if quantity != 'displacement' else ''}, or, if "
                     f'the file\'s unit is wrong, state the right one with [data] units = {{ {name} = "..." }}'
                 )
     for role, units in by_role.items():
-        if len(set(units.values())) > 1:
+        if len({normalized_unit(u) for u in units.values()}) > 1:
             raise InputDataError(
                 f"{table.path}: the {role} channels are in different units "
                 f"({', '.join(f'{name!r}: {unit[:20]!r}' for name, unit in units.items())}); one model needs one unit "

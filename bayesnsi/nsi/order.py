@@ -98,10 +98,15 @@ def order_note(singular_values: np.ndarray, order: int, max_order: int, even: bo
     -------
     str or None
         A sentence naming the later gaps (the order after which each falls, and its size against the
-        chosen one's), or None when every later gap is below :data:`LATER_GAP` of it.
+        chosen one's), or saying that the order is the largest considered; None when every later gap is
+        below :data:`LATER_GAP` of the chosen one.
     """
     s = np.maximum(np.asarray(singular_values, dtype=float), float(singular_values[0]) * 1e-300)
     gaps = np.log(s[:-1]) - np.log(s[1:])
+    if order >= max_order - (1 if even else 0):  # no gap stands out below the largest order allowed
+        return (f"{ORDER_NOTE_START} {order}, the largest order it considers (max_order): the singular values "
+                "show no clear gap below it, so the model may hold noise poles or lack modes; look at the "
+                "stabilisation diagram and the data's FRF in the report, and set [nsi] order")
     chosen = gaps[order - 1]
     later = [n for n in range(order + 1, min(max_order, len(gaps)) + 1)
              if (not even or n % 2 == 0) and gaps[n - 1] >= LATER_GAP * chosen]

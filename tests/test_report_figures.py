@@ -272,3 +272,14 @@ def test_overlays_show_the_channels_where_the_terms_act():
     assert overlay_channels(signals, [linear, clearance]) == [0, 5]
     assert overlay_channels(signals, [pair, clearance]) == [0, 1, 2]  # at most three
     assert overlay_channels(signals, [linear]) == [0, 1]  # linear models only: the first two, as before
+
+
+def test_coefficient_rows_carry_the_unit_of_lambda():
+    # trials: "coefficient tables carry no unit"; λ of x³ is force over displacement cubed
+    from bayesnsi.cli._report import _with_unit
+    from bayesnsi.io.units import ChannelUnits
+
+    units = ChannelUnits(force="N", displacement="m", velocity="m/s")
+    assert _with_unit("x3**3@3", units) == "x3**3@3 [N/m^3]"
+    assert _with_unit("v1*abs(v1)@1", units) == "v1*abs(v1)@1 [N/(m/s)^2]"
+    assert _with_unit("x1**3@1", ChannelUnits()) == "x1**3@1"  # the data state no units: no label

@@ -145,7 +145,8 @@ def identification_report(config, signals, results, records, title, report=None,
             "Nonlinear coefficients: the NSI estimate (mean real part of λ(ω) over the band of the modes) and its "
             "quality index |Im|/|Re| (small is good)."
         )
-        tables.append(coefficients_table({k: r for k, r in results.items() if r.terms}, exact_coefs))
+        frame = coefficients_table({k: r for k, r in results.items() if r.terms}, exact_coefs)
+        tables.append(frame.rename(index=lambda t: _with_unit(t, units)))
     import pandas as pd
 
     nrmse = {r["name"]: r.get("nrmse") for r in records}
@@ -390,6 +391,14 @@ def _reconstruction_figures(report, signals, results, units) -> None:
         fig.set_label(f"Measured {label} and each candidate's open-loop reconstruction, with the errors, over the "
                       f"first {_RECONSTRUCTION_SAMPLES} samples (paper Figs. 9, 13)")
         figs.append(fig)
+
+
+def _with_unit(term_name: str, units) -> str:
+    """``"x3**3@3 [N/m^3]"``: a coefficient's row label with the unit of λ when the data state units."""
+    from ..io.units import term_unit
+
+    unit = term_unit(term_name.rsplit("@", 1)[0], units or ChannelUnits())
+    return f"{term_name} [{unit}]" if unit else term_name
 
 
 def _rigid_body_note(results) -> str:

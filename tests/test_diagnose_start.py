@@ -52,3 +52,19 @@ def test_a_start_that_failed_to_identify_says_why(tmp_path, capsys):
     assert main(args) == 2
     err = capsys.readouterr().err.strip()
     assert "'constant' could not be identified" in err and "identifiable" in err and "block_rows or order" in err
+
+
+def test_the_default_start_is_the_plausible_model_when_the_selected_one_fails_a_check(tmp_path, monkeypatch):
+    # trial: the evidence selected a sign() with a negative coefficient (negative dissipation); the loop
+    # would have started from a model that is not physical. It starts from Selection.plausible instead.
+    import bayesnsi.selection as selection_module
+
+    monkeypatch.setattr(selection_module.Selection, "plausible", property(lambda self: "declared"))
+    csv = tmp_path / "qd.csv"
+    assert main(["simulate", "quadratic-damping", "--seed", "0", "--out", str(csv), "--quiet"]) == 0
+    config = csv.with_suffix(".toml")
+    config.write_text(config.read_text() + TRUTH)
+    out = tmp_path / "out"
+    assert main(["diagnose", str(config), "--out", str(out), "--quiet", "--no-figures", "--max-steps", "1"]) == 0
+    results = json.loads((out / "results.json").read_text())
+    assert results["selected"] == "truth" and results["start"] == "declared" and results["plausible"] == "declared"

@@ -21,7 +21,8 @@ def add_parser(sub) -> None:
         epilog="example: bayesnsi diagnose workflows/silverbox/silverbox.toml --start linear --out out/sb-loop",
     )
     add_run_arguments(p)
-    p.add_argument("--start", default=None, help="candidate to start from (default: the selected one)")
+    p.add_argument("--start", default=None, help="candidate to start from (default: the selected one, or the most "
+                   "probable that passes every physical check when the selected one fails one)")
     add_option_flags(
         p, LoopOptions,
         ("max_steps", "threshold", "screen", "residual", "max_imag_ratio", "stability_factor", "max_shared",
@@ -51,7 +52,9 @@ def run(args) -> int:
     results = selection.results
     if not results:
         raise ConfigError("no candidate could be identified, so there is no model to start the loop from")
-    start = args.start or selection.selected or next(iter(results))
+    # by default the loop starts from the selected model, or, when that fails a physical check (negative
+    # dissipation, quality index, a term whose interval holds zero), from the most probable one that passes
+    start = args.start or selection.plausible or selection.selected or next(iter(results))
     if start not in results:
         error = next((o.error for o in selection.outcomes if o.name == start), None)
         raise ConfigError(
@@ -128,7 +131,9 @@ def run(args) -> int:
             )
             loop_sections(report, signals, loop, payload, units, has_validation=bool(validation),
                           final_evidence=final_evidence)
-            role = "Starting model" if start != selection.selected else "Starting model, the one selected"
+            role = ("Starting model, the one selected" if start == selection.selected else
+                    "Starting model, the most probable that passes every physical check" if start == selection.plausible
+                    else "Starting model")
             selection_sections(report, signals, selection, start, units, role)
             progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
     path = atomic_write_json(out / RESULTS_FILENAME, payload)  # last: a complete folder, or a rerun resumes

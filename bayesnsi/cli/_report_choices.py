@@ -16,8 +16,8 @@ def plausible_text(selection, selected, decision) -> str:
     plausible = selection.plausible
     if plausible == selected:
         return ""
-    text = (f" But {selected} fails a physical check (below: quality index, negative dissipation or a term whose "
-            "interval holds zero), so it is not a physical model of the structure")
+    text = (f" But {selected} fails a physical check (below: quality index or negative dissipation), so it is "
+            "not a physical model of the structure")
     if plausible is None:
         return text + "; no candidate passes every check."
     behind = decision.loc[plausible, "log_bayes_factor"] if plausible in decision.index else float("nan")

@@ -206,7 +206,7 @@ def selection_payload(selection, command: str, config, **extra) -> dict[str, Any
     -------
     dict
         JSON-ready: ``selected`` (marginal evidence), ``selected_gaussian`` (plain likelihood),
-        ``plausible`` (the most probable candidate that passes every physical check,
+        ``plausible`` (the most probable candidate that passes the physical checks,
         :attr:`Selection.plausible <bayesnsi.selection.Selection.plausible>`), ``candidates`` with
         evidence and validation, ``ranking``, ``settings``, ``versions``.
     """

@@ -132,3 +132,22 @@ def test_config_messages_for_velocity_sensors(tmp_path):
         _record(tmp_path, data_lines=velocities_only + 'outputs = { v1 = 1 }\nintegrate = { band_hz = [1, 45] }\n')
     with pytest.raises(ConfigError, match="velocities"):
         _record(tmp_path, data_lines='outputs = { v1 = 1 }\nintegrate = { band_hz = [1, 45] }\n')
+
+
+def test_modes_below_the_integration_band_are_set_aside():
+    # trial of a swept beam integrated from 8 Hz: order 6 gave 30 and 120 Hz and a "mode" at 1.6 Hz
+    # (ζ = 0.99), listed as physical and setting the default averaging band below the data
+    from bayesnsi.nsi.identify import informed_modes
+    from bayesnsi.nsi.physics import Mode
+    from bayesnsi.signals import Signals
+
+    fs = 2000.0
+    noise = AccelerationNoise(acceleration_std=(0.01,), fs=fs, band_hz=(8.0, 450.0))  # taper 0.5: nothing below 4 Hz
+    rng = np.random.default_rng(0)
+    signals = Signals(force=rng.standard_normal((512, 1)), displacement=rng.standard_normal((512, 1)), fs=fs,
+                      input_dofs=(1,), output_dofs=(1,), measured="acceleration", acceleration_noise=noise)
+    low, first, second = Mode(1.62, 0.99, -10 + 1.4j), Mode(30.0, 0.01, -1.9 + 188j), Mode(120.0, 0.015, -11 + 754j)
+    assert informed_modes([low, first, second], signals) == ([first, second], [low])
+    assert informed_modes([low], signals) == ([low], [])  # nothing would remain: all kept
+    plain = replace(signals, measured="displacement", acceleration_noise=None)
+    assert informed_modes([low, first], plain) == ([low, first], [])

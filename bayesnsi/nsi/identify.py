@@ -227,6 +227,7 @@ def identify(
             "check the order (singular values) and the sampling rate"
         )
     modes, spurious, rigid = band_modes, model.poles[:0], np.zeros(0, dtype=complex)
+    below: list = []
     if stiffness:  # the physical poles are those of the free model (spring removed)
         free = free_model(model, stiffness, signals.input_dofs, signals.output_dofs)
         rigid = rigid_body_poles(free.poles_discrete, signals.dt, len(u),
@@ -242,10 +243,20 @@ def identify(
         spurious = np.array([s for s in spurious if not np.any(np.isclose(s, rigid))], dtype=complex)
     else:
         _, spurious = split_poles(model.poles, signals.dt)
+        modes, below = informed_modes(band_modes, measured)
+        if below:  # integrated sensors: no motion below the integration band, so no mode can be read there
+            band_modes = modes
+            spurious = np.concatenate([spurious, [m.pole for m in below], [np.conj(m.pole) for m in below]])
+            warnings.warn(
+                f"candidate {cand.name!r}: {len(below)} mode(s) at {', '.join(f'{m.frequency_hz:.3g}' for m in below)} "
+                "Hz below the band the sensors were integrated in (the data hold no motion there) set aside as "
+                "non-physical; see NSIResult.spurious_poles", SpuriousPoleWarning, stacklevel=2,
+            )
     if len(spurious):
         warnings.warn(
             f"candidate {cand.name!r}: {len(spurious)} of {order} poles discarded as non-physical "
-            "(real or with damping outside (0, 1)); see NSIResult.spurious_poles",
+            f"(real{', below the integration band' if below else ''} or with damping outside (0, 1)); see "
+            "NSIResult.spurious_poles",
             SpuriousPoleWarning,
             stacklevel=2,
         )
@@ -283,6 +294,35 @@ def identify(
         settings=settings,
         rigid_body_poles=rigid,
     )
+
+
+def informed_modes(modes, signals) -> tuple[list, list]:
+    """The modes the data can inform, and those below the band integrated sensors were integrated in.
+
+    A record integrated from accelerometers or velocity sensors in time holds no motion below the
+    integration window's lower edge ``f_lo (1 - taper)`` (:attr:`Signals.acceleration_noise`); a "mode"
+    the subspace step places there (a trial's swept beam: 1.6 Hz with ζ = 0.99, integration from 8 Hz)
+    fits nothing the structure did, and it set the default averaging band of λ below the data.
+
+    Parameters
+    ----------
+    modes : list of Mode
+    signals : Signals
+        The measured signals (with their integration recipe when integrated in time).
+
+    Returns
+    -------
+    kept, below : list of Mode
+        All modes are kept when none would remain.
+    """
+    from .._integrated_noise import acceleration_noise_of
+
+    noise = acceleration_noise_of(signals)
+    if noise is None:
+        return list(modes), []
+    floor = float(noise.band_hz[0]) * (1.0 - float(noise.taper) if noise.method == "frequency" else 0.5)
+    kept = [m for m in modes if m.frequency_hz >= floor]
+    return (kept, [m for m in modes if m.frequency_hz < floor]) if kept else (list(modes), [])
 
 
 def _free_body_failure(eigenvalues, dt: float, n_samples: int, colocated: bool = False) -> bool:

@@ -106,13 +106,18 @@ class Selection:
         check (the data leave its size open, which the warnings say; a model lacking modes widens the
         true term's interval past zero). None when no candidate passes or nothing was checked.
         """
-        column = f"p_{self.likelihood}"
+        column = f"log_evidence_{self.likelihood}"
         if self.table is None or column not in self.table or not self.checks:
             return None
         sound = [name for name, c in self.checks.items()
                  if c.quality_ok and not c.energy_input and name in self.table.index
-                 and self.outcome(name).evidences is not None]
-        return max(sound, key=lambda name: float(self.table.loc[name, column])) if sound else None
+                 and self.outcome(name).evidences is not None and np.isfinite(self.table.loc[name, column])]
+
+        def log_posterior(name):  # not the probability, which is 0 for every candidate far behind the first
+            prior = float(self.table.loc[name, "prior"]) if "prior" in self.table else 1.0
+            return float(self.table.loc[name, column]) + np.log(max(prior, np.finfo(float).tiny))
+
+        return max(sound, key=log_posterior) if sound else None
 
     @property
     def selected_gaussian(self) -> str | None:

@@ -308,6 +308,8 @@ def normalized_unit(unit: str) -> str:
     text = re.sub(r"(?<=[a-zµμ])s\^-2$", "/s^2", text)
     text = re.sub(r"(?<=[a-zµμ])s\^-1$", "/s", text)
     return re.sub(r"/s2$", "/s^2", text)
+
+
 _KEY_OF_ROLE = {"displacement": "outputs", "velocity": "velocities", "acceleration": "accelerations"}
 
 

@@ -25,7 +25,7 @@ from .run.free_view import one_view
 from .run.velocity_noise import velocity_noise_messages
 from .validation import SegmentError, Whiteness, open_loop_error, residual_whiteness, validate, whiteness_applies
 
-__all__ = ["Selection", "select"]
+__all__ = ["Selection", "order_messages", "select"]
 
 
 @dataclass(frozen=True)
@@ -237,7 +237,7 @@ def select(
     fits = model_checks(outcomes, signals, checks, **limits)
     outcomes, fits = widen_inadequate(outcomes, fits, signals)  # their intervals carry the model error too
     selection = Selection(outcomes, table, nsi or NSIOptions(), evidence, checks, adequacy, fits)
-    messages = adequacy_warnings(fits, selection.selected, **limits) + _order_messages(outcomes)
+    messages = adequacy_warnings(fits, selection.selected, **limits) + order_messages(outcomes)
     messages += view_notes + tuple(velocity_noise_messages(signals, candidates, (nsi or NSIOptions()).velocity_method))
     for message in messages:
         warnings.warn(message, AdequacyWarning, stacklevel=2)
@@ -245,7 +245,7 @@ def select(
     return replace(selection, warnings=messages, open_loop=open_loop)
 
 
-def _order_messages(outcomes) -> tuple[str, ...]:
+def order_messages(outcomes) -> tuple[str, ...]:
     """A message per candidate whose ``order = "auto"`` may have missed modes (``nsi.order.order_note``)."""
     from .nsi.order import ORDER_NOTE_START
 

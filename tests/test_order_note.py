@@ -45,3 +45,20 @@ def test_the_two_dof_case_chooses_its_order_without_a_word():
         warnings.simplefilter("error", OrderWarning)
         result = identify(case.signals, case.candidates[0], case.recommended.replace(order="auto"))
     assert result.order == 4 and isinstance(case.recommended, NSIOptions)
+
+
+def test_identify_prints_the_order_note_as_select_does(tmp_path, capsys, monkeypatch):
+    # identify recorded the note in results.json only; it now prints it as select does, a line per candidate
+    from bayesnsi.cli import main
+    from bayesnsi.nsi import order as order_module
+
+    monkeypatch.setattr(order_module, "order_note", lambda s, order, max_order, even=True: (
+        f'{order_module.ORDER_NOTE_START} {order}, at the largest gap of the singular values, but ...'))
+    csv = tmp_path / "d.csv"
+    assert main(["simulate", "two-dof", "--seed", "1", "--out", str(csv), "--quiet"]) == 0
+    config = csv.with_suffix(".toml")
+    config.write_text(config.read_text().replace("order = 4", 'order = "auto"'))
+    capsys.readouterr()
+    assert main(["identify", str(config), "--out", str(tmp_path / "id"), "--quiet", "--no-figures"]) == 0
+    err = capsys.readouterr().err
+    assert "warning: 'model 1': order \"auto\" took 4" in err and "'model 3': order" in err

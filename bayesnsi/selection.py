@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from .exceptions import AdequacyWarning, BayesNSIError
+from .nsi.order import order_messages
 from .options import EvidenceOptions, ExecutionOptions, NSIOptions
 from .run.adequacy import ModelCheck, adequacy_warnings, model_checks, widen_inadequate
 from .run.batch import CandidateOutcome, run_candidates
@@ -25,7 +26,7 @@ from .run.free_view import one_view
 from .run.velocity_noise import velocity_noise_messages
 from .validation import SegmentError, Whiteness, open_loop_error, residual_whiteness, validate, whiteness_applies
 
-__all__ = ["Selection", "order_messages", "select"]
+__all__ = ["Selection", "select"]
 
 
 @dataclass(frozen=True)
@@ -244,10 +245,3 @@ def select(
     open_loop = {o.name: e for o in identified if (e := open_loop_error(o.result, signals)) is not None}
     return replace(selection, warnings=messages, open_loop=open_loop)
 
-
-def order_messages(outcomes) -> tuple[str, ...]:
-    """A message per candidate whose ``order = "auto"`` may have missed modes (``nsi.order.order_note``)."""
-    from .nsi.order import ORDER_NOTE_START
-
-    return tuple(f"{o.name!r}: {w}" for o in outcomes for w in dict.fromkeys(o.warnings or ())
-                 if str(w).startswith(ORDER_NOTE_START))

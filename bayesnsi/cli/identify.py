@@ -32,7 +32,7 @@ def run(args) -> int:
     with execution(args, out, config) as options:
         outcomes = run_candidates(signals, config.candidates, config.nsi, execution=options)
         outcomes, notes = one_view(signals, outcomes, config.nsi, None, options)  # free bodies: one view
-    from ..selection import order_messages
+    from ..nsi.order import order_messages
 
     for note in (*notes, *order_messages(outcomes)):  # order "auto" that may have missed modes, as select says
         print(f"warning: {note}", file=sys.stderr)

@@ -14,8 +14,8 @@ from .feedback import as_candidate, extended_input
 from .physics import split_poles
 
 __all__ = [
-    "auto_order", "check_block_rows", "oblique_decomposition", "order_note", "scaled_stack", "select_order",
-    "stabilization",
+    "auto_order", "check_block_rows", "oblique_decomposition", "order_messages", "order_note", "scaled_stack",
+    "select_order", "stabilization",
 ]
 
 
@@ -118,6 +118,23 @@ def order_note(singular_values: np.ndarray, order: int, max_order: int, even: bo
         "are nearly as large: the data may hold modes this model lacks; look at the stabilisation diagram and "
         "the data's FRF in the report, and set [nsi] order"
     )
+
+
+def order_messages(outcomes) -> tuple[str, ...]:
+    """The :func:`order_note` of each candidate that recorded one, named, for the command line.
+
+    Parameters
+    ----------
+    outcomes : sequence of CandidateOutcome
+        With ``name`` and ``warnings`` (the messages recorded while it was identified).
+
+    Returns
+    -------
+    tuple of str
+        ``"'<name>': <note>"``, a line per candidate and note.
+    """
+    return tuple(f"{o.name!r}: {w}" for o in outcomes for w in dict.fromkeys(getattr(o, "warnings", None) or ())
+                 if str(w).startswith(ORDER_NOTE_START))
 
 
 def check_block_rows(n_samples: int, block_rows: int, n_channels: int) -> None:

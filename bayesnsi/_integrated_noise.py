@@ -24,7 +24,7 @@ import numpy as np
 
 from ._resample import decimate as _decimate_signals
 from .exceptions import InputDataError
-from .preprocess import INTEGRATED_QUANTITIES, INTEGRATION_METHODS, integrate_acceleration, integrate_velocity
+from .preprocess import INTEGRATED_QUANTITIES, INTEGRATION_METHODS, integrate_measured
 
 __all__ = ["AccelerationNoise", "NOISE_SOURCES", "acceleration_noise_of", "edge_samples"]
 
@@ -164,9 +164,8 @@ class AccelerationNoise:
         velocity, displacement : ndarray, shape (ceil(n_samples / decimate), n_channels)
             Integrated as the loader integrated the data, then decimated.
         """
-        integrate = integrate_acceleration if self.measured == "acceleration" else integrate_velocity
-        v, x = integrate(acceleration, self.fs, self.band_hz, self.method, taper=self.taper,
-                         filter_order=self.filter_order, detrend_order=self.detrend_order)
+        v, x = integrate_measured(acceleration, self.measured, self.fs, self.band_hz, self.method, taper=self.taper,
+                                  filter_order=self.filter_order, detrend_order=self.detrend_order)
         q = int(self.decimate)
         if q > 1:
             v, x = _decimate_signals(v, q), _decimate_signals(x, q)

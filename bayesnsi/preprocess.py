@@ -32,6 +32,7 @@ __all__ = [
     "INTEGRATION_METHODS",
     "INTEGRATED_QUANTITIES",
     "integrate_acceleration",
+    "integrate_measured",
     "integrate_velocity",
     "band_filter",
     "band_window",
@@ -210,6 +211,28 @@ def integrate_velocity(
         For a bad band, method or shape, NaN/Inf values, or fewer than 8 samples.
     """
     return _integrate(vel, "velocity", 1, fs, band_hz, method, taper, pad_s, filter_order, detrend_order)
+
+
+def integrate_measured(signal, measured: str, fs: float, band_hz: tuple[float, float], method: str = "frequency",
+                       **options) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`integrate_acceleration` or :func:`integrate_velocity`, as ``measured`` names the sensors.
+
+    Parameters
+    ----------
+    signal : array_like, shape (n_samples,) or (n_samples, n_channels)
+    measured : {"acceleration", "velocity"}
+        What the sensors measured (:data:`INTEGRATED_QUANTITIES`).
+    fs, band_hz, method, **options
+        As in :func:`integrate_acceleration`.
+
+    Returns
+    -------
+    velocity, displacement : ndarray
+    """
+    if measured not in INTEGRATED_QUANTITIES:
+        raise InputDataError(f"measured must be one of {INTEGRATED_QUANTITIES}, got {measured!r}")
+    integrate = integrate_acceleration if measured == "acceleration" else integrate_velocity
+    return integrate(signal, fs, band_hz, method, **options)
 
 
 def _integrate(signal, name: str, times: int, fs, band_hz, method, taper, pad_s, filter_order, detrend_order):

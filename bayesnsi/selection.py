@@ -244,4 +244,3 @@ def select(
         warnings.warn(message, AdequacyWarning, stacklevel=2)
     open_loop = {o.name: e for o in identified if (e := open_loop_error(o.result, signals)) is not None}
     return replace(selection, warnings=messages, open_loop=open_loop)
-

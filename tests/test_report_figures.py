@@ -266,12 +266,10 @@ def test_overlays_show_the_channels_where_the_terms_act():
     from bayesnsi.models import Term
 
     signals = SimpleNamespace(output_dofs=(1, 3, 4, 6, 8, 9, 11, 12))
-    clearance = SimpleNamespace(terms=(Term("x9**3", 9),))
-    pair = SimpleNamespace(candidate=SimpleNamespace(terms=(Term("(x3-x4)**3", [3, 4]),)))
-    linear = SimpleNamespace(terms=())
-    assert overlay_channels(signals, [linear, clearance]) == [0, 5]
+    clearance, pair = Term("x9**3", 9), Term("(x3-x4)**3", [3, 4])
+    assert overlay_channels(signals, [clearance]) == [0, 5]
     assert overlay_channels(signals, [pair, clearance]) == [0, 1, 2]  # at most three
-    assert overlay_channels(signals, [linear]) == [0, 1]  # linear models only: the first two, as before
+    assert overlay_channels(signals, []) == [0, 1]  # linear models only: the first two, as before
 
 
 def test_coefficient_rows_carry_the_unit_of_lambda():

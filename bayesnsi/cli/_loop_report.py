@@ -2,11 +2,8 @@
 
 from __future__ import annotations
 
-from types import SimpleNamespace
-
 from ._loop_unexamined import unexamined_note
 from ._report import ANSWER, LOOP
-from ._report_choices import overlay_channels
 
 __all__ = ["loop_sections", "loop_summary", "nothing_added_note", "step_number", "tried_with"]
 
@@ -291,9 +288,9 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
         from ..plots import plot_reconstruction
 
         recs = {f"start: {start_name}": loop.start.reconstruct(signals), "final model": loop.final.reconstruct(signals)}
-        at_added = overlay_channels(signals, [SimpleNamespace(terms=[s.term for s in added])], limit=2)[-1]
-        name = signals.output_names[at_added] if getattr(signals, "output_names", None) else \
-            f"x{signals.output_dofs[at_added]}"
+        outputs = list(signals.output_dofs)
+        at_added = outputs.index(added[0].term.at[0]) if added[0].term.at[0] in outputs else 0
+        name = signals.output_names[at_added] if getattr(signals, "output_names", None) else f"x{outputs[at_added]}"
         fig = plot_reconstruction(recs, signals.fs, at_added, units=units, channel_name=name)
         fig.set_label(f"Measured {name} (where the loop added its effect) against the starting and the final model "
                       "(open loop), with the errors")

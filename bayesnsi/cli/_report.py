@@ -224,8 +224,7 @@ def _settings_sections(report, config, signals, records, units) -> None:
         + f"config {config.path.name}; seed {config.seed}."
     )
     intro.append(("pre", "[nsi]\n" + "\n".join(f"{k} = {v!r}" for k, v in vars(config.nsi).items())))
-    if config.evidence is not None:
-        intro.append(("pre", "[evidence]\n" + "\n".join(f"{k} = {v!r}" for k, v in vars(config.evidence).items())))
+    intro.append(("pre", "[evidence]\n" + "\n".join(f"{k} = {v!r}" for k, v in vars(config.evidence).items())))
     failed = [r for r in records if r.get("status") == "failed"]
     if failed:
         intro.append(("warning", "Failed candidates: " + "; ".join(f"{r['name']}: {r['error']}" for r in failed)))
@@ -383,7 +382,8 @@ def _reconstruction_figures(report, signals, results, units) -> None:
     figs = report.section("Figures", FIGURES)
     recs = {name: res.reconstruct(signals) for name, res in results.items()}
     names = list(signals.output_names) if getattr(signals, "output_names", None) else None
-    for channel in overlay_channels(signals, results.values()):  # a few outputs: the report stays quick
+    terms = [t for res in results.values() for t in res.terms]
+    for channel in overlay_channels(signals, terms):  # a few outputs: the report stays quick
         label = names[channel] if names else f"x{signals.output_dofs[channel]}"
         fig = plot_reconstruction(
             recs, signals.fs, channel, units=units, channel_name=label, max_samples=_RECONSTRUCTION_SAMPLES

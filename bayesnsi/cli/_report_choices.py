@@ -60,16 +60,16 @@ def frf_band(signals, results):
     return fmax, measured, bool(modes) and fmax > 8 * min(modes)
 
 
-def overlay_channels(signals, models, limit: int = 3) -> list[int]:
-    """Output channels of the measured-vs-model overlays: the first, then where the models' terms act.
+def overlay_channels(signals, terms, limit: int = 3) -> list[int]:
+    """Output channels of the measured-vs-model overlays: the first, then where the terms act.
 
     A trial of a 12-DOF chain showed x1 and x3 only, not x9 where the clearance was.
 
     Parameters
     ----------
     signals : Signals
-    models : iterable of NSIResult or CandidateModel
-        Anything with ``terms`` (or ``candidate.terms``).
+    terms : iterable of Term
+        The nonlinear terms of the models shown.
     limit : int
         At most this many channels.
 
@@ -80,11 +80,10 @@ def overlay_channels(signals, models, limit: int = 3) -> list[int]:
     """
     outputs = list(signals.output_dofs)
     chosen = [0]
-    for model in models:
-        for term in getattr(model, "terms", None) or getattr(getattr(model, "candidate", None), "terms", ()):
-            for dof in term.at:
-                if dof in outputs and outputs.index(dof) not in chosen:
-                    chosen.append(outputs.index(dof))
+    for term in terms:
+        for dof in term.at:
+            if dof in outputs and outputs.index(dof) not in chosen:
+                chosen.append(outputs.index(dof))
     if len(chosen) == 1 and len(outputs) > 1:  # linear models only: the first two outputs, as before
         chosen.append(1)
     return chosen[:limit]

@@ -53,7 +53,7 @@ def run(args) -> int:
     if not results:
         raise ConfigError("no candidate could be identified, so there is no model to start the loop from")
     # by default the loop starts from the selected model, or, when that fails a physical check (negative
-    # dissipation, quality index, a term whose interval holds zero), from the most probable one that passes
+    # dissipation, quality index: Selection.plausible), from the most probable one that passes
     start = args.start or selection.plausible or selection.selected or next(iter(results))
     if start not in results:
         error = next((o.error for o in selection.outcomes if o.name == start), None)

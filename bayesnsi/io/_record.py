@@ -210,10 +210,8 @@ class Record:
                 for message in below_band_messages(force, self.response[start:stop], self.fs, spec.band_hz,
                                                    self.response_columns, self.data.integrated):
                     warnings.warn(f"{self.path.name}: {message}", IntegrationWarning, stacklevel=2)
-                integrate = (preprocess.integrate_acceleration if self.data.integrated == "acceleration"
-                             else preprocess.integrate_velocity)
-                velocity, displacement = integrate(
-                    self.response[start:stop], self.fs, spec.band_hz, spec.method,
+                velocity, displacement = preprocess.integrate_measured(
+                    self.response[start:stop], self.data.integrated, self.fs, spec.band_hz, spec.method,
                     detrend_order=spec.detrend_order, taper=spec.taper, filter_order=spec.filter_order,
                 )
                 if spec.filter_inputs:

@@ -418,8 +418,10 @@ def periodic_integration(acceleration, fs: float, period: int, band_hz,
     keep = (freqs >= band_hz[0]) & (freqs <= band_hz[1]) & (freqs > 0) & (freqs < fs / 2)
     if not keep.any():
         raise InputDataError(f"band {tuple(band_hz)} Hz holds no DFT line of the record; widen the band")
-    if measured not in ("acceleration", "velocity"):
-        raise InputDataError(f"measured must be 'acceleration' or 'velocity', got {measured!r}")
+    from ..preprocess import INTEGRATED_QUANTITIES
+
+    if measured not in INTEGRATED_QUANTITIES:
+        raise InputDataError(f"measured must be one of {INTEGRATED_QUANTITIES}, got {measured!r}")
     times = 2 if measured == "acceleration" else 1
     jw = np.where(keep, 2j * np.pi * freqs, 1.0)[:, None]
     velocity = np.fft.irfft(np.where(keep[:, None], spectrum / jw ** (times - 1), 0.0), len(a), axis=0)

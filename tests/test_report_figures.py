@@ -281,3 +281,16 @@ def test_coefficient_rows_carry_the_unit_of_lambda():
     assert _with_unit("x3**3@3", units) == "x3**3@3 [N/m^3]"
     assert _with_unit("v1*abs(v1)@1", units) == "v1*abs(v1)@1 [N/(m/s)^2]"
     assert _with_unit("x1**3@1", ChannelUnits()) == "x1**3@1"  # the data state no units: no label
+
+
+def test_the_loop_overlay_shows_where_the_added_effect_acts():
+    # the overlay took the second output when the effect sat at the first (review of the overlay change)
+    from types import SimpleNamespace
+
+    from bayesnsi.cli._loop_report import added_channel
+    from bayesnsi.models import Term
+
+    signals = SimpleNamespace(output_dofs=(1, 3, 9))
+    assert added_channel(signals, [SimpleNamespace(term=Term("x1**3", 1))]) == 0
+    assert added_channel(signals, [SimpleNamespace(term=Term("sign(v9)", 9))]) == 2
+    assert added_channel(signals, [SimpleNamespace(term=Term("(x3-x9)**3", [3, 9]))]) == 1

@@ -165,6 +165,12 @@ def _validation_what(payload) -> str:
     return "force-prediction (free body)" if quantities == {"force"} else "closed-loop validation"
 
 
+def added_channel(signals, added) -> int:
+    """Output channel of the loop's overlay: where its first added effect acts (the first output otherwise)."""
+    outputs, dof = list(signals.output_dofs), added[0].term.at[0]
+    return outputs.index(dof) if dof in outputs else 0
+
+
 def _at(effect) -> str:
     """``"at DOF 3"`` or ``"between DOFs 2 and 3"`` (:func:`_where` reads well alone, this after a name)."""
     where = _where(effect)
@@ -288,9 +294,9 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
         from ..plots import plot_reconstruction
 
         recs = {f"start: {start_name}": loop.start.reconstruct(signals), "final model": loop.final.reconstruct(signals)}
-        outputs = list(signals.output_dofs)
-        at_added = outputs.index(added[0].term.at[0]) if added[0].term.at[0] in outputs else 0
-        name = signals.output_names[at_added] if getattr(signals, "output_names", None) else f"x{outputs[at_added]}"
+        at_added = added_channel(signals, added)
+        name = (signals.output_names[at_added] if getattr(signals, "output_names", None)
+                else f"x{signals.output_dofs[at_added]}")
         fig = plot_reconstruction(recs, signals.fs, at_added, units=units, channel_name=name)
         fig.set_label(f"Measured {name} (where the loop added its effect) against the starting and the final model "
                       "(open loop), with the errors")

@@ -235,7 +235,7 @@ def select(
         except (BayesNSIError, np.linalg.LinAlgError):
             continue  # the outcome already says why this candidate has no evidence
     limits = {"max_noise_ratio": evidence.max_noise_ratio, "max_imag_ratio": evidence.max_imag_ratio}
-    fits = model_checks(outcomes, signals, checks, **limits)
+    fits = model_checks(outcomes, signals, checks, **limits, seed=evidence.seed)
     outcomes, fits = widen_inadequate(outcomes, fits, signals)  # their intervals carry the model error too
     selection = Selection(outcomes, table, nsi or NSIOptions(), evidence, checks, adequacy, fits)
     messages = adequacy_warnings(fits, selection.selected, **limits) + order_messages(outcomes)

@@ -51,13 +51,16 @@ def test_select_writes_spec9_results_and_report(two_dof_config, tmp_path):
     # every table and figure: answer, ranking, adequacy, model check, modes, coefficients, NRMSE, one arviz
     # summary per candidate, the intervals of coefficients and of modes (issue 15); Bayes factors, FRF, λ(ω)
     # per nonlinear candidate, singular values per candidate, stabilisation, a measured-vs-model overlay per
-    # output, and per candidate a pair plot + trace
+    # output, per candidate a pair plot + trace, and the selected model's residual band by band
     n_cand = len(results["candidates"])
     assert html.count("<table") == 7 + n_cand + 2
     assert "residual / noise, worst channel" in html  # the model check table
     assert html.count("class='scroll'") == html.count("<table")  # wide tables scroll, the page does not widen
     assert "Ljung-Box" in html and all(c["adequacy"]["p_value"] for c in results["candidates"])
-    assert html.count("<img") == 1 + 1 + n_cand + n_cand + 1 + 2 + 2 * n_cand
+    assert html.count("<img") == 1 + 1 + n_cand + n_cand + 1 + 2 + 2 * n_cand + 1
+    assert "over the noise it passes on, per frequency band" in html
+    check = results["candidates"][0]["model_check"]  # the truth: near 1 in every band (measured 1.10)
+    assert check["band_ratio"] < 1.5 and len(check["band_ratios"]) == len(check["band_edges_hz"]) - 1
     assert "units from the data file: force in N, displacement in m" in html  # simulate writes a units row
     assert html.index("numpy") > html.index("Coefficient posteriors") and "data:image/png;base64," in html
     # the posterior draws of every candidate, as netCDF that arviz reads

@@ -39,7 +39,7 @@ from .._integrated_noise import acceleration_noise_of
 from ..exceptions import BayesNSIError, SpuriousPoleWarning
 from ._period_noise import period_noise
 
-__all__ = ["noise_replicates", "reidentify", "replicate_moments", "match_modes", "velocity_noise_std",
+__all__ = ["noise_replicates", "noise_draws", "reidentify", "replicate_moments", "match_modes", "velocity_noise_std",
            "discontinuity_notes"]
 
 _MODE_MATCH = 0.1  # a replicate mode farther than 10 % in frequency from every full-record mode is not matched
@@ -105,13 +105,49 @@ def noise_replicates(result, signals, options=None, n_replicates: int = 16, seed
     failures : list of str
         One message per copy that failed.
     """
-    from ..nsi import white_noise_std
     from ..options import NSIOptions
 
     if int(n_replicates) < 2:
         raise ValueError(f"n_replicates must be at least 2, got {n_replicates!r}")
     options = (options or NSIOptions()).replace(order=result.order, band_hz=tuple(result.band_hz))
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 15]))
+    y = np.asarray(signals.displacement, dtype=float)
+    v = None if signals.velocity is None else np.asarray(signals.velocity, dtype=float)
+    y_std, draw = noise_draws(result, signals, rng)
+
+    def copies():
+        for k in range(int(n_replicates)):
+            e_y, e_v = draw()
+            noisy = {"displacement": y + e_y}
+            if v is not None:
+                noisy["velocity"] = v + e_v
+            yield f"noise replicate {k}", replace(signals, **noisy)
+
+    return (y_std, *reidentify(result, copies(), options))
+
+
+def noise_draws(result, signals, rng: np.random.Generator):
+    """The sensor noise of a record, and a source of fresh draws of it (:func:`noise_replicates`).
+
+    Parameters
+    ----------
+    result : NSIResult
+        An identification on ``signals`` (its lowest mode bounds the velocity-noise estimate).
+    signals : Signals
+        The record.
+    rng : numpy.random.Generator
+        Source of the draws.
+
+    Returns
+    -------
+    noise_std : ndarray, shape (n_outputs,)
+        Noise std of each displacement channel (as :func:`noise_replicates` returns it).
+    draw : callable
+        ``draw() -> (e_displacement, e_velocity)``, one draw shaped as the record's displacement and
+        velocity (``e_velocity`` None without measured velocities).
+    """
+    from ..nsi import white_noise_std
+
     y = np.asarray(signals.displacement, dtype=float)
     v = None if signals.velocity is None else np.asarray(signals.velocity, dtype=float)
     n_y = y.shape[1]
@@ -138,16 +174,7 @@ def noise_replicates(result, signals, options=None, n_replicates: int = 16, seed
         def draw():
             e_y = rng.standard_normal(y.shape) * y_std
             return e_y, None if v is None else rng.standard_normal(v.shape) * v_std
-
-    def copies():
-        for k in range(int(n_replicates)):
-            e_y, e_v = draw()
-            noisy = {"displacement": y + e_y}
-            if v is not None:
-                noisy["velocity"] = v + e_v
-            yield f"noise replicate {k}", replace(signals, **noisy)
-
-    return (y_std, *reidentify(result, copies(), options))
+    return y_std, draw
 
 
 def reidentify(result, labelled_signals, options):

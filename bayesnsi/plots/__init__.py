@@ -5,7 +5,7 @@ Axes carry units: pass ``units`` (:func:`bayesnsi.io.units.data_units` of a conf
 """
 
 from .nsi import plot_coefficient_spectrum, plot_frf, plot_singular_values, plot_stabilization
-from .report import plot_bayes_factors, plot_reconstruction
+from .report import plot_band_ratios, plot_bayes_factors, plot_reconstruction
 from .selection import (
     plot_effect_force,
     plot_model_probabilities,
@@ -21,6 +21,7 @@ __all__ = [
     "plot_coefficient_spectrum",
     "plot_model_probabilities",
     "plot_bayes_factors",
+    "plot_band_ratios",
     "plot_reconstruction",
     "plot_reconstruction_errors",
     "plot_posterior_pairs",

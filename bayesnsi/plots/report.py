@@ -11,7 +11,7 @@ import numpy as np
 
 from ..io.units import ChannelUnits
 
-__all__ = ["plot_bayes_factors", "plot_reconstruction"]
+__all__ = ["plot_band_ratios", "plot_bayes_factors", "plot_reconstruction"]
 
 
 def plot_bayes_factors(decision, selected: str, ax=None):
@@ -113,4 +113,45 @@ def plot_reconstruction(reconstructions, fs: float, channel: int = 0, units=None
     top.legend(fontsize=7, ncols=min(4, n + 1), loc="upper right")
     top.set_title("Measured and reconstructed (open loop)", fontsize=10)
     axes[-1, 0].set_xlabel("time [s]")
+    return fig
+
+
+def plot_band_ratios(check, channel_names, limit: float, ax=None):
+    """A model's residual over the noise it passes on, band by band and channel by channel.
+
+    Parameters
+    ----------
+    check : ModelCheck
+        :func:`bayesnsi.run.model_checks` of the model (``band_edges_hz``, ``band_ratios``).
+    channel_names : sequence of str
+        Name of each output channel.
+    limit : float
+        The ratio above which the model misses something in a band
+        (:data:`bayesnsi.run.residual_bands.MAX_BAND_RATIO`), drawn as a dashed line.
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw on; a new figure when None.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One step line per channel on log-log axes; 1 is the level of a model that explains the data.
+    """
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(7.5, 3.4), layout="constrained")
+    else:
+        fig = ax.figure
+    edges = np.asarray(check.band_edges_hz, dtype=float)
+    ratios = np.asarray(check.band_ratios, dtype=float).reshape(len(edges) - 1, -1)
+    for k in range(ratios.shape[1]):
+        name = channel_names[k] if k < len(channel_names) else f"output {k + 1}"
+        ax.stairs(ratios[:, k], edges, label=name, linewidth=1.4)
+    ax.axhline(1.0, color="0.5", linewidth=0.8)
+    ax.axhline(limit, color="C3", linestyle="--", linewidth=1.0, label=f"{limit:g}x: something missing")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_ylim(min(0.5, float(np.nanmin(ratios)) * 0.8), max(2 * limit, float(np.nanmax(ratios)) * 1.3))
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel("residual / noise passed on")
+    ax.set_title(f"Where in frequency {check.name} misses the data", fontsize=10)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     return fig

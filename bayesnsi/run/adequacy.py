@@ -31,6 +31,8 @@ import numpy as np
 
 from .._integrated_noise import acceleration_noise_of
 from ..exceptions import BayesNSIError
+from .residual_bands import band_warning, propagated_noise, residual_bands
+from .sensor_noise import SENSORS, integrated_in_time, sensor_noise_std, spectral_lines
 
 __all__ = [
     "ModelCheck", "model_checks", "adequacy_warnings", "sensor_noise_std", "widen_inadequate", "VALIDATION_TOLERANCE",
@@ -94,6 +96,12 @@ class ModelCheck:
         over the two edges (:meth:`~bayesnsi._integrated_noise.AccelerationNoise.interior`) over that
         of the interior, largest channel; None otherwise. Well above 1 it is the integration's edge error,
         which enters the identification and that no replicate carries (``trim_edges``).
+    band_ratio, band_hz, band_dof : float, (float, float), int; or None
+        The largest ratio of the residual to the noise the model passes on over frequency bands and output
+        channels, its band [Hz] and the DOF of its output (:func:`bayesnsi.run.residual_bands.residual_bands`);
+        None for a force residual or a record too short for one band.
+    band_edges_hz, band_ratios : tuple of float, tuple of tuple of float
+        All bands: their edges [Hz] and, per band, the ratio of each output channel (empty as above).
     """
 
     name: str
@@ -113,6 +121,11 @@ class ModelCheck:
     noise_source: str = "differences"
     acceleration_noise_std: tuple[float, ...] = ()
     edge_ratio: float | None = None
+    band_ratio: float | None = None
+    band_hz: tuple[float, float] | None = None
+    band_dof: int | None = None
+    band_edges_hz: tuple[float, ...] = ()
+    band_ratios: tuple[tuple[float, ...], ...] = ()
 
     def to_dict(self) -> dict:
         """JSON-ready record.
@@ -130,6 +143,9 @@ class ModelCheck:
             "negative_dissipation": [{"term": name, "coefficient": value} for name, value in self.energy_input],
             "interval_widening": self.widening, "noise_source": self.noise_source,
             "acceleration_noise_std": list(self.acceleration_noise_std), "edge_ratio": self.edge_ratio,
+            "band_ratio": self.band_ratio, "band_hz": None if self.band_hz is None else list(self.band_hz),
+            "band_dof": self.band_dof, "band_edges_hz": list(self.band_edges_hz),
+            "band_ratios": [list(row) for row in self.band_ratios],
         }
 
 
@@ -146,7 +162,7 @@ def _log_predictive(segments, sigma: np.ndarray) -> float | None:
 
 def model_checks(
     outcomes: Sequence, signals, validation: Mapping | None = None, *, max_noise_ratio: float = 1.3,
-    max_imag_ratio: float = 0.3,
+    max_imag_ratio: float = 0.3, seed: int = 0,
 ) -> dict[str, ModelCheck]:
     """Adequacy figures of every identified candidate (module notes).
 
@@ -162,6 +178,8 @@ def model_checks(
         Largest residual-to-noise ratio of an adequate model.
     max_imag_ratio : float
         Largest quality index |Im λ|/|Re λ| accepted.
+    seed : int
+        Seed of the noise draws of the band-by-band check (:func:`bayesnsi.run.residual_bands.propagated_noise`).
 
     Returns
     -------
@@ -171,17 +189,18 @@ def model_checks(
 
     validation = validation or {}
     noise = sensor_noise_std(signals)
-    accelerometers = acceleration_noise_of(signals) if _integrated_in_time(signals) else None
+    accelerometers = acceleration_noise_of(signals) if integrated_in_time(signals) else None
     period = getattr(signals, "period", None)
     source = ("period scatter" if period and signals.n_samples // int(period) >= 2 else "differences"
-              if accelerometers is None else f"{_SENSORS[accelerometers.measured]} ({accelerometers.source})")
+              if accelerometers is None else f"{SENSORS[accelerometers.measured]} ({accelerometers.source})")
     noise = np.where(noise > 0, noise, np.finfo(float).tiny)
+    lines = spectral_lines(signals)
     checks = {}
     for outcome in outcomes:
         result = outcome.result
         if result is None:
             continue
-        quantity, level, edges = "displacement", noise, None
+        quantity, level, edges, band = "displacement", noise, None, None
         try:
             if is_free_body(result):
                 # a free body's displacement residual is the drift of its rigid-body mode: judge the
@@ -191,6 +210,10 @@ def model_checks(
                 level = np.array([max(force_noise_std(signals, fp.cutoff_hz), np.finfo(float).tiny)])
             else:
                 residual = np.asarray(result.reconstruct(signals).residual, dtype=float)
+                frequency_route = getattr(result, "settings", {}).get("domain") == "frequency"
+                fitted = lines.within(result.band_hz) if frequency_route else lines
+                if not getattr(result, "virtual_stiffness", 0.0):  # a stabilised free body rings at its virtual mode
+                    band = residual_bands(residual, propagated_noise(result, signals, residual, seed=seed), fitted)
                 if accelerometers is not None:  # integrated: the edges hold the integration's error, not the model's
                     edges = accelerometers.edge_ratio(residual)
                     residual = residual[accelerometers.interior(len(residual))]
@@ -214,8 +237,17 @@ def model_checks(
             acceleration_noise_std=() if accelerometers is None else accelerometers.acceleration_std,
             edge_ratio=edges,
             energy_input=_energy_input(result),
+            **({} if band is None else _worst_band(band, signals.output_dofs)),
         )
     return checks
+
+
+def _worst_band(bands, output_dofs) -> dict:
+    """``ModelCheck`` fields of the worst band of ``bands``."""
+    ratio, edges, channel = bands.worst()
+    return {"band_ratio": ratio, "band_hz": edges, "band_dof": int(output_dofs[channel]),
+            "band_edges_hz": tuple(float(e) for e in bands.edges_hz),
+            "band_ratios": tuple(tuple(float(r) for r in row) for row in bands.ratios)}
 
 
 def widen_inadequate(
@@ -258,7 +290,7 @@ def widen_inadequate(
 
     integrated = getattr(signals, "measured", "displacement") != "displacement"
     period = getattr(signals, "period", None)
-    if integrated and not (period and signals.n_samples // int(period) >= 2) and not _integrated_in_time(signals):
+    if integrated and not (period and signals.n_samples // int(period) >= 2) and not integrated_in_time(signals):
         return tuple(outcomes), dict(checks)
     widened, new_checks = [], dict(checks)
     for outcome in outcomes:
@@ -286,43 +318,6 @@ def _interval_clause(check: ModelCheck, subject: str) -> str:
     if check.widening <= 1.0:
         return f"; {subject} carry the sensor noise only, not its model error"
     return f"; {subject} are widened {check.noise_ratio:.2f}x for its model error"
-
-
-def sensor_noise_std(signals) -> np.ndarray:
-    """Noise std of each measured output (module notes): period-to-period scatter, else high-order differences.
-
-    Parameters
-    ----------
-    signals : Signals
-        With ``displacement`` (n_samples, l) and ``period`` (None for a non-periodic record).
-
-    Returns
-    -------
-    ndarray, shape (l,)
-        ``sqrt(Σ_p Σ_t (x_{p,t} - x̄_t)² / (P (n_p - 1)))`` over the ``n_p >= 2`` whole periods of
-        ``P`` samples (the first whole periods; a trailing part period is left out); for
-        accelerations integrated in time (``signals.acceleration_noise``) the std of their white
-        noise integrated by the same recipe (:meth:`bayesnsi._integrated_noise.AccelerationNoise.std`);
-        else :func:`bayesnsi.nsi.white_noise_std` of the record.
-    """
-    from ..nsi import white_noise_std
-    from ..nsi.steady import period_scatter_std
-
-    x = np.asarray(signals.displacement, dtype=float).reshape(len(signals.displacement), -1)
-    scatter = period_scatter_std(x, getattr(signals, "period", None), getattr(signals, "realisations", 1))
-    accelerometers = acceleration_noise_of(signals) if scatter is None and _integrated_in_time(signals) else None
-    if accelerometers is not None:  # the accelerometers' noise, integrated (edges left out)
-        return accelerometers.std(len(x), interior=True)[0]
-    return white_noise_std(x) if scatter is None else scatter
-
-
-_SENSORS = {"acceleration": "accelerometers", "velocity": "velocity sensors"}
-
-
-def _integrated_in_time(signals) -> bool:
-    """Accelerations integrated in time with their noise and recipe kept (no two whole periods to scatter)."""
-    period = getattr(signals, "period", None)
-    return acceleration_noise_of(signals) is not None and not (period and signals.n_samples // int(period) >= 2)
 
 
 def _unsupported(intervals) -> tuple[tuple[str, float, float], ...]:
@@ -423,6 +418,7 @@ def adequacy_warnings(
             "integration), which biases the estimates and the evidence and which the intervals do not carry; set "
             "[data] integrate = { ..., trim_edges = true } (docs/method.md §11)"
         )
+    out.extend(band_warning(chosen, selected))
     orders = sorted({c.order for c in checks.values()})
     if len(orders) > 1:
         detail = ", ".join(f"{n}: {c.order}" for n, c in checks.items())

@@ -55,7 +55,7 @@ class Selection:
         Empty for responses integrated from velocities or accelerations, whose noise the integration
         colours (:func:`bayesnsi.validation.whiteness_applies`; ``checks`` hold their adequacy).
     checks : mapping of str to ModelCheck
-        Residual against the sensor noise, quality index, validation error and log predictive
+        Residual against the noise the model passes on, quality index, validation error and log predictive
         density of each identified candidate (:func:`bayesnsi.run.adequacy.model_checks`).
     warnings : tuple of str
         What the selection should not be trusted for (:func:`bayesnsi.run.adequacy.adequacy_warnings`),

@@ -10,7 +10,9 @@ quantiles). It prints, as ``calibration_intervals.py`` does, per coefficient of
 the final model (truth 0 for a term the truth does not hold) and per modal parameter: bias,
 seed-to-seed sd, coverage of the 50 % / 95 % intervals and of the posterior-only 95 % interval,
 and the mean 95 % width over 2 x 1.96 x sd; seeds whose loop did not end on the true model are
-counted and left out of the coefficient rows.
+counted and left out of the coefficient rows. Then the coverage of the 95 % intervals as
+``bayesnsi diagnose`` reports them: widened by the final model's residual over the noise it passes
+on where that exceeds ``max_noise_ratio`` (:func:`bayesnsi.run.final_adequacy.widen_final`).
 
 ``--bit-generator`` simulates each seed's case with numpy's PCG64 (the default: ``seed`` as given
 to :func:`bayesnsi.simulate.undeclared_case`), Philox or MT19937 seeded with the seed; the force
@@ -60,6 +62,7 @@ def one_seed(case_name: str, seed: int, opts, bit_generator: str = "pcg64") -> d
     from bayesnsi.diagnose import close_the_loop, final_intervals
     from bayesnsi.exceptions import BayesNSIError
     from bayesnsi.options import LoopOptions
+    from bayesnsi.run.final_adequacy import widen_final
     from bayesnsi.simulate.undeclared import undeclared_case
 
     t0 = time.perf_counter()
@@ -77,17 +80,22 @@ def one_seed(case_name: str, seed: int, opts, bit_generator: str = "pcg64") -> d
     terms = tuple(loop.final.terms)
     out["true_model"] = set(terms) == set(truth)
     out["final"] = [t.name for t in terms]
+    # what `bayesnsi diagnose` reports: widened by the residual over the noise the model passes on when above
+    # max_noise_ratio (bayesnsi/run/final_adequacy.py)
+    shown, check = widen_final(loop.final, iv, case.signals)
     params = []
-    for k, (term, p) in enumerate(zip(terms, iv.coefficients)):
+    for k, (term, p, q) in enumerate(zip(terms, iv.coefficients, shown.coefficients)):
         params.append({**p.to_dict(), "truth": float(truth.get(term, 0.0)),
-                       "posterior_ci95": [float(v) for v in primary.ci95[k]]})
+                       "posterior_ci95": [float(v) for v in primary.ci95[k]], "diagnose_ci95": list(q.ci95)})
     exact_f, exact_z = case.reference.exact_frequencies_hz, case.reference.exact_damping_ratios
-    for kind, items, exact in (("f", iv.frequencies, exact_f), ("zeta", iv.damping_ratios, exact_z)):
-        for k, p in enumerate(items):
+    for kind, items, widened, exact in (("f", iv.frequencies, shown.frequencies, exact_f),
+                                        ("zeta", iv.damping_ratios, shown.damping_ratios, exact_z)):
+        for k, (p, q) in enumerate(zip(items, widened)):
             nearest = int(np.argmin(np.abs(exact_f - loop.final.modes[k].frequency_hz)))
             params.append({**p.to_dict(), "name": f"{kind}{nearest + 1}", "truth": float(exact[nearest]),
-                           "posterior_ci95": None})
-    out.update(method=iv.method, n_segments=iv.n_segments, params=params, seconds=time.perf_counter() - t0)
+                           "posterior_ci95": None, "diagnose_ci95": list(q.ci95)})
+    out.update(method=iv.method, n_segments=iv.n_segments, params=params, seconds=time.perf_counter() - t0,
+               noise_ratio=None if check is None else check.noise_ratio, widening=shown.widening)
     return out
 
 
@@ -125,9 +133,25 @@ def _print_tables(records: list[dict], cases) -> None:
         for r in wrong:
             print(f"    {name} seed {r['seed']}: loop ended on {r['final']} (not the truth), left out")
         print_case(name, [r for r in mine if r not in wrong])
+        _print_diagnose_coverage([r for r in mine if r not in wrong and "params" in r])
         times = [r["seconds"] for r in mine if "seconds" in r]
         if times:
             print(f"  loop + final intervals: median {np.median(times):.1f} s per seed")
+
+
+def _print_diagnose_coverage(records: list[dict]) -> None:
+    """Coverage of the 95 % intervals `bayesnsi diagnose` reports (widened where the final model is inadequate)."""
+    if not records or "diagnose_ci95" not in records[0]["params"][0]:
+        return
+    widened = [r for r in records if r.get("widening", 1.0) > 1.0]
+    ratios = [r["noise_ratio"] for r in records if r.get("noise_ratio") is not None]
+    print(f"  as diagnose reports them: widened on {len(widened)} of {len(records)} seeds (final model's residual "
+          f"over the noise it passes on: median {np.median(ratios):.2f}, max {np.max(ratios):.2f})")
+    names = [p["name"] for p in records[0]["params"]]
+    for k, name in enumerate(names):
+        rows = [r["params"][k] for r in records if len(r["params"]) > k and r["params"][k]["name"] == name]
+        hits = [low <= row["truth"] <= high for row in rows for low, high in [row["diagnose_ci95"]]]
+        print(f"  {name[:16]:<16} cov95 (diagnose) {100 * np.mean(hits):4.0f} % of {len(rows)}")
 
 
 if __name__ == "__main__":

@@ -263,4 +263,4 @@ def test_no_whiteness_test_on_integrated_accelerations_whose_noise_is_coloured(t
     assert selection.selected == TRUE.name and selection.adequacy == {}
     assert selection.checks[TRUE.name].adequate and not selection.checks[WRONG.name].adequate
     said = _adequacy_text(selection)
-    assert "not white" not in said and "x the sensor noise, from accelerometers (estimated)" in said
+    assert "not white" not in said and "x the noise it passes on; sensor noise from accelerometers (estimated)" in said

@@ -308,9 +308,10 @@ def selection_sections(report, signals, selection, selected, units=None, role: s
         )
     if selection.checks:
         evidence.append(
-            "Model check: each candidate's open-loop residual rms over the sensor noise (a model that explains the "
-            "data leaves about 1x; above max_noise_ratio it is not adequate and its intervals are widened by the "
-            "ratio), the quality index of its coefficients and, with validation data, its closed-loop error."
+            "Model check: each candidate's open-loop residual rms over the noise it passes on - the change of its "
+            "residual when fresh sensor noise is added to the data (a model that explains the data leaves about 1x; "
+            "above max_noise_ratio it is not adequate and its intervals are widened by the ratio) - the same band by "
+            "band, the quality index of its coefficients and, with validation data, its closed-loop error."
         )
         evidence.append(model_check_frame(selection.checks))
         _band_figure(evidence, signals, selection.checks.get(selected))

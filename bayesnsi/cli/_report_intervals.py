@@ -106,8 +106,8 @@ def _widened_text(outcomes) -> str:
     if not wide:
         return ""
     listed = ", ".join(f"{name} {factor:.2f}x" for name, factor in wide)
-    return (f" Widened for model error (residual above the sensor noise, so the model error, not the noise, "
-            f"moves the estimates from record to record; docs/method.md §11): {listed}.")
+    return (f" Widened for model error (residual above the noise the model passes on, so the model error, not the "
+            f"noise, moves the estimates from record to record; docs/method.md §11): {listed}.")
 
 
 def coefficient_intervals_frame(outcomes, likelihood: str):

@@ -119,7 +119,7 @@ def adequacy_frame(adequacy):
 
 
 def model_check_frame(checks):
-    """Residual against the sensor noise, quality index and validation of each candidate.
+    """Residual against the noise the model passes on, quality index and validation of each candidate.
 
     Parameters
     ----------

@@ -86,7 +86,8 @@ def _adequacy_text(selection) -> str:
     whiteness = selection.adequacy.get(selection.selected)
     check = selection.checks.get(selection.selected)
     if whiteness is None and check is not None:  # e.g. integrated accelerations: no whiteness test (coloured noise)
-        return f" (its open-loop residual is {check.noise_ratio:.3g}x the sensor noise, from {check.noise_source})"
+        return (f" (its open-loop residual is {check.noise_ratio:.3g}x the noise it passes on; sensor noise from "
+                f"{check.noise_source})")
     if whiteness is None:
         return ""
     if whiteness.adequate:

@@ -63,6 +63,21 @@ def test_final_interval_covers_the_true_coefficient(loop_run):
     assert lo < true < hi, (lo, true, hi)
 
 
+def test_final_model_adequacy_is_reported_beside_the_starting_models(loop_run):
+    # the declared linear model lacks v|v| (its residual is well above the noise it passes on); the final model
+    # holds the truth: near 1, and the answer says both (the sentence the report's answer appends)
+    from bayesnsi.cli._loop_report import _adequacy_after
+
+    _, results, _ = loop_run
+    after = results["final_model_check"]
+    before = next(c for c in results["candidates"] if c["name"] == results["start"])["model_check"]
+    assert after["adequate"] and 0.7 < after["noise_ratio"] < 1.3 < before["noise_ratio"]
+    assert after["band_ratio"] < 2.0 and len(after["passed_on_std"]) == len(after["noise_std"])
+    sentence = _adequacy_after(results, results["start"])
+    assert sentence == (f" Its open-loop residual is {after['noise_ratio']:.2f}x the noise it passes on "
+                        f"({results['start']}: {before['noise_ratio']:.2f}x).")
+
+
 def test_loop_report_table_shows_the_final_intervals(loop_run):
     """The loop section's table of final coefficients (report.html) words results.json's values."""
     from bayesnsi.cli._report_intervals import final_coefficients_frame

@@ -132,7 +132,7 @@ def test_diagnose_answer_says_why_nothing_was_added_and_that_the_model_left_is_i
     assert "failed the quality index (|Im|/|Re| 0.99-23)" in note and "memory (hysteresis" in note
     # measured on the trial: --max-imag-ratio 1.0 adds x1**3, validation NRMSE 0.257 -> 0.187
     assert "raise [diagnose] max_imag_ratio above 0.99 (--max-imag-ratio)" in note
-    assert "linear, is not adequate: its residual is 8.50x the sensor noise" in note
+    assert "linear, is not adequate: its residual is 8.50x the noise it passes on" in note
     # a re-identified effect not examined that passes the quality index: a dictionary term may do after all
     scored = dict(payload, loop_scores=[[{"term": "x1*abs(x1)@1", "imag_ratio": 0.22, "status": "not checked"}]])
     assert "memory" not in nothing_added_note(steps, scored, "linear")
@@ -180,7 +180,7 @@ def test_diagnose_prints_what_it_added_and_the_validation_error_before_and_after
                                                       reason="quality index |Im|/|Re| = 0.99 >= 0.3")])
     line = loop_summary(rejected, dict(payload, validation=payload["validation_before"]), "linear")
     assert line.startswith("loop from 'linear': nothing added; closed-loop validation NRMSE 0.257 -> 0.257")
-    assert "memory (hysteresis" in line and "8.50x the sensor noise" in line
+    assert "memory (hysteresis" in line and "8.50x the noise it passes on" in line
 
 
 def test_no_harmonic_balance_of_a_sign_friction_model_names_the_switching_term():

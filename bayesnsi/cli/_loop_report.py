@@ -57,7 +57,7 @@ def nothing_added_note(steps, payload, start_name: str) -> str:
     (docs/method.md §4), which no static term n(x, v) of the dictionary gives: the note names the
     likely causes (a nonlinearity with memory such as hysteresis, or linear dynamics the model
     lacks). When the starting model's adequacy check (``model_check``
-    of its candidate record) says its residual is above the noise, the note says so, so that
+    of its candidate record) says its residual is above the noise it passes on, the note says so, so that
     "nothing added" is not read as "nothing missing".
 
     Parameters
@@ -97,8 +97,8 @@ def nothing_added_note(steps, payload, start_name: str) -> str:
     check = record.get("model_check") or {}
     if check and not check.get("adequate", True):
         parts.append(
-            f"The model left, {start_name}, is not adequate: its residual is {check['noise_ratio']:.2f}x the sensor "
-            "noise (adequacy check in the evidence section)."
+            f"The model left, {start_name}, is not adequate: its residual is {check['noise_ratio']:.2f}x the noise "
+            "it passes on (adequacy check in the evidence section)."
         )
     return "".join(" " + p for p in parts)
 
@@ -159,6 +159,26 @@ def loop_summary(loop, payload, start_name: str) -> str:
                    + unexamined_note(payload))
 
 
+class _Check:
+    """A results.json ``model_check`` record read as :func:`bayesnsi.run.residual_bands.band_warning` reads a check."""
+
+    def __init__(self, record):
+        record = record or {}
+        self.band_ratio, self.band_hz, self.band_dof = (record.get(k) for k in ("band_ratio", "band_hz", "band_dof"))
+        self.noise_ratio, self.adequate = record.get("noise_ratio"), record.get("adequate", True)
+
+
+def _adequacy_after(payload, start_name: str) -> str:
+    """The final model's residual over the noise it passes on, beside the starting model's (model_check)."""
+    after = (payload.get("final_model_check") or {}).get("noise_ratio")
+    record = next((c for c in payload.get("candidates", ()) if c.get("name") == start_name), {})
+    before = (record.get("model_check") or {}).get("noise_ratio")
+    if after is None:
+        return ""
+    start = "" if before is None else f" ({start_name}: {before:.2f}x)"
+    return f" Its open-loop residual is {after:.2f}x the noise it passes on{start}."
+
+
 def _validation_what(payload) -> str:
     """What the validation errors measure: a free body's predicted force, else the closed-loop response."""
     quantities = {v.get("quantity") for v in (*payload.get("validation_before", ()), *payload.get("validation", ()))}
@@ -213,7 +233,12 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
             for s in added
         )
         final = ", ".join(t.name for t in loop.final.terms) or "linear"
-        answer.append(("lead", f"Closing the loop from {start_name}: added {found}. Final model: {final}."))
+        answer.append(("lead", f"Closing the loop from {start_name}: added {found}. Final model: {final}."
+                       + _adequacy_after(payload, start_name)))
+        from ..run.residual_bands import band_warning
+
+        for message in band_warning(_Check(payload.get("final_model_check")), final, role="the final model"):
+            answer.append(("warning", message))
     else:
         why = (
             f"{len(loop.steps)} examined in detail; the loop table says why each was rejected" if loop.steps

@@ -69,7 +69,7 @@ def run(args) -> int:
         nsi=config.nsi, evidence=selection.evidence, execution=execution,
     )
     validation = load_validation(config)
-    final_evidence, final_intervals = _final_evidence(loop, signals, selection, start)
+    final_evidence, final_intervals, final_check = _final_evidence(loop, signals, selection, start)
     steps = []
     for step in loop.steps:
         steps.append(
@@ -115,6 +115,8 @@ def run(args) -> int:
     payload["settings"]["loop"] = to_jsonable(loop.settings)
     if final_intervals is not None:  # as select's "intervals": coefficients and modes, method, windows
         payload["final_intervals"] = to_jsonable(final_intervals.to_dict())
+    if final_check is not None:  # the final model's adequacy, as select's model_check of a candidate
+        payload["final_model_check"] = to_jsonable(final_check.to_dict())
     posteriors = dict(selection.evidences)
     if final_evidence is not None:  # the model the loop ends with, not only the one it started from
         final_name = "final: " + " + ".join(t.name for t in loop.final.terms)
@@ -142,24 +144,25 @@ def run(args) -> int:
 
 
 def _final_evidence(loop, signals, selection, start):
-    """Evidence (primary likelihood; None when the final model is the start) and intervals of the final model.
+    """Evidence (primary likelihood; None when the final model is the start), intervals and adequacy of the final model.
 
     The intervals include the linear part's uncertainty (:func:`bayesnsi.diagnose.final_intervals`) and,
     when the final model is not adequate, its model error (:func:`bayesnsi.run.final_adequacy.widen_final`, as
     ``select`` widens a candidate's); when nothing was added the final model is the start, whose intervals the
-    selection holds.
+    selection holds. The adequacy is :func:`bayesnsi.run.model_checks` of the final model (None when its residual
+    cannot be computed).
     """
     if selection.evidence is None:
-        return None, None
+        return None, None, None
     if not loop.added and loop.final is loop.start:  # not re-identified (refine_final): the selection's intervals
-        return None, selection.outcome(start).intervals
+        return None, selection.outcome(start).intervals, selection.checks.get(start)
     from ..diagnose import final_intervals
     from ..run.final_adequacy import widen_final
 
     evidence, intervals = final_intervals(loop, signals, selection.evidence)  # its warnings are shown by the report
     limits = {"max_noise_ratio": selection.evidence.max_noise_ratio,
               "max_imag_ratio": selection.evidence.max_imag_ratio}
-    return evidence, widen_final(loop.final, intervals, signals, **limits)[0]  # as select's: the model error too
+    return (evidence, *widen_final(loop.final, intervals, signals, **limits))  # as select's: the model error too
 
 
 def _final_coefficients(loop, intervals, posterior) -> list:

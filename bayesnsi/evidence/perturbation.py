@@ -159,7 +159,7 @@ def noise_draws(result, signals, rng: np.random.Generator):
 
         def draw():
             e = scatter.draw(len(y), rng)
-            return e[:, :n_y], e[:, n_y:]
+            return e[:, :n_y], None if v is None else e[:, n_y:]
     elif (accelerometers := acceleration_noise_of(signals)) is not None:
         # integrated accelerations: white acceleration noise through the same integration (_integrated_noise)
         y_std = accelerometers.std(len(y))[0]

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.ticker import NullFormatter
 
 from ..io.units import ChannelUnits
 
@@ -144,14 +145,18 @@ def plot_band_ratios(check, channel_names, limit: float, ax=None):
     ratios = np.asarray(check.band_ratios, dtype=float).reshape(len(edges) - 1, -1)
     for k in range(ratios.shape[1]):
         name = channel_names[k] if k < len(channel_names) else f"output {k + 1}"
-        ax.stairs(ratios[:, k], edges, label=name, linewidth=1.4)
+        ax.stairs(ratios[:, k], edges, label=name, linewidth=1.4, baseline=None)
     ax.axhline(1.0, color="0.5", linewidth=0.8)
     ax.axhline(limit, color="C3", linestyle="--", linewidth=1.0, label=f"{limit:g}x: something missing")
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_ylim(min(0.5, float(np.nanmin(ratios)) * 0.8), max(2 * limit, float(np.nanmax(ratios)) * 1.3))
+    low, high = min(0.5, float(np.nanmin(ratios)) * 0.8), max(2 * limit, float(np.nanmax(ratios)) * 1.3)
+    ax.set_ylim(low, high)
+    ticks = [t * 10.0**e for e in range(-1, 5) for t in (1, 2, 5) if low <= t * 10.0**e <= high]
+    ax.set_yticks(ticks, [f"{t:g}" for t in ticks])
+    ax.yaxis.set_minor_formatter(NullFormatter())
     ax.set_xlabel("frequency [Hz]")
     ax.set_ylabel("residual / noise passed on")
-    ax.set_title(f"Where in frequency {check.name} misses the data", fontsize=10)
+    ax.set_title(f"{check.name}: residual over the noise it passes on, band by band", fontsize=10)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     return fig

@@ -187,7 +187,8 @@ def model_checks(
     max_imag_ratio : float
         Largest quality index |Im λ|/|Re λ| accepted.
     seed : int
-        Seed of the noise draws of the band-by-band check (:func:`bayesnsi.run.residual_bands.propagated_noise`).
+        Seed of the noise draws of the yardstick and the band check
+        (:func:`bayesnsi.run.residual_bands.propagated_noise`).
 
     Returns
     -------

@@ -171,7 +171,7 @@ def residual_bands(residual, noise_changes, lines: SpectralLines, min_dof: float
     return ResidualBands(lines.frequencies_hz, power, noise, edges, ratios)
 
 
-def band_warning(check, selected: str | None) -> tuple[str, ...]:
+def band_warning(check, selected: str | None, role: str = "the selected model") -> tuple[str, ...]:
     """The message for a selected model whose residual stands out of the noise in one band (module notes).
 
     Parameters
@@ -180,6 +180,8 @@ def band_warning(check, selected: str | None) -> tuple[str, ...]:
         The selected model's check (:func:`bayesnsi.run.adequacy.model_checks`).
     selected : str or None
         Its name.
+    role : str
+        How the message names the model (e.g. "the final model" of ``bayesnsi diagnose``).
 
     Returns
     -------
@@ -192,7 +194,7 @@ def band_warning(check, selected: str | None) -> tuple[str, ...]:
     overall = (f"while {check.noise_ratio:.2f}x over the whole record, where the rest of the noise hides it"
                if check.adequate else f"({check.noise_ratio:.2f}x over the whole record)")
     return (
-        f"the selected model {selected!r} leaves a residual {check.band_ratio:.3g}x the noise it passes on at "
+        f"{role} {selected!r} leaves a residual {check.band_ratio:.3g}x the noise it passes on at "
         f"{low:.3g}-{high:.3g} Hz (output at DOF {check.band_dof}) {overall}: something there is not in the model - "
         "a mode beyond its order (raise [nsi] order, or set it to \"auto\"; the stabilisation diagram and the "
         "data's FRF in the report show the peaks), an effect whose force falls in that band, near the top of the "

@@ -13,7 +13,9 @@ Laplace, summary (R-hat, ESS, HDI, MCSE), the evidence in all (statistics includ
 the parameters sampled; Monte-Carlo error, bridge - Laplace and collapsed - joint log Z [nat].
 Then :func:`bayesnsi.evidence.candidate_evidence` at default settings (residual once, AR(1) and
 white; best of 3 runs: the machine is shared; given the open-loop reconstruction, which ``select``
-computes for the NRMSE anyway). Target: at most 1 s per candidate and likelihood.
+computes for the NRMSE anyway). Target: at most 1 s per candidate and likelihood. Last, the
+adequacy check of the candidate (:func:`bayesnsi.run.model_checks`: open-loop residual, two noise
+draws through the model for the yardstick, the bands), which ``select`` runs once per candidate.
 
 Run::
 
@@ -90,7 +92,7 @@ def main() -> int:
             f"{'summary':>7} {'evid. s':>7} | {'SE nat':>7} {'br-lap':>7} {'new-old':>8}")
     print(head)
     print("-" * len(head))
-    pairs = {}
+    pairs, checks = {}, {}
     for n_channels in (2, 16):
         signals, result, candidate = identified(n_channels)
         timed(signals, result, candidate, EvidenceOptions(likelihood="white", compare=()))  # warm caches/imports
@@ -105,11 +107,26 @@ def main() -> int:
                       f"{s['time_summary_s']:7.2f} {seconds:7.2f} | {ev.log_evidence_se:7.4f} "
                       f"{ev.log_evidence - ev.laplace_log_evidence:+7.4f} {new - ev.log_evidence:+8.4f}")
         pairs[n_channels] = min(timed(signals, result, candidate, EvidenceOptions())[0] for _ in range(3))
+        checks[n_channels] = min(timed_checks(signals, result) for _ in range(3))
     print("\ncandidate_evidence at default settings (residual once, then ar1 and white; collapsed estimator; "
           "best of 3 runs):")
     for n_channels, seconds in pairs.items():
         print(f"{n_channels:>3} channels: {seconds:5.2f} s for both likelihoods, {seconds / 2:5.2f} s per likelihood")
+    print("\nmodel_checks of the candidate (open-loop residual, two noise draws for the yardstick, bands; best of 3):")
+    for n_channels, seconds in checks.items():
+        print(f"{n_channels:>3} channels: {seconds:5.2f} s")
     return 0
+
+
+def timed_checks(signals, result) -> float:
+    """Wall time of the adequacy check of one candidate (bayesnsi.run.model_checks), as select runs it."""
+    from types import SimpleNamespace
+
+    from bayesnsi.run.adequacy import model_checks
+
+    t0 = time.perf_counter()
+    model_checks([SimpleNamespace(name="candidate", result=result, intervals=None)], signals)
+    return time.perf_counter() - t0
 
 
 if __name__ == "__main__":

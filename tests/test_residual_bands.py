@@ -140,3 +140,12 @@ def test_lines_of_a_periodic_record_integrated_line_by_line_are_those_of_its_ban
     assert lines.frequencies_hz.min() >= 4.0 and lines.frequencies_hz.max() <= 30.0
     assert len(lines.lines) == np.count_nonzero((np.fft.rfftfreq(period, 1 / fs) >= 4.0)
                                                 & (np.fft.rfftfreq(period, 1 / fs) <= 30.0))
+    # two realisations (new phases), each integrated on its own: the same lines, every period averaged
+    other = np.tile(rng.standard_normal((period, 2)), (4, 1)) + 0.01 * rng.standard_normal((4 * period, 2))
+    joined = np.concatenate([displacement, periodic_integration(other, fs, period, (4.0, 30.0))[1]])
+    both = spectral_lines(SimpleNamespace(**{**vars(signals), "displacement": joined, "realisations": 2,
+                                             "n_samples": len(joined)}))
+    assert np.array_equal(both.lines, lines.lines) and both.dof_per_line == 16.0
+    noise = rng.standard_normal(joined.shape)
+    assert both.power(noise).shape == (len(lines.lines), 2)
+    assert 0.8 < both.power(noise).mean() < 1.2  # white unit noise: E|N_k|^2 / n = 1

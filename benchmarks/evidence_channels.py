@@ -14,7 +14,7 @@ the parameters sampled; Monte-Carlo error, bridge - Laplace and collapsed - join
 Then :func:`bayesnsi.evidence.candidate_evidence` at default settings (residual once, AR(1) and
 white; best of 3 runs: the machine is shared; given the open-loop reconstruction, which ``select``
 computes for the NRMSE anyway). Target: at most 1 s per candidate and likelihood. Last, the
-adequacy check of the candidate (:func:`bayesnsi.run.model_checks`: open-loop residual, two noise
+adequacy check of the candidate (:func:`bayesnsi.run.adequacy.model_checks`: open-loop residual, two noise
 draws through the model for the yardstick, the bands), which ``select`` runs once per candidate.
 
 Run::
@@ -119,7 +119,7 @@ def main() -> int:
 
 
 def timed_checks(signals, result) -> float:
-    """Wall time of the adequacy check of one candidate (bayesnsi.run.model_checks), as select runs it."""
+    """Wall time of the adequacy check of one candidate (bayesnsi.run.adequacy.model_checks), as select runs it."""
     from types import SimpleNamespace
 
     from bayesnsi.run.adequacy import model_checks

@@ -149,8 +149,8 @@ def _final_evidence(loop, signals, selection, start):
     The intervals include the linear part's uncertainty (:func:`bayesnsi.diagnose.final_intervals`) and,
     when the final model is not adequate, its model error (:func:`bayesnsi.run.final_adequacy.widen_final`, as
     ``select`` widens a candidate's); when nothing was added the final model is the start, whose intervals the
-    selection holds. The adequacy is :func:`bayesnsi.run.model_checks` of the final model (None when its residual
-    cannot be computed).
+    selection holds. The adequacy is :func:`bayesnsi.run.adequacy.model_checks` of the final model (None when its
+    residual cannot be computed).
     """
     if selection.evidence is None:
         return None, None, None

@@ -123,7 +123,7 @@ def plot_band_ratios(check, channel_names, limit: float, ax=None):
     Parameters
     ----------
     check : ModelCheck
-        :func:`bayesnsi.run.model_checks` of the model (``band_edges_hz``, ``band_ratios``).
+        :func:`bayesnsi.run.adequacy.model_checks` of the model (``band_edges_hz``, ``band_ratios``).
     channel_names : sequence of str
         Name of each output channel.
     limit : float

@@ -1,7 +1,7 @@
 """The sensor noise a model's residual is held against (issue 15), and the lines where the record holds data.
 
 * :func:`sensor_noise_std`, the level per output channel that the noise draws of the adequacy
-  check follow (:func:`bayesnsi.run.model_checks`; reported as ``noise_std``): the
+  check follow (:func:`bayesnsi.run.adequacy.model_checks`; reported as ``noise_std``): the
   period-to-period scatter of a periodic record of at least two whole periods (the force repeats,
   so whatever differs between periods is noise, coloured or not), the sensors' white noise
   integrated by the loader's recipe (accelerations or velocities integrated in time), else white

@@ -136,7 +136,7 @@ def model_check_frame(checks):
         out = {
             "residual / noise, worst channel": f"{c.noise_ratio:.3g}x",
             "near the noise (adequate)": "yes" if c.adequate else "no",
-            "noise from": c.noise_source,
+            "sensor noise from": c.noise_source,
             "worst band: residual / noise": "-" if c.band_ratio is None else (
                 f"{c.band_ratio:.3g}x at {c.band_hz[0]:.3g}-{c.band_hz[1]:.3g} Hz (DOF {c.band_dof})"),
             "quality index |Im|/|Re|": "-" if c.quality_index is None else f"{c.quality_index:.3g}",

@@ -149,3 +149,23 @@ def test_lines_of_a_periodic_record_integrated_line_by_line_are_those_of_its_ban
     noise = rng.standard_normal(joined.shape)
     assert both.power(noise).shape == (len(lines.lines), 2)
     assert 0.8 < both.power(noise).mean() < 1.2  # white unit noise: E|N_k|^2 / n = 1
+
+
+def test_a_model_whose_residual_does_not_follow_the_noise_or_blows_up_gives_no_yardstick():
+    # stand-ins: a residual that ignores the data (zero change) and one that turns non-finite on noisy data;
+    # neither may give a yardstick (before: 1e137x, or NaN read as "not adequate")
+    from bayesnsi.signals import Signals
+
+    rng = np.random.default_rng(0)
+    x = rng.standard_normal((600, 1))
+    signals = Signals(force=rng.standard_normal((600, 1)), displacement=x, fs=100.0, input_dofs=(1,), output_dofs=(1,))
+    fixed = np.full((600, 1), 0.1)
+
+    def blows_up(record):
+        changed = not np.array_equal(record.displacement, x)
+        return SimpleNamespace(residual=np.full((600, 1), np.nan) if changed else fixed)
+
+    for reconstruct in (lambda record: SimpleNamespace(residual=fixed), blows_up):
+        result = SimpleNamespace(modes=[], reconstruct=reconstruct)
+        assert propagated_noise(result, signals, fixed) == []
+        assert residual_bands(fixed, [], spectral_lines(signals)) is None

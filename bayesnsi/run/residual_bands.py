@@ -100,7 +100,8 @@ def propagated_noise(result, signals, residual, n_draws: int = 2, seed: int = 0)
     Returns
     -------
     list of ndarray, shape (n_samples, l)
-        One residual change per draw whose reconstruction succeeded (none that is zero throughout).
+        One residual change per draw whose reconstruction succeeded (none that is zero throughout or not
+        finite).
     """
     from ..evidence.perturbation import noise_draws
     from ..exceptions import BayesNSIError
@@ -118,7 +119,8 @@ def propagated_noise(result, signals, residual, n_draws: int = 2, seed: int = 0)
             change = np.asarray(result.reconstruct(noisy).residual, dtype=float) - base
         except (BayesNSIError, np.linalg.LinAlgError):
             continue
-        if np.any(change):  # a residual that does not depend on the data (a stand-in model) gives no yardstick
+        # a residual that does not depend on the data (a stand-in model), or one that blew up, gives no yardstick
+        if np.any(change) and np.all(np.isfinite(change)):
             changes.append(change)
     return changes
 

@@ -214,8 +214,11 @@ class EvidenceOptions(_Options):
         0.7, "length of a sub-record as a fraction of the record (segments interval)", kind="float", low=0.05,
         high=0.95)
     max_noise_ratio: float = _option(
-        1.3, "adequacy: largest ratio of a candidate's open-loop residual rms to the sensor noise std", kind="float",
-        low=1.0)
+        1.3, "adequacy: largest ratio of a candidate's open-loop residual rms to that of the noise it passes on "
+        "(its residual's change when fresh sensor noise is added to the data)", kind="float", low=1.0)
+    max_band_ratio: float = _option(
+        2.0, "adequacy: largest ratio of the selected model's residual to the noise it passes on in any frequency "
+        "band before select warns", kind="float", low=1.0)
     max_imag_ratio: float = _option(
         0.3, "adequacy: largest quality index |Im λ|/|Re λ| of the selected model", kind="float", low=0.0)
     noise_floor: float | None = _option(

@@ -238,7 +238,8 @@ def select(
     fits = model_checks(outcomes, signals, checks, **limits, seed=evidence.seed)
     outcomes, fits = widen_inadequate(outcomes, fits, signals)  # their intervals carry the model error too
     selection = Selection(outcomes, table, nsi or NSIOptions(), evidence, checks, adequacy, fits)
-    messages = adequacy_warnings(fits, selection.selected, **limits) + order_messages(outcomes)
+    messages = adequacy_warnings(fits, selection.selected, **limits, max_band_ratio=evidence.max_band_ratio)
+    messages += order_messages(outcomes)
     messages += view_notes + tuple(velocity_noise_messages(signals, candidates, (nsi or NSIOptions()).velocity_method))
     for message in messages:
         warnings.warn(message, AdequacyWarning, stacklevel=2)

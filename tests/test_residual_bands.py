@@ -71,6 +71,12 @@ def test_a_mode_the_model_lacks_is_found_in_its_band_though_the_whole_record_pas
     (message,) = [m for m in adequacy_warnings({CUBIC.name: check}, CUBIC.name) if "passes on" in m]
     assert f"{check.band_hz[0]:.3g}-{check.band_hz[1]:.3g} Hz" in message and "DOF 3" in message
     assert "hides it" in message and "[nsi] order" in message
+    # [evidence] max_band_ratio sets the limit
+    assert not any("passes on" in m for m in adequacy_warnings({CUBIC.name: check}, CUBIC.name, max_band_ratio=100.0))
+    from bayesnsi.options import EvidenceOptions
+
+    assert EvidenceOptions().max_band_ratio == MAX_BAND_RATIO
+    assert EvidenceOptions.from_mapping({"max_band_ratio": 60}).max_band_ratio == 60.0
     # every band holds at least 50 lines of the 2-80 Hz integration band (100 degrees of freedom)
     lines = spectral_lines(signals)
     assert lines.frequencies_hz.min() >= 2.0 and lines.frequencies_hz.max() <= 80.0

@@ -237,7 +237,8 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
                        + _adequacy_after(payload, start_name)))
         from ..run.residual_bands import band_warning
 
-        for message in band_warning(_Check(payload.get("final_model_check")), final, role="the final model"):
+        limit = payload.get("settings", {}).get("evidence", {}).get("max_band_ratio", 2.0)
+        for message in band_warning(_Check(payload.get("final_model_check")), final, "the final model", limit):
             answer.append(("warning", message))
     else:
         why = (

@@ -314,7 +314,7 @@ def selection_sections(report, signals, selection, selected, units=None, role: s
             "band, the quality index of its coefficients and, with validation data, its closed-loop error."
         )
         evidence.append(model_check_frame(selection.checks))
-        _band_figure(evidence, signals, selection.checks.get(selected))
+        _band_figure(evidence, signals, selection.checks.get(selected), opts.max_band_ratio)
     interval_sections(report, selection.outcomes, selected, opts.likelihood, answer, MODELS)
     _reconstruction_figures(report, signals, results, units)
     post = report.section("Coefficient posteriors", POSTERIOR)
@@ -339,15 +339,14 @@ def selection_sections(report, signals, selection, selected, units=None, role: s
     return report
 
 
-def _band_figure(section, signals, check) -> None:
+def _band_figure(section, signals, check, limit: float) -> None:
     """The selected model's residual over the noise it passes on, band by band (bayesnsi.run.residual_bands)."""
     if check is None or not check.band_ratios:
         return
     from ..plots import plot_band_ratios
-    from ..run.residual_bands import MAX_BAND_RATIO
 
     names = list(signals.output_names) or [f"DOF {d}" for d in signals.output_dofs]
-    fig = plot_band_ratios(check, names, MAX_BAND_RATIO)
+    fig = plot_band_ratios(check, names, limit)
     fig.set_label(
         f"Residual of {check.name} over the noise it passes on, per frequency band: the change of its residual when "
         "fresh sensor noise is added to the data (1: the model explains the data in that band). A band far above "

@@ -31,7 +31,7 @@ import numpy as np
 
 from .._integrated_noise import acceleration_noise_of
 from ..exceptions import BayesNSIError
-from .residual_bands import band_warning, propagated_noise, residual_bands
+from .residual_bands import MAX_BAND_RATIO, band_warning, propagated_noise, residual_bands
 from .sensor_noise import SENSORS, integrated_in_time, sensor_noise_std, spectral_lines
 
 __all__ = [
@@ -352,7 +352,7 @@ def _energy_input(result) -> tuple[tuple[str, float], ...]:
 
 def adequacy_warnings(
     checks: Mapping[str, ModelCheck], selected: str | None, *, max_noise_ratio: float = 1.3,
-    max_imag_ratio: float = 0.3,
+    max_imag_ratio: float = 0.3, max_band_ratio: float = MAX_BAND_RATIO,
 ) -> tuple[str, ...]:
     """Messages of what the selection should not be trusted for (empty when nothing is wrong).
 
@@ -364,6 +364,8 @@ def adequacy_warnings(
         The selected candidate.
     max_noise_ratio, max_imag_ratio : float
         The thresholds the checks used (quoted in the messages).
+    max_band_ratio : float
+        Largest band ratio of the selected model before a message says where it misses the data.
 
     Returns
     -------
@@ -435,7 +437,7 @@ def adequacy_warnings(
             "integration), which biases the estimates and the evidence and which the intervals do not carry; set "
             "[data] integrate = { ..., trim_edges = true } (docs/method.md §11)"
         )
-    out.extend(band_warning(chosen, selected))
+    out.extend(band_warning(chosen, selected, limit=max_band_ratio))
     orders = sorted({c.order for c in checks.values()})
     if len(orders) > 1:
         detail = ", ".join(f"{n}: {c.order}" for n, c in checks.items())

@@ -34,11 +34,11 @@ from .sensor_noise import SpectralLines
 __all__ = ["MAX_BAND_RATIO", "ResidualBands", "band_warning", "propagated_noise", "residual_bands"]
 
 MAX_BAND_RATIO = 2.0
-"""Band ratio above which the selected model misses something in that band. Measured with ``model_checks``
-(seeds 0-11): the true models of the two-DOF, three-DOF and twin cases read at most 1.36, 1.32 and 1.05, the
-wrong ones up to 22 (two-DOF model 2: 2.9-5.3); on the Silverbox the cubic model reads at most 1.52, in the
-lowest band (0-0.5 Hz, the record's slow drift), and the linear one 27 at 61-76 Hz; an accelerometer record
-whose third mode the model lacks, 48."""
+"""Default band ratio (``[evidence] max_band_ratio``) above which the selected model misses something in
+that band. Measured with ``model_checks`` (seeds 0-11): the true models of the two-DOF, three-DOF and twin
+cases read at most 1.36, 1.32 and 1.05, the wrong ones up to 22 (two-DOF model 2: 2.9-5.3); on the
+Silverbox the cubic model reads at most 1.52, in the lowest band (0-0.5 Hz, the record's slow drift), and
+the linear one 27 at 61-76 Hz; an accelerometer record whose third mode the model lacks, 48."""
 
 _PER_OCTAVE = 3
 _MIN_DOF = 100
@@ -173,7 +173,8 @@ def residual_bands(residual, noise_changes, lines: SpectralLines, min_dof: float
     return ResidualBands(lines.frequencies_hz, power, noise, edges, ratios)
 
 
-def band_warning(check, selected: str | None, role: str = "the selected model") -> tuple[str, ...]:
+def band_warning(check, selected: str | None, role: str = "the selected model",
+                 limit: float = MAX_BAND_RATIO) -> tuple[str, ...]:
     """The message for a selected model whose residual stands out of the noise in one band (module notes).
 
     Parameters
@@ -184,13 +185,15 @@ def band_warning(check, selected: str | None, role: str = "the selected model") 
         Its name.
     role : str
         How the message names the model (e.g. "the final model" of ``bayesnsi diagnose``).
+    limit : float
+        Band ratio above which the message is given (``[evidence] max_band_ratio``).
 
     Returns
     -------
     tuple of str
-        One message when its ``band_ratio`` exceeds :data:`MAX_BAND_RATIO`, else none.
+        One message when its ``band_ratio`` exceeds ``limit``, else none.
     """
-    if check is None or check.band_ratio is None or check.band_ratio <= MAX_BAND_RATIO:
+    if check is None or check.band_ratio is None or check.band_ratio <= limit:
         return ()
     low, high = check.band_hz
     overall = (f"while {check.noise_ratio:.2f}x over the whole record, where the rest of the noise hides it"

@@ -235,9 +235,9 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
         final = ", ".join(t.name for t in loop.final.terms) or "linear"
         answer.append(("lead", f"Closing the loop from {start_name}: added {found}. Final model: {final}."
                        + _adequacy_after(payload, start_name)))
-        from ..run.residual_bands import band_warning
+        from ..run.residual_bands import MAX_BAND_RATIO, band_warning
 
-        limit = payload.get("settings", {}).get("evidence", {}).get("max_band_ratio", 2.0)
+        limit = payload.get("settings", {}).get("evidence", {}).get("max_band_ratio", MAX_BAND_RATIO)
         for message in band_warning(_Check(payload.get("final_model_check")), final, "the final model", limit):
             answer.append(("warning", message))
     else:

@@ -159,15 +159,6 @@ def loop_summary(loop, payload, start_name: str) -> str:
                    + unexamined_note(payload))
 
 
-class _Check:
-    """A results.json ``model_check`` record read as :func:`bayesnsi.run.residual_bands.band_warning` reads a check."""
-
-    def __init__(self, record):
-        record = record or {}
-        self.band_ratio, self.band_hz, self.band_dof = (record.get(k) for k in ("band_ratio", "band_hz", "band_dof"))
-        self.noise_ratio, self.adequate = record.get("noise_ratio"), record.get("adequate", True)
-
-
 def _adequacy_after(payload, start_name: str) -> str:
     """The final model's residual over the noise it passes on, beside the starting model's (model_check)."""
     after = (payload.get("final_model_check") or {}).get("noise_ratio")
@@ -238,7 +229,7 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
         from ..run.residual_bands import MAX_BAND_RATIO, band_warning
 
         limit = payload.get("settings", {}).get("evidence", {}).get("max_band_ratio", MAX_BAND_RATIO)
-        for message in band_warning(_Check(payload.get("final_model_check")), final, "the final model", limit):
+        for message in band_warning(payload.get("final_model_check"), final, "the final model", limit):
             answer.append(("warning", message))
     else:
         why = (

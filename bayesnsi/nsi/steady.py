@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
-    "FORCE_SCATTER_LIMIT", "PERIOD_OUTLIER_LIMIT", "REPEAT_CORRELATION", "period_problems", "period_deviations",
-    "period_scatter_std", "repeating_period",
+    "FORCE_SCATTER_LIMIT", "PERIOD_OUTLIER_LIMIT", "REPEAT_CORRELATION", "period_problems", "period_blocks",
+    "period_deviations", "period_scatter_std", "repeating_period",
 ]
 
 FORCE_SCATTER_LIMIT = 0.1
@@ -153,6 +153,36 @@ def period_problems(force, response, period, offset: int = 0, step: int = 1, rea
     return out
 
 
+def period_blocks(signal, period, realisations: int = 1) -> np.ndarray | None:
+    """The whole periods of each realisation, in order, or None without two of them per realisation.
+
+    Parameters
+    ----------
+    signal : array_like, shape (n_samples, n_channels)
+        A periodic record (a trailing part period is left out).
+    period : int or None
+        Samples per period.
+    realisations : int
+        Equal-length realisations the record holds one after the other (``Signals.realisations``).
+
+    Returns
+    -------
+    ndarray, shape (n_periods, period, n_channels) or None
+        The periods of all realisations in order (``n_periods / realisations`` each).
+    """
+    if not period:
+        return None
+    y = np.asarray(signal, dtype=float)
+    y = y.reshape(len(y), -1)
+    period, realisations = int(period), max(int(realisations), 1)
+    n = len(y) // realisations // period
+    if n < 2:
+        return None
+    length = len(y) // realisations
+    return np.concatenate([y[r * length : r * length + n * period].reshape(n, period, y.shape[1])
+                           for r in range(realisations)])
+
+
 def period_deviations(signal, period, realisations: int = 1) -> np.ndarray | None:
     """Deviations ``y_p - ȳ`` of each whole period from its realisation's period mean, or None without two periods.
 
@@ -171,17 +201,11 @@ def period_deviations(signal, period, realisations: int = 1) -> np.ndarray | Non
     ndarray, shape (n_periods, period, n_channels) or None
         The periods of all realisations in order (``n_periods / realisations`` each).
     """
-    if not period:
+    blocks = period_blocks(signal, period, realisations)
+    if blocks is None:
         return None
-    y = np.asarray(signal, dtype=float)
-    y = y.reshape(len(y), -1)
-    period, realisations = int(period), max(int(realisations), 1)
-    n = len(y) // realisations // period
-    if n < 2:
-        return None
-    length = len(y) // realisations
-    blocks = [y[r * length : r * length + n * period].reshape(n, period, y.shape[1]) for r in range(realisations)]
-    return np.concatenate([b - b.mean(axis=0) for b in blocks])
+    per_realisation = blocks.reshape(max(int(realisations), 1), -1, *blocks.shape[1:])
+    return (per_realisation - per_realisation.mean(axis=1, keepdims=True)).reshape(blocks.shape)
 
 
 def period_scatter_std(signal, period, realisations: int = 1) -> np.ndarray | None:

@@ -437,7 +437,7 @@ def adequacy_warnings(
             "integration), which biases the estimates and the evidence and which the intervals do not carry; set "
             "[data] integrate = { ..., trim_edges = true } (docs/method.md §11)"
         )
-    out.extend(band_warning(chosen, selected, limit=max_band_ratio))
+    out.extend(band_warning(None if chosen is None else chosen.to_dict(), selected, limit=max_band_ratio))
     orders = sorted({c.order for c in checks.values()})
     if len(orders) > 1:
         detail = ", ".join(f"{n}: {c.order}" for n, c in checks.items())

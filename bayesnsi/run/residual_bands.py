@@ -179,8 +179,10 @@ def band_warning(check, selected: str | None, role: str = "the selected model",
 
     Parameters
     ----------
-    check : ModelCheck or None
-        The selected model's check (:func:`bayesnsi.run.adequacy.model_checks`).
+    check : mapping or None
+        The model's check as results.json holds it (:meth:`ModelCheck.to_dict
+        <bayesnsi.run.adequacy.ModelCheck.to_dict>`: ``band_ratio``, ``band_hz``, ``band_dof``,
+        ``noise_ratio``, ``adequate``).
     selected : str or None
         Its name.
     role : str
@@ -193,14 +195,15 @@ def band_warning(check, selected: str | None, role: str = "the selected model",
     tuple of str
         One message when its ``band_ratio`` exceeds ``limit``, else none.
     """
-    if check is None or check.band_ratio is None or check.band_ratio <= limit:
+    ratio = (check or {}).get("band_ratio")
+    if ratio is None or ratio <= limit:
         return ()
-    low, high = check.band_hz
-    overall = (f"while {check.noise_ratio:.2f}x over the whole record, where the rest of the noise hides it"
-               if check.adequate else f"({check.noise_ratio:.2f}x over the whole record)")
+    low, high = check["band_hz"]
+    overall = (f"while {check['noise_ratio']:.2f}x over the whole record, where the rest of the noise hides it"
+               if check["adequate"] else f"({check['noise_ratio']:.2f}x over the whole record)")
     return (
-        f"{role} {selected!r} leaves a residual {check.band_ratio:.3g}x the noise it passes on at "
-        f"{low:.3g}-{high:.3g} Hz (output at DOF {check.band_dof}) {overall}: something there is not in the model - "
+        f"{role} {selected!r} leaves a residual {ratio:.3g}x the noise it passes on at "
+        f"{low:.3g}-{high:.3g} Hz (output at DOF {check['band_dof']}) {overall}: something there is not in the model - "
         "a mode beyond its order (raise [nsi] order, or set it to \"auto\"; the stabilisation diagram and the "
         "data's FRF in the report show the peaks), an effect whose force falls in that band, near the top of the "
         "band the discrete-time model's approximation ([nsi] zero_feedthrough = false, or upsample = 2-4), or, "

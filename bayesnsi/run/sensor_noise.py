@@ -115,17 +115,11 @@ class SpectralLines:
         r = np.asarray(signal, dtype=float)
         r = r.reshape(len(r), -1)[self.interior]
         if self.period is not None:
-            blocks = _period_blocks(r, self.period, self.realisations)
+            from ..nsi.steady import period_blocks
+
+            blocks = period_blocks(r, self.period, self.realisations)
             return np.mean(np.abs(np.fft.rfft(blocks, axis=1)[:, self.lines]) ** 2, axis=0) / self.period
         return np.abs(np.fft.rfft(r, axis=0)[self.lines]) ** 2 / len(r)
-
-
-def _period_blocks(y: np.ndarray, period: int, realisations: int) -> np.ndarray:
-    """The whole periods of each realisation, in order: shape (n_periods, period, l)."""
-    length = len(y) // realisations
-    n = length // period
-    return np.concatenate([y[r * length : r * length + n * period].reshape(n, period, y.shape[1])
-                           for r in range(realisations)])
 
 
 def spectral_lines(signals) -> SpectralLines:
@@ -145,14 +139,14 @@ def spectral_lines(signals) -> SpectralLines:
     -------
     SpectralLines
     """
-    from ..nsi.steady import period_deviations
+    from ..nsi.steady import period_blocks
 
     x = np.asarray(signals.displacement, dtype=float)
     x = x.reshape(len(x), -1)
     fs, period, realisations = float(signals.fs), getattr(signals, "period", None), int(signals.realisations)
-    if period_deviations(x, period, realisations) is not None:  # two or more whole periods
+    blocks = period_blocks(x, period, realisations)
+    if blocks is not None:  # two or more whole periods
         period = int(period)
-        blocks = _period_blocks(x, period, realisations)
         n_periods = len(blocks) // realisations
         # each realisation's whole record, whose DFT line k n_p is line k of a period: nil outside the band of
         # an integration line by line (a period's own DFT leaks the deviations into every line)

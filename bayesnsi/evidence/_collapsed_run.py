@@ -23,11 +23,13 @@ MIN_ACCEPTANCE = 0.25
 """Mean acceptance of the independence chain below which emcee samples instead."""
 
 
-def sample_collapsed(target: Target, rng, n_walkers: int, n_steps: int, n_burn: int, start, moves: str = "mixed"):
+def sample_collapsed(target: Target, rng, n_walkers: int, n_steps: int, n_burn: int, start, moves: str = "mixed",
+                     found=None):
     """Draws of ``λ`` from the collapsed posterior (module notes), then ``σ`` and ``ρ`` given each draw.
 
     Returns ``(PosteriorSamples, CollapsedTarget)``; the draws hold ``θ = (λ, log σ, ρ)`` as those of
     :func:`~bayesnsi.evidence.sample_posterior`, and ``log_posterior`` is the joint one at ``θ``.
+    ``found``: what ``target.find_mode(target.initial_theta(start))`` returned, when the caller has it.
     """
     import emcee
 
@@ -47,7 +49,7 @@ def sample_collapsed(target: Target, rng, n_walkers: int, n_steps: int, n_burn: 
     minimum = max(2 * q, 4)
     n_walkers, n_steps, n_burn = _chain_settings(n_walkers, n_steps, n_burn, minimum, f"2 x {q} coefficients (and 4)")
     theta0 = target.initial_theta(start)
-    mode, _, hess, _ = target.find_mode(theta0)
+    mode, _, hess, _ = found if found is not None else target.find_mode(theta0)
     mode = _inside_support(target, mode, theta0)
     cov = _laplace_covariance(hess, target, mode)
     seed = int(rng.integers(0, 2**32 - 1))

@@ -104,8 +104,11 @@ class Target:
         delta = lam - self.stats.center
         beta = _beta(delta)
         taps = np.concatenate([np.ones(rho.shape[:-1] + (1,)), -rho], axis=-1)
-        forms = np.einsum("...a,jikab,...b->...jik", beta, self.window, beta)
-        ss = np.einsum("...ji,...jik,...jk->...j", taps, forms, taps)
+        # βᵀ W β for every window as one product with the outer products ββᵀ (a 3-operand einsum loops)
+        outer = (beta[..., :, None] * beta[..., None, :]).reshape(beta.shape[:-1] + (-1,))
+        window = self.window
+        forms = (outer @ window.reshape(-1, window.shape[-1] ** 2).T).reshape(beta.shape[:-1] + window.shape[:3])
+        ss = np.einsum("...jk,...jk->...j", np.einsum("...ji,...jik->...jk", taps, forms), taps)
         out = -0.5 * self.n_eff * (_LOG_2PI + 2.0 * u) - 0.5 * ss * np.exp(-2.0 * u)
         if self.method == "exact" and self.order == 1:
             r2 = np.minimum(rho[..., 0] ** 2, 1.0)

@@ -180,8 +180,9 @@ def laplace_log_evidence(stats: SufficientStatistics, priors: Priors, likelihood
     return _laplace(target, start)[0]
 
 
-def _laplace(target: Target, start=None):
-    mode, value, hess, converged = target.find_mode(target.initial_theta(start))
+def _laplace(target: Target, start=None, found=None):
+    """Laplace log evidence, mode and convergence; ``found``: the caller's ``find_mode`` result from ``start``."""
+    mode, value, hess, converged = found if found is not None else target.find_mode(target.initial_theta(start))
     neg = -0.5 * (hess + hess.T)
     try:
         chol = np.linalg.cholesky(neg)

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import time
 from dataclasses import replace
 
 import numpy as np
 
 from ..options import EvidenceOptions
-from .marginal import marginal_evidence
+from ._target import parse_likelihood
+from .likelihood import sufficient_statistics
+from .marginal import evidence_from_statistics
 from .prior_defaults import default_priors
 
 __all__ = ["RESIDUALS", "candidate_affine", "candidate_evidence", "candidate_priors", "noise_floor_factor"]
@@ -167,14 +170,19 @@ def candidate_evidence(
         reconstruction = reconstruction if reconstruction is not None else result.reconstruct(signals)
         plain = plain_log_likelihood(reconstruction.measured - reconstruction.predicted)
     likelihoods = options.likelihoods
+    orders = {lik: parse_likelihood(lik)[0] for lik in likelihoods}
+    # one pass over the record serves every likelihood: statistics of order p hold those of lower orders
+    t0 = time.perf_counter()
+    stats = sufficient_statistics(affine, ar_order=max(orders.values()))
+    t_stats = time.perf_counter() - t0
     out = {}
     for lik, child in zip(likelihoods, seed_sequence.spawn(len(likelihoods))):
-        ar_order = 0 if lik == "white" else int(lik[2:])
+        ar_order = orders[lik]
         # white and AR(1): the noise parameters are integrated out and emcee samples the coefficients alone
         n_params = len(affine.names) + (0 if ar_order <= 1 else affine.measured.shape[1] * (1 + ar_order))
         n_walkers = max(options.n_walkers, 2 * n_params + 2)  # emcee needs >= 2 x parameters
-        out[lik] = marginal_evidence(
-            affine,
+        ev = evidence_from_statistics(
+            stats,
             priors,
             likelihood=lik,
             rng=np.random.default_rng(child),
@@ -183,6 +191,7 @@ def candidate_evidence(
             n_burn=options.n_burn,
             warn=warn,
         )
+        out[lik] = replace(ev, settings={**ev.settings, "time_statistics_s": t_stats})
     if plain is not None:
         out = {lik: replace(ev, plain_log_likelihood=plain) for lik, ev in out.items()}
     return out

@@ -147,9 +147,11 @@ class CollapsedTarget:
         e4 = 3.0 * var**2 * (nu - 2.0) / (nu - 4.0)
         r2 = rho_hat**2
         w = 1.0 - r2
-        mean_g = np.sqrt(w) - 0.5 * var * w**-1.5 - (3.0 * (1.0 + 4.0 * r2) / 24.0) * e4 * w**-3.5
-        return (-np.log(2.0) + a * np.log(2.0) + gammaln(a - 0.5) - a * np.log(m) + 0.5 * np.log(np.pi * m / C)
-                + np.log(mean_g))
+        root = np.sqrt(w)
+        inv = 1.0 / (w * root)  # w^-1.5 (products: numpy's float ** -1.5 calls pow(), several times slower)
+        mean_g = root - 0.5 * var * inv - (3.0 * (1.0 + 4.0 * r2) / 24.0) * e4 * (inv / (w * w))
+        constant = -np.log(2.0) + a * np.log(2.0) + gammaln(a - 0.5) + 0.5 * np.log(np.pi)
+        return constant + (0.5 - a) * np.log(m) - 0.5 * np.log(C) + np.log(mean_g)
 
     # -- conditional draws of the noise parameters ----------------------------------------------
     def draw_noise(self, lam: np.ndarray, rng: np.random.Generator):

@@ -249,8 +249,9 @@ def evidence_from_statistics(
     target = Target.build(stats, priors, likelihood)
     collapsed = collapse and collapsible(target)
     t0 = time.perf_counter()
+    found = target.find_mode(target.initial_theta(start)) if collapsed else None  # shared with the Laplace estimate
     if collapsed:
-        posterior, reduced = sample_collapsed(target, rng, n_walkers, n_steps, n_burn, start, moves)
+        posterior, reduced = sample_collapsed(target, rng, n_walkers, n_steps, n_burn, start, moves, found)
     else:
         posterior = _sample(target, rng, n_walkers, n_steps, n_burn, start, moves)
     t_sample = time.perf_counter() - t0
@@ -264,7 +265,7 @@ def evidence_from_statistics(
         n_draws = posterior.samples.shape[0] * posterior.samples.shape[1]
         bridge = BridgeEstimate(float(reduced.log_posterior(np.zeros((1, 0)))[0]), 0.0, n_draws, 0, float(n_draws),
                                 0, True, "none (closed form)")
-    laplace, _, _ = _laplace(target, start)
+    laplace, _, _ = _laplace(target, start, found)
     exact = None
     dim = target.l * (1 + target.order)
     if closed_form is True or (closed_form == "auto" and target.order <= 1 and dim <= _AUTO_QUAD_DIM):

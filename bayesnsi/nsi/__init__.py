@@ -16,13 +16,13 @@ from .periodic import (
     periodic_integration,
 )
 from .physics import CoefficientEstimate, Mode, coefficient_spectrum, split_poles
+from .predictor import predictor_reconstruction
 from .reconstruct import (
     AffineReconstruction,
     Reconstruction,
     affine_reconstruction,
     initial_state,
     nrmse,
-    predictor_reconstruction,
     reconstruct,
 )
 from .result import HankelCorrelations, NSIResult

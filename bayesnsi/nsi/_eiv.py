@@ -56,9 +56,12 @@ __all__ = [
 ]
 
 
-def _channel_noise(signals: Signals, noise_std, velocity_method: str):
+def _channel_noise(signals: Signals, noise_std, velocity_method: str, velocity_std=None):
     """Noise std of every displacement and velocity channel the terms may read."""
-    measured_disp, measured_vel = measured_noise_std(signals)
+    if noise_std is None or (velocity_std is None and signals.velocity is not None):
+        measured_disp, measured_vel = measured_noise_std(signals)
+    else:
+        measured_disp, measured_vel = None, velocity_std
     disp = np.asarray(noise_std, dtype=float) if noise_std is not None else measured_disp
     if disp.shape != (len(signals.output_dofs),):
         raise ValueError(
@@ -78,6 +81,7 @@ def input_noise(
     terms: Sequence[Term],
     noise_std=None,
     velocity_method: str = "fourth",
+    velocity_std=None,
 ):
     """Sensitivity of the nonlinear inputs to measurement noise, and their second-order bias.
 
@@ -89,6 +93,9 @@ def input_noise(
         Noise std of each displacement channel; default :func:`white_noise_std`.
     velocity_method : str
         Differentiator used for velocities the signals do not carry.
+    velocity_std : array_like, shape (l,), optional
+        Noise std of each measured velocity channel when the caller has it (the second output of
+        :func:`measured_noise_std`); estimated otherwise.
 
     Returns
     -------
@@ -99,7 +106,7 @@ def input_noise(
         ``½ Σ_c ∂²u/∂z_c² σ_c²``, the expected shift of u caused by the noise (subtract it).
         Zero for discontinuous terms (containing sign()), where the Taylor expansion fails.
     """
-    disp_std, vel_std = _channel_noise(signals, noise_std, velocity_method)
+    disp_std, vel_std = _channel_noise(signals, noise_std, velocity_method, velocity_std)
     column = {dof: c for c, dof in enumerate(signals.output_dofs)}
     x_dofs = sorted({d for t in terms for d in t.expr.displacement_dofs})
     v_dofs = sorted({d for t in terms for d in t.expr.velocity_dofs})

@@ -106,14 +106,12 @@ def measured_noise_std(signals: Signals):
         v = signals.velocity
         return scatter, None if v is None else period_scatter_std(np.asarray(v, dtype=float), signals.period,
                                                                   realisations)
-    disp = white_noise_std(x)
     if signals.velocity is None:
-        return disp, None
+        return white_noise_std(x), None
     v = np.asarray(signals.velocity, dtype=float)
-    vel = white_noise_std(v)
     n = len(x)
     if n < 256:
-        return disp, vel
+        return white_noise_std(x), white_noise_std(v)
     from scipy import signal as _signal
 
     omega = 2.0 * np.pi * np.fft.rfftfreq(n, 1.0 / signals.fs)
@@ -123,32 +121,48 @@ def measured_noise_std(signals: Signals):
     freqs, density = _signal.welch(mismatch, fs=signals.fs, nperseg=min(1024, len(mismatch) // 8), axis=0)
     variance = density[1:-1] * signals.fs / 2.0  # per-sample variance density: σ_v² + ω² σ_x²
     design = np.column_stack([np.ones(len(variance)), (2.0 * np.pi * freqs[1:-1]) ** 2])
-    for c in range(x.shape[1]):
-        coef = _relative_line_fit(design, variance[:, c])
-        if coef is not None and coef[1] > 0:
-            disp[c] = np.sqrt(coef[1])
-            vel[c] = np.sqrt(max(coef[0], 0.0)) or 1e-6 * v[:, c].std()
+    fits = _relative_line_fits(design, variance)
+    failed = ~(np.all(np.isfinite(fits), axis=1) & (fits[:, 1] > 0))
+    disp, vel = np.empty(x.shape[1]), np.empty(x.shape[1])
+    if np.any(failed):  # the difference estimates, only where the fit failed (they cost as much as the fit)
+        disp[failed], vel[failed] = white_noise_std(x[:, failed]), white_noise_std(v[:, failed])
+    for c in np.flatnonzero(~failed):
+        disp[c] = np.sqrt(fits[c, 1])
+        vel[c] = np.sqrt(max(fits[c, 0], 0.0)) or 1e-6 * v[:, c].std()
     return disp, vel
 
 
-def _relative_line_fit(design: np.ndarray, target: np.ndarray, passes: int = 30):
-    """Coefficients minimising Σ ((design @ c - target) / fit)², or None when the fit fails.
+def _relative_line_fits(design: np.ndarray, targets: np.ndarray, passes: int = 30) -> np.ndarray:
+    """Per column of ``targets``, the two coefficients minimising Σ ((design @ c - target) / fit)².
 
-    It fails on a spectrum with (numerically) empty bins, e.g. a record interpolated onto a finer
-    grid (``identify(upsample=R)``), whose noise is band-limited to the data's Nyquist frequency.
+    Iteratively reweighted least squares (weights from the current fit), all channels at once by
+    their 2 x 2 normal equations on unit-scaled design columns. A channel whose fit fails gets
+    NaN: a spectrum with (numerically) empty bins, e.g. a record interpolated onto a finer grid
+    (``identify(upsample=R)``), whose noise is band-limited to the data's Nyquist frequency.
+
+    Parameters
+    ----------
+    design : ndarray, shape (n_bins, 2)
+    targets : ndarray, shape (n_bins, n_channels)
+
+    Returns
+    -------
+    ndarray, shape (n_channels, 2)
     """
+    scale = np.max(np.abs(design), axis=0)
+    unit = design / np.where(scale > 0, scale, 1.0)
     with np.errstate(all="ignore"):
-        scaled = design / target[:, None]
-        if not np.all(np.isfinite(scaled)) or not np.all(target > 0):
-            return None
-        try:
-            coef = np.linalg.lstsq(scaled, np.ones(len(target)), rcond=None)[0]
-            for _ in range(passes):  # relative least squares: weights from the current fit
-                fitted = np.maximum(design @ coef, np.finfo(float).tiny)
-                lhs, rhs = design / fitted[:, None], target / fitted
-                if not (np.all(np.isfinite(lhs)) and np.all(np.isfinite(rhs))):
-                    return None
-                coef = np.linalg.lstsq(lhs, rhs, rcond=None)[0]
-        except np.linalg.LinAlgError:
-            return None
-    return coef if np.all(np.isfinite(coef)) else None
+        usable = np.all(targets > 0, axis=0) & np.all(np.isfinite(targets), axis=0)
+        weights = np.where(usable, 1.0 / targets, np.nan)  # first pass: relative to the data
+        coef = np.full((targets.shape[1], 2), np.nan)
+        for _ in range(passes + 1):
+            lhs = unit[:, None, :] * weights[:, :, None]  # (bins, channels, 2)
+            normal = np.einsum("bci,bcj->cij", lhs, lhs)
+            rhs = np.einsum("bci,bc->ci", lhs, targets * weights)
+            det = normal[:, 0, 0] * normal[:, 1, 1] - normal[:, 0, 1] ** 2
+            ok = np.isfinite(det) & (det > 1e-12 * normal[:, 0, 0] * normal[:, 1, 1])
+            det = np.where(ok, det, np.nan)
+            coef = np.stack([normal[:, 1, 1] * rhs[:, 0] - normal[:, 0, 1] * rhs[:, 1],
+                             normal[:, 0, 0] * rhs[:, 1] - normal[:, 0, 1] * rhs[:, 0]], axis=1) / det[:, None]
+            weights = 1.0 / np.maximum(unit @ coef.T, np.finfo(float).tiny)
+        return coef / np.where(scale > 0, scale, 1.0)

@@ -204,15 +204,13 @@ class StateSpaceModel:
         modal_b, cm = vinv @ self.B, self.C @ vec * weight
         k = len(lam)
         with np.errstate(over="ignore", invalid="ignore"):  # divergence is reported below
-            # modal drives d_p = (V⁻¹B)_p u, real and imaginary parts, column-contiguous
-            drive_re = np.asfortranarray(u @ modal_b.real.T)
-            drive_im = np.asfortranarray(u @ modal_b.imag.T)
+            # modal drives d_p = (V⁻¹B)_p u, column-contiguous: one complex column per mode
+            drive = np.asfortranarray(u @ modal_b.T)
             basis = np.empty((u.shape[0], 2 * k), order="F")  # [Re z, Im z] of the modal states
             for p, lp in enumerate(lam):
-                both = modal_filter(lp, np.stack([drive_re[:, p], drive_im[:, p]], axis=1))  # one solve, 2 columns
-                from_re, from_im = both[:, 0], both[:, 1]
-                basis[:, p] = from_re.real - (from_im.imag if np.iscomplexobj(from_im) else 0.0)
-                basis[:, k + p] = (from_re.imag if np.iscomplexobj(from_re) else 0.0) + from_im.real
+                state, _ = delayed_first_order(lp if lp.imag else lp.real, drive[:, p])
+                basis[:, p] = state.real
+                basis[:, k + p] = state.imag if np.iscomplexobj(state) else 0.0
             y = basis @ np.vstack([cm.real.T, -cm.imag.T]) + u @ self.D.T
             if x0 is not None:
                 y += self.initial_response(x0, len(u))

@@ -19,8 +19,11 @@ lint: venv
 	$(BIN)/ruff check bayesnsi tests
 	$(BIN)/mypy
 
+# test: the suite on TEST_WORKERS processes (pytest-xdist; 2 by default, one per core of the CI machine;
+# `make test TEST_WORKERS=0` runs it in one process), one BLAS thread each.
+TEST_WORKERS ?= 2
 test: lint
-	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 $(BIN)/python -m pytest -q --durations=10
+	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 $(BIN)/python -m pytest -q -n $(TEST_WORKERS) --durations=10
 
 demo: venv
 	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $(BIN)/bayesnsi demo --out demo-report --force

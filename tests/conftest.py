@@ -1,5 +1,6 @@
 """Shared fixtures and helpers."""
 
+import functools
 import os
 
 import numpy as np
@@ -29,6 +30,18 @@ def base_seed() -> int:
 @pytest.fixture
 def rng():
     return np.random.default_rng(base_seed())
+
+
+@functools.lru_cache(maxsize=2)
+def twin_case(seed: int = 0):
+    """``simulate_case("negative-stiffness", seed=seed)``, simulated once per test process.
+
+    The twin's RK4 march (140 s on a 6x grid, 25-40 s) is shared by the tests that read it; they
+    must not modify the returned case.
+    """
+    from bayesnsi.simulate import simulate_case
+
+    return simulate_case("negative-stiffness", seed=seed)
 
 
 def zoh_chain(masses, stiffnesses, dampings, dt, force_dofs):

@@ -10,6 +10,8 @@ from bayesnsi.nsi import affine_reconstruction, identify, predictor_reconstructi
 from bayesnsi.options import NSIOptions
 from bayesnsi.simulate import simulate_case
 
+from .conftest import twin_case
+
 
 def _identify(signals, candidate, options=None):
     with warnings.catch_warnings():
@@ -74,7 +76,7 @@ def test_measured_noise_std_from_channel_consistency():
     noise 10×, the displacement-velocity consistency fit does not."""
     from bayesnsi.nsi._noise import measured_noise_std, white_noise_std
 
-    case = simulate_case("negative-stiffness", seed=0)
+    case = twin_case(0)
     true_disp = (case.signals.displacement - case.clean.displacement).std(axis=0)
     true_vel = (case.signals.velocity - case.clean.velocity).std(axis=0)
     disp, vel = measured_noise_std(case.signals)
@@ -87,7 +89,7 @@ def test_twin_innovations_are_white():
     """With the channel noise from the consistency fit, the errors-in-variables predictor of the
     true twin model (Table 8 model 2, upsample 4) leaves white innovations (measured: lag 1-5
     autocorrelation within ±0.03; with the difference-based velocity noise it was -0.08 at lags 1-3)."""
-    case = simulate_case("negative-stiffness", seed=0)
+    case = twin_case(0)
     result = _identify(case.signals, case.candidate("model 2"), case.recommended)
     affine = predictor_reconstruction(result, case.signals)
     e = (affine.measured - affine.predict(affine.estimate))[100:, 0]

@@ -14,6 +14,8 @@ from bayesnsi.nsi import identify
 from bayesnsi.options import EvidenceOptions, NSIOptions
 from bayesnsi.simulate import simulate_case, simulate_cases
 
+from .conftest import twin_case
+
 N_SEEDS = 20
 
 
@@ -226,7 +228,7 @@ def test_beam_damping_refined_poles(beam):
 @pytest.mark.parametrize("seed", [0, 1])
 def test_negative_stiffness_twin_model_2(seed):
     """Table 8 model 2: k1 (static FRF), k2, k3, α1, α2 within 3 %."""
-    case = simulate_case("negative-stiffness", seed=seed)
+    case = twin_case(seed)
     result = _identify(case.signals, case.candidate("model 2"), NSIOptions(block_rows=40, order=2, band_hz=(5.0, 20.0)))
     k1 = 1.0 / result.underlying_frf([0.0])[0, 0, 0].real
     assert k1 == pytest.approx(case.K[0, 0], rel=0.03)
@@ -237,7 +239,7 @@ def test_negative_stiffness_twin_upsampled_identification():
     """identify(upsample=4) resolves the sign() friction between samples: every coefficient of
     Table 8 model 2 within 1 % (against the simulator's exact values; the default sampled
     identification gives α1 -2.1 %, benchmarks/upsample.py), reconstructed at the data's samples."""
-    case = simulate_case("negative-stiffness", seed=0)
+    case = twin_case(0)
     model_2 = case.candidate("model 2")
     sampled = _identify(case.signals, model_2, NSIOptions(block_rows=40, order=2, band_hz=(5.0, 20.0)))
     fine = _identify(case.signals, model_2, NSIOptions(block_rows=80, order=2, band_hz=(5.0, 20.0), upsample=4))

@@ -15,6 +15,8 @@ from bayesnsi.nsi import identify
 from bayesnsi.options import EvidenceOptions, NSIOptions
 from bayesnsi.simulate import simulate_cases
 
+from .conftest import twin_case
+
 
 def test_evidence_prefers_smaller_nested_model():
     cases = simulate_cases("two-dof", range(10))
@@ -46,9 +48,7 @@ def test_negative_stiffness_twin_true_model_ranked_first():
     whose extra α3·sign(ż) is truly absent. Measured (Laplace, seeds 0-4): model 4 below model 2
     by 7.5, 8.1, 4.0, 7.1, 12.6 nat; with the velocity noise from high-order differences it was
     8-10 nat above."""
-    from bayesnsi.simulate import simulate_case
-
-    case = simulate_case("negative-stiffness", seed=0)
+    case = twin_case(0)
     options = EvidenceOptions(compare=())
     evidences = {}
     for cand, seed in zip(case.candidates, np.random.SeedSequence(0).spawn(len(case.candidates))):

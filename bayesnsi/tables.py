@@ -13,7 +13,7 @@ Example
 >>> round(float(table.loc["frequency 1 [Hz]", ("model 1", "identified")]), 2)
 2.46
 >>> round(float(coefficients_table({"model 1": result}).iloc[0, 0]), 1)
-20.1
+20.0
 >>> list(modes_frame(result).columns), coefficients_frame(result).index.name
 (['frequency_hz', 'damping_ratio'], 'term')
 """

@@ -254,25 +254,3 @@ def test_a_look_ahead_row_of_the_loop_table_names_the_rejected_term_it_was_tried
     assert tried_with(first, loop) == "" and tried_with(pair, loop) == " (tried with x1**3@1)"
     added = SimpleNamespace(accepted=True, term=cubic, candidate=SimpleNamespace(terms=(cubic,)))
     assert tried_with(pair, SimpleNamespace(start=loop.start, steps=[added, pair])) == ""  # on the current model
-
-
-def test_diagnose_names_the_default_band_when_a_wanted_effect_fails_the_quality_index():
-    # Trial of a 12-DOF chain with a clearance at DOF 9: the loop found it (log Bayes factor 2.5e6) and
-    # rejected it for |Im|/|Re| = 0.41 over the default band [1.62, 57.3] Hz, which reaches past the
-    # highest mode; over a band ending at the highest mode it read 0.012 and was added
-    from types import SimpleNamespace
-
-    from bayesnsi.cli._loop_report import nothing_added_note
-
-    clearance = SimpleNamespace(name="clearance", location=(9,))
-    steps = [SimpleNamespace(reason="quality index |Im|/|Re| = 0.41 >= 0.3", imag_ratio=0.41, effect=clearance,
-                             log_bayes_factor=2.47e6),
-             SimpleNamespace(reason="log Bayes factor 1.2 <= threshold 4.61", imag_ratio=0.02, effect=clearance,
-                             log_bayes_factor=1.2)]
-    start = {"name": "linear", "band_hz": [1.62, 57.3], "modes": [{"frequency_hz": 3.2}, {"frequency_hz": 52.1}]}
-    payload = {"candidates": [start], "settings": {"nsi": {"band_hz": None}, "loop": {"threshold": 4.61}}}
-    note = nothing_added_note(steps, payload, "linear")
-    assert "clearance at DOF 9 explains the data better by 2.47e+06 nat" in note
-    assert "give [nsi] band_hz = [1.62, 52.1]" in note
-    declared = dict(payload, settings={"nsi": {"band_hz": [1.0, 60.0]}, "loop": {"threshold": 4.61}})
-    assert "band_hz" not in nothing_added_note(steps, declared, "linear")  # the user chose the band

@@ -92,8 +92,6 @@ def nothing_added_note(steps, payload, start_name: str) -> str:
             "(--max-imag-ratio)."
         )
     record = next((c for c in payload.get("candidates", ()) if c.get("name") == start_name), {})
-    if (band := _default_band_note(steps, payload, record)) is not None:
-        parts.append(band)
     check = record.get("model_check") or {}
     if check and not check.get("adequate", True):
         parts.append(
@@ -101,32 +99,6 @@ def nothing_added_note(steps, payload, start_name: str) -> str:
             "it passes on (adequacy check in the evidence section)."
         )
     return "".join(" " + p for p in parts)
-
-
-def _default_band_note(steps, payload, start_record) -> str | None:
-    """A word on the averaging band when an effect the evidence wants fails the quality index on the default band.
-
-    The default band reaches 10 % past the highest mode (``bayesnsi.nsi.physics.default_band``), where
-    λ(ω) means little (docs/method.md §10): on a 12-DOF chain a clearance at the right DOF, 2.5e6 nat better,
-    read |Im|/|Re| = 0.41 over [1.5, 67] Hz and 0.012 over [1.5, 60] Hz.
-    """
-    settings = payload.get("settings", {})
-    band, modes = start_record.get("band_hz"), [m.get("frequency_hz") for m in start_record.get("modes") or ()]
-    if settings.get("nsi", {}).get("band_hz") is not None or not band or not any(f is not None for f in modes):
-        return None
-    threshold = settings.get("loop", {}).get("threshold", 0.0)
-    wanted = [s for s in steps if s.reason.startswith("quality index") and s.log_bayes_factor > threshold]
-    if not wanted:
-        return None
-    best = max(wanted, key=lambda s: s.log_bayes_factor)
-    top = max(f for f in modes if f is not None)
-    return (
-        f"{best.effect.name} {_at(best.effect)} explains the data better by {best.log_bayes_factor:.3g} nat "
-        f"but failed the quality index (|Im|/|Re| = {best.imag_ratio:.2g}) averaged over the default band "
-        f"[{band[0]:.3g}, {band[1]:.3g}] Hz, which reaches past the highest mode ({top:.3g} Hz), where λ(ω) means "
-        f"little: if its λ(ω) is flat between the modes, give [nsi] band_hz = [{band[0]:.3g}, {top:.3g}] (or raise "
-        "--max-imag-ratio) and run again."
-    )
 
 
 def loop_summary(loop, payload, start_name: str) -> str:

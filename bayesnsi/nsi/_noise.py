@@ -154,7 +154,6 @@ def _relative_line_fits(design: np.ndarray, targets: np.ndarray, passes: int = 3
     with np.errstate(all="ignore"):
         usable = np.all(targets > 0, axis=0) & np.all(np.isfinite(targets), axis=0)
         weights = np.where(usable, 1.0 / targets, np.nan)  # first pass: relative to the data
-        coef = np.full((targets.shape[1], 2), np.nan)
         for _ in range(passes + 1):
             lhs = unit[:, None, :] * weights[:, :, None]  # (bins, channels, 2)
             normal = np.einsum("bci,bcj->cij", lhs, lhs)

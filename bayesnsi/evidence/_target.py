@@ -99,15 +99,20 @@ class Target:
         lam, u, rho = self.split(theta)
         return self.priors.log_prior(lam, u, rho if self.order else None)
 
-    def log_likelihood(self, theta) -> np.ndarray:
-        lam, u, rho = self.split(theta)
-        delta = lam - self.stats.center
-        beta = _beta(delta)
-        taps = np.concatenate([np.ones(rho.shape[:-1] + (1,)), -rho], axis=-1)
-        # βᵀ W β for every window as one product with the outer products ββᵀ (a 3-operand einsum loops)
+    def forms(self, lam) -> np.ndarray:
+        """``βᵀ W_{j,ik} β`` for rows of ``λ``: (..., l, p+1, p+1), one product with the outer products ββᵀ.
+
+        (A three-operand einsum over the windows loops in Python-speed steps; this is a matrix product.)
+        """
+        beta = _beta(np.asarray(lam, dtype=float) - self.stats.center)
         outer = (beta[..., :, None] * beta[..., None, :]).reshape(beta.shape[:-1] + (-1,))
         window = self.window
-        forms = (outer @ window.reshape(-1, window.shape[-1] ** 2).T).reshape(beta.shape[:-1] + window.shape[:3])
+        return (outer @ window.reshape(-1, window.shape[-1] ** 2).T).reshape(beta.shape[:-1] + window.shape[:3])
+
+    def log_likelihood(self, theta) -> np.ndarray:
+        lam, u, rho = self.split(theta)
+        taps = np.concatenate([np.ones(rho.shape[:-1] + (1,)), -rho], axis=-1)
+        forms = self.forms(lam)
         ss = np.einsum("...jk,...jk->...j", np.einsum("...ji,...jik->...jk", taps, forms), taps)
         out = -0.5 * self.n_eff * (_LOG_2PI + 2.0 * u) - 0.5 * ss * np.exp(-2.0 * u)
         if self.method == "exact" and self.order == 1:

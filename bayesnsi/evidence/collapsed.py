@@ -26,7 +26,6 @@ import numpy as np
 from scipy.special import gammainc, gammaincc, gammaincinv, gammaln, logsumexp
 
 from ._target import _LOG_2PI, Target
-from .likelihood import _beta
 
 _SAFE_SD = 10.0  # a noise-prior bound more than 10 sd of Gamma(a) from the mass leaves it whole (< e^-45)
 _GH_NODES = 12  # Gauss-Hermite nodes in ρ: exact for a Gaussian, < 1e-9 nat for the t-shape at n >= 100
@@ -58,16 +57,11 @@ class CollapsedTarget:
         if target.order:
             const = const - np.log(target.priors.ar.upper - target.priors.ar.lower)
         self.const = float(np.sum(const))
-        window = target.window  # (l, p+1, p+1, q+1, q+1): the forms are ββᵀ (flattened) times this matrix
-        self._matrix = np.ascontiguousarray(window.reshape(-1, window.shape[-1] ** 2).T)
-        self._form_shape = window.shape[:3]
 
     # -- densities ------------------------------------------------------------------------------
     def forms(self, lam) -> np.ndarray:
-        """``βᵀ W_{j,ik} β``: (..., l) for white noise, (..., l, 2, 2) for AR(1)."""
-        beta = _beta(np.asarray(lam, dtype=float) - self.target.stats.center)
-        outer = (beta[..., :, None] * beta[..., None, :]).reshape(beta.shape[:-1] + (-1,))
-        f = (outer @ self._matrix).reshape(beta.shape[:-1] + self._form_shape)
+        """``βᵀ W_{j,ik} β``: (..., l) for white noise, (..., l, 2, 2) for AR(1) (:meth:`Target.forms`)."""
+        f = self.target.forms(lam)
         return f[..., 0, 0] if not self.target.order else f
 
     def log_posterior(self, lam) -> np.ndarray:

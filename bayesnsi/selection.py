@@ -230,6 +230,9 @@ def select(
     checks = {o.name: validate(o.result, segments) for o in identified} if segments else {}
     adequacy = {}
     for o in identified if whiteness_applies(signals) else ():  # integrated responses: coloured noise, no test
+        if o.whiteness is not None:  # tested with its evidence, on the same residual
+            adequacy[o.name] = o.whiteness
+            continue
         try:
             adequacy[o.name] = residual_whiteness(o.result, signals, evidence.residual)
         except (BayesNSIError, np.linalg.LinAlgError):

@@ -87,19 +87,22 @@ def _as_matrix(name: str, values, n_samples: int | None) -> np.ndarray:
             f"{name} has {arr.shape[0]} samples but the forces have {n_samples}; "
             "all channels must be sampled together - trim them to the same length"
         )
-    bad = ~np.isfinite(arr)
-    if bad.any():
+    if not np.isfinite(arr).all():
+        bad = ~np.isfinite(arr)
         row, col = np.argwhere(bad)[0]
         raise InputDataError(
             f"{name} holds {int(bad.sum())} NaN/Inf values (first at sample {row}, channel {col}); "
             "remove or interpolate them, or select a clean segment"
         )
-    std = arr.std(axis=0)
-    if arr.shape[0] > 1 and np.any(std == 0):
-        raise InputDataError(
-            f"{name} channel {int(np.argmax(std == 0))} is constant; a constant channel carries no "
-            "dynamic information - remove it from the config"
-        )
+    if arr.shape[0] > 1:
+        varies = (arr[:1000] != arr[0]).any(axis=0)  # most channels vary early: the whole record only where not
+        if not varies.all():
+            varies = (arr != arr[0]).any(axis=0)
+        if not varies.all():
+            raise InputDataError(
+                f"{name} channel {int(np.argmin(varies))} is constant; a constant channel carries no "
+                "dynamic information - remove it from the config"
+            )
     arr.setflags(write=False)
     return arr
 

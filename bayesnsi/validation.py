@@ -19,7 +19,7 @@ from .exceptions import BayesNSIError, ConfigError
 
 __all__ = [
     "ADEQUACY_LEVEL", "VALIDATION_INIT_SAMPLES", "SegmentError", "Whiteness", "measured_errors", "open_loop_error",
-    "residual_whiteness", "validate", "whiteness_applies",
+    "residual_whiteness", "validate", "whiteness_applies", "whiteness_test",
 ]
 
 ADEQUACY_LEVEL = 0.01
@@ -276,7 +276,26 @@ def residual_whiteness(result, signals, residual: str = "innovations", max_lag: 
     if residual not in builders:
         raise ConfigError(f"residual {residual!r} unknown; use one of {sorted(builders)}")
     affine = builders[residual](result, signals)
-    error = affine.measured - affine.predict(affine.estimate)
+    return whiteness_test(affine.measured - affine.predict(affine.estimate), residual, max_lag)
+
+
+def whiteness_test(error, residual: str = "innovations", max_lag: int = 20) -> Whiteness:
+    """Ljung-Box test of a residual record, per channel (what :func:`residual_whiteness` computes).
+
+    Parameters
+    ----------
+    error : ndarray, shape (n_samples, n_channels)
+        The residual (its mean is removed).
+    residual : str
+        What the residual is (``"innovations"`` or ``"reconstruction"``), kept in the result.
+    max_lag : int
+        Lags of the test (at least 1, fewer than the samples).
+
+    Returns
+    -------
+    Whiteness
+    """
+    error = np.asarray(error, dtype=float)
     error = error - error.mean(axis=0)
     n = error.shape[0]
     if isinstance(max_lag, bool) or not isinstance(max_lag, (int, np.integer)) or not 1 <= max_lag < n - 1:

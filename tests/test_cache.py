@@ -101,6 +101,7 @@ def test_cached_outcome_is_identical_to_the_fresh_one(case, fresh, tmp_path):
     assert messages == ""
     assert [o.cached for o in first] == [False] * 3 and [o.cached for o in second] == [True] * 3
     assert all(o.evidences for o in second)
+    assert all(o.whiteness is not None for o in second)  # the Ljung-Box test travels with the evidence
     for a, b in zip(first, second):
         _same(a, b)  # bit for bit, wall times included
     for a, b in zip(fresh, second):

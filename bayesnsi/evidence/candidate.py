@@ -130,7 +130,7 @@ def candidate_affine(result, signals, residual: str = "innovations"):
 
 def candidate_evidence(
     result, signals, options: EvidenceOptions | None = None, seed_sequence=None, candidate=None, *, warn: bool = True,
-    reconstruction=None,
+    reconstruction=None, affine=None,
 ):
     """Marginal evidence of one identified candidate under each requested likelihood.
 
@@ -150,6 +150,9 @@ def candidate_evidence(
     reconstruction : Reconstruction, optional
         ``result.reconstruct(signals)`` when the caller has it already (the paper's plain
         likelihood is read from it; computed here otherwise).
+    affine : AffineReconstruction, optional
+        ``candidate_affine(result, signals, options.residual)`` when the caller has it already
+        (computed here otherwise).
 
     Returns
     -------
@@ -160,7 +163,7 @@ def candidate_evidence(
         raise TypeError(f"options must be EvidenceOptions, got {type(options).__name__}")
     seed_sequence = seed_sequence or np.random.SeedSequence(0)
     residual = options.residual
-    affine = candidate_affine(result, signals, residual)
+    affine = candidate_affine(result, signals, residual) if affine is None else affine
     priors = candidate_priors(result, signals, affine, options, candidate)
     plain = None
     if residual != "reconstruction":

@@ -21,6 +21,7 @@ from ..exceptions import BayesNSIError
 from ..models import CandidateModel, Term
 from ..nsi import CoefficientEstimate, Mode, NSIResult, StateSpaceModel
 from ..run.batch import FAILED_STAGES, CandidateOutcome
+from ..validation import Whiteness
 from ._store import EntryError, decode_value, encode_value
 
 __all__ = ["outcome_from_plain", "outcome_to_plain", "schema_fields"]
@@ -314,6 +315,9 @@ OUTCOME = _Struct(CandidateOutcome, {
     "traceback": OPTIONAL_STR,
     "warnings": STRS,
     "intervals": INTERVALS,
+    "whiteness": _Struct(Whiteness, {
+        "residual": STR, "max_lag": INT, "statistic": FLOATS, "p_value": FLOATS, "fraction_outside": FLOATS,
+    }, none=True),
     "seconds": FLOAT,
 }, fixed={"cached": True}, check=_check_outcome)
 

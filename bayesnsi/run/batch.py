@@ -69,6 +69,11 @@ class CandidateOutcome:
         50 % and 95 % intervals of the coefficients and modes under the primary likelihood
         (:func:`bayesnsi.evidence.candidate_intervals`, ``EvidenceOptions.interval``); None without
         evidence.
+    whiteness : Whiteness or None
+        Ljung-Box test of the residual the evidence scored (innovations or open loop,
+        :func:`bayesnsi.validation.whiteness_test`), computed with it; None where the test does not
+        apply (:func:`bayesnsi.validation.whiteness_applies`), without evidence, for a free body
+        (scored on its force) or a ``"force"`` residual.
     seconds : float
         Wall time of the computation (of the original run for a cached outcome).
     cached : bool
@@ -85,6 +90,7 @@ class CandidateOutcome:
     traceback: str | None = None
     warnings: tuple[str, ...] = ()
     intervals: Any = None
+    whiteness: Any = None
     seconds: float = 0.0
     cached: bool = False
 
@@ -147,10 +153,12 @@ def candidate_task(
                 found["nrmse"], found["nrmse_per_channel"] = measured.nrmse, measured.nrmse_per_channel
             if evidence is not None:
                 stage = "evidence"
-                from ..evidence import candidate_evidence
+                from ..evidence import candidate_affine, candidate_evidence
 
+                affine = candidate_affine(result, signals, evidence.residual)
                 found["evidences"] = candidate_evidence(result, signals, evidence, seed_sequence, candidate,
-                                                        reconstruction=reconstruction)
+                                                        reconstruction=reconstruction, affine=affine)
+                found["whiteness"] = _whiteness(result, signals, affine, evidence.residual)
                 found["intervals"] = _intervals_or_warning(result, signals, found["evidences"], evidence, nsi)
         except (BayesNSIError, np.linalg.LinAlgError) as err:
             found.update(error=f"{type(err).__name__}: {err}", failed_stage=stage)
@@ -158,13 +166,28 @@ def candidate_task(
             found.update(
                 error=f"{type(err).__name__}: {err}", failed_stage="internal", traceback=traceback.format_exc()
             )
-            found.pop("evidences", None)
-            found.pop("intervals", None)
+            for partial in ("evidences", "whiteness", "intervals"):
+                found.pop(partial, None)
     return CandidateOutcome(
         **found,
         warnings=tuple(str(w.message) for w in caught),
         seconds=time.perf_counter() - start,
     )
+
+
+def _whiteness(result, signals, affine, residual: str):
+    """Ljung-Box test of the evidence's residual, or None where ``select`` would test another one or none.
+
+    ``select`` tests the displacement residual named by ``[evidence] residual``
+    (:func:`bayesnsi.validation.residual_whiteness`): the evidence's own residual is that one except for a free
+    body (its force) or the ``"force"`` residual, and the test does not apply to integrated responses.
+    """
+    from ..nsi import is_free_body
+    from ..validation import whiteness_applies, whiteness_test
+
+    if residual not in ("innovations", "reconstruction") or is_free_body(result) or not whiteness_applies(signals):
+        return None
+    return whiteness_test(affine.measured - affine.predict(affine.estimate), residual)
 
 
 def _intervals_or_warning(result, signals, evidences, evidence: EvidenceOptions, nsi: NSIOptions):

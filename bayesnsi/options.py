@@ -162,7 +162,8 @@ class NSIOptions(_Options):
         "auto", "extended input over a sample interval: point value or interval mean", kind="choice",
         choices=("auto", "average", "sample"))
     upsample: int = _option(
-        1, "identify on a grid this many times finer than the data (sign() terms)", kind="int", low=1,
+        1, "identify on a grid this many times finer than the data (sign() terms); block_rows counts samples of "
+        "that grid: scale it by the same factor (as the loop's final re-identification does)", kind="int", low=1,
         high=MAX_UPSAMPLE)
     refine_poles: tuple[float, float] | None = _option(
         None, "band [Hz] whose poles are refined by output error", kind="band", none=True)

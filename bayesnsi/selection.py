@@ -19,6 +19,7 @@ import numpy as np
 
 from .exceptions import AdequacyWarning, BayesNSIError
 from .nsi.order import order_messages
+from .nsi.physics import excluded_lines_messages
 from .options import EvidenceOptions, ExecutionOptions, NSIOptions
 from .run.adequacy import ModelCheck, adequacy_warnings, model_checks, widen_inadequate
 from .run.batch import CandidateOutcome, run_candidates
@@ -242,7 +243,7 @@ def select(
     outcomes, fits = widen_inadequate(outcomes, fits, signals)  # their intervals carry the model error too
     selection = Selection(outcomes, table, nsi or NSIOptions(), evidence, checks, adequacy, fits)
     messages = adequacy_warnings(fits, selection.selected, **limits, max_band_ratio=evidence.max_band_ratio)
-    messages += order_messages(outcomes)
+    messages += order_messages(outcomes) + excluded_lines_messages(outcomes, selection.selected)
     messages += view_notes + tuple(velocity_noise_messages(signals, candidates, (nsi or NSIOptions()).velocity_method))
     for message in messages:
         warnings.warn(message, AdequacyWarning, stacklevel=2)

@@ -54,7 +54,7 @@ def test_a_start_that_failed_to_identify_says_why(tmp_path, capsys):
     assert "'constant' could not be identified" in err and "identifiable" in err and "block_rows or order" in err
 
 
-def test_the_default_start_is_the_plausible_model_when_the_selected_one_fails_a_check(tmp_path, monkeypatch):
+def test_the_default_start_is_the_plausible_model_when_the_selected_one_fails_a_check(tmp_path, monkeypatch, capsys):
     # trial: the evidence selected a sign() with a negative coefficient (negative dissipation); the loop
     # would have started from a model that is not physical. It starts from Selection.plausible instead.
     import bayesnsi.selection as selection_module
@@ -65,6 +65,29 @@ def test_the_default_start_is_the_plausible_model_when_the_selected_one_fails_a_
     config = csv.with_suffix(".toml")
     config.write_text(config.read_text() + TRUTH)
     out = tmp_path / "out"
+    capsys.readouterr()
     assert main(["diagnose", str(config), "--out", str(out), "--quiet", "--no-figures", "--max-steps", "1"]) == 0
     results = json.loads((out / "results.json").read_text())
     assert results["selected"] == "truth" and results["start"] == "declared" and results["plausible"] == "declared"
+    # a trial's diagnose printed nothing of this (select does, even with --quiet): now it says it as select does
+    err = capsys.readouterr().err
+    assert "the selected model fails a physical check" in err and "passes every check: declared" in err
+
+
+def test_diagnose_prints_the_final_coefficients_with_their_intervals(tmp_path, capsys):
+    # a trial's diagnose ran 12 minutes after "closing the loop" without a word and never printed the final model
+    csv = tmp_path / "qd.csv"
+    assert main(["simulate", "quadratic-damping", "--seed", "0", "--out", str(csv), "--quiet"]) == 0
+    config = csv.with_suffix(".toml")
+    config.write_text(config.read_text() + TRUTH)
+    capsys.readouterr()
+    out = tmp_path / "out"
+    args = ["diagnose", str(config), "--out", str(out), "--no-figures", "--max-steps", "1", "--start", "truth"]
+    assert main(args) == 0
+    printed = capsys.readouterr()
+    final = json.loads((out / "results.json").read_text())["final_coefficients"]
+    text = printed.out + printed.err
+    assert "evidence, intervals and check of the final model" in text
+    for record in final:
+        low, high = record["ci95"]
+        assert f"final {record['term']} = {record['value']:.4g}, 95 % [{low:.4g}, {high:.4g}]" in text

@@ -60,3 +60,18 @@ def test_the_answer_says_the_selected_model_fails_and_names_the_plausible_one():
     assert plausible_text(selection, "linear", decision) == ""  # diagnose --start linear: not the evidence's choice
     sound = _selection({"Coulomb": _check(), "cubic": _check(), "linear": _check()})
     assert plausible_text(sound, "Coulomb", decision) == ""
+
+
+def test_an_inadequate_plausible_model_is_named_as_such():
+    # trial (10-DOF chain, 1e6 samples): the true model failed the quality index (before the robust band mean)
+    # and "linear", 76.6x the noise it passes on, was named as the plausible model without a word on its fit
+    from bayesnsi.cli._report_choices import inadequacy_note, plausible_text
+
+    linear = SimpleNamespace(quality_ok=True, energy_input=(), unsupported=(), adequate=False, noise_ratio=76.6)
+    selection = _selection({"Coulomb": _check(quality_ok=False), "linear": linear})
+    decision = pd.DataFrame({"log_bayes_factor": [float("nan"), 9.2e6]}, index=["Coulomb", "linear"])
+    text = plausible_text(selection, "Coulomb", decision)
+    assert selection.plausible == "linear"
+    assert text.endswith("most probable is linear (9.2e+06 nat behind), but its residual is 76.6x the noise it "
+                         "passes on (not adequate either).")
+    assert inadequacy_note(_check()) == "" and inadequacy_note(None) == ""

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["frf_band", "measured_text", "overlay_channels", "plausible_text"]
+__all__ = ["frf_band", "inadequacy_note", "measured_text", "overlay_channels", "plausible_text"]
 
 
 def plausible_text(selection, selected, decision) -> str:
@@ -22,7 +22,15 @@ def plausible_text(selection, selected, decision) -> str:
         return text + "; no candidate passes every check."
     behind = decision.loc[plausible, "log_bayes_factor"] if plausible in decision.index else float("nan")
     return text + (f"; of the candidates that pass every check the most probable is {plausible}"
-                   + (f" ({behind:.3g} nat behind)." if np.isfinite(behind) else "."))
+                   + (f" ({behind:.3g} nat behind)" if np.isfinite(behind) else "")
+                   + inadequacy_note(checks.get(plausible)) + ".")
+
+
+def inadequacy_note(check) -> str:
+    """``", but its residual is N x the noise it passes on (not adequate)"`` for an inadequate model, else ``""``."""
+    if check is None or getattr(check, "adequate", True) or not np.isfinite(getattr(check, "noise_ratio", np.nan)):
+        return ""
+    return f", but its residual is {check.noise_ratio:.3g}x the noise it passes on (not adequate either)"
 
 
 def measured_text(config) -> str:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ..options import LoopOptions
 from ._common import add_option_flags, add_run_arguments, option_overrides, progress, start_run
-from .select import run_selection
+from .select import print_selection_warnings, run_selection
 
 __all__ = ["add_parser", "run"]
 
@@ -49,6 +49,7 @@ def run(args) -> int:
     loop_options = option_overrides(config.loop, args)
     loop_effects(signals, loop_options.effects)  # unknown effect names: ConfigError before any work
     selection = run_selection(config, signals, args, out)
+    print_selection_warnings(selection)  # as select: what the ranking should not be trusted for
     results = selection.results
     if not results:
         raise ConfigError("no candidate could be identified, so there is no model to start the loop from")
@@ -69,6 +70,8 @@ def run(args) -> int:
         nsi=config.nsi, evidence=selection.evidence, execution=execution,
     )
     validation = load_validation(config)
+    progress(f"loop done ({len(loop.steps)} effects checked); evidence, intervals and check of the final model ...",
+             args.quiet)
     final_evidence, final_intervals, final_check = _final_evidence(loop, signals, selection, start)
     steps = []
     for step in loop.steps:
@@ -125,6 +128,10 @@ def run(args) -> int:
     payload["posterior_files"] = write_posteriors(out, posteriors, selection.likelihood)
     payload["loop_scores"] = [loop.search_records(k) for k in range(len(loop.scores))]
     progress(loop_summary(loop, payload, start), args.quiet)
+    for record in payload["final_coefficients"]:
+        interval = f", 95 % [{record['ci95'][0]:.4g}, {record['ci95'][1]:.4g}]" if "ci95" in record else ""
+        progress(f"  final {record['term']} = {record['value']:.4g}{interval} (|Im|/|Re| {record['imag_ratio']:.2g})",
+                 args.quiet)
     if not args.no_figures:
         with held_figures():
             units = report_units(config)

@@ -48,12 +48,25 @@ def run(args) -> int:
     progress(f"wrote {path}", args.quiet)
     refuse_if_nothing_identified(selection.outcomes, path)
     progress(f"selected: {selection.selected}{_adequacy_text(selection)}", args.quiet)
+    print_selection_warnings(selection)
+    return 0
+
+
+def print_selection_warnings(selection) -> None:
+    """The selection's warnings on stderr, shown even with ``--quiet`` (adequacy, issue 15).
+
+    Parameters
+    ----------
+    selection : Selection
+    """
+    from ._report_choices import inadequacy_note  # numpy: not on the path of ``--help``
+
     if selection.checks and selection.plausible != selection.selected:
         print(f"warning: the selected model fails a physical check (warnings below); the most probable candidate "
-              f"that passes every check: {selection.plausible or 'none'}", file=sys.stderr)
-    for message in selection.warnings:  # adequacy (issue 15): shown even with --quiet
+              f"that passes every check: {selection.plausible or 'none'}"
+              f"{inadequacy_note(selection.checks.get(selection.plausible))}", file=sys.stderr)
+    for message in selection.warnings:
         print(f"warning: {message}", file=sys.stderr)
-    return 0
 
 
 def run_selection(config, signals, args, out):

@@ -249,6 +249,7 @@ NSI_RESULT = _Struct(NSIResult, {
     "spurious_poles": _Array("complex128", 1),
     "coefficients": _Sequence(_Struct(CoefficientEstimate, {
         "term": TERM, "value": FLOAT, "imag_ratio": FLOAT, "band_hz": FLOATS, "spread": FLOAT,
+        "excluded_fraction": FLOAT,
     })),
     "settings": _Typed(dict),
     "rigid_body_poles": _Array("complex128", 1),

@@ -76,7 +76,8 @@ def _identification(result) -> dict[str, Any]:
     return {
         "terms": [term_record(t) for t in result.terms],
         "coefficients": [
-            {**term_record(c.term), "value": c.value, "imag_ratio": c.imag_ratio, "spread": c.spread, "ci95": None}
+            {**term_record(c.term), "value": c.value, "imag_ratio": c.imag_ratio, "spread": c.spread,
+             "excluded_fraction": c.excluded_fraction, "ci95": None}
             for c in result.coefficients
         ],
         "modes": [{"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio} for m in result.modes],

@@ -91,3 +91,17 @@ def test_diagnose_prints_the_final_coefficients_with_their_intervals(tmp_path, c
     for record in final:
         low, high = record["ci95"]
         assert f"final {record['term']} = {record['value']:.4g}, 95 % [{low:.4g}, {high:.4g}]" in text
+
+
+def test_the_answer_quotes_the_final_model_values_and_its_grid():
+    # trial: the answer quoted the step's λ = 0.458 while the final model, re-identified on the 4x grid, held 0.367
+    from types import SimpleNamespace
+
+    from bayesnsi.cli._loop_report import _final_values
+
+    payload = {"final_coefficients": [{"term": "x4**3@4", "value": 5.07e6}, {"term": "sign(v7)@7", "value": 0.3961}]}
+    refined = SimpleNamespace(settings={"final_nsi": {"upsample": 4}})
+    expected = "x4**3@4 = 5.07e+06, sign(v7)@7 = 0.3961 (re-identified on a 4x finer grid)"
+    assert _final_values(refined, payload) == expected
+    assert _final_values(SimpleNamespace(settings={"final_nsi": {"upsample": 1}}), payload).endswith("= 0.3961")
+    assert _final_values(refined, {}) == ""

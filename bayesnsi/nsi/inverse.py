@@ -320,20 +320,10 @@ def force_affine(
         q, _ = np.linalg.qr(np.column_stack([a[keep], v[keep], x[keep], np.ones_like(x[keep])]))
         measured = f[keep] - q @ (q.T @ f[keep])
         signatures = signatures - q @ (q.T @ signatures)
-        return AffineReconstruction(
-            measured=measured[:, None],
-            baseline=np.zeros((len(measured), 1)),
-            signatures=signatures[:, None, :],
-            estimate=estimate,
-            names=tuple(t.name for t in result.terms),
-        )
-    return AffineReconstruction(
-        measured=f[keep][:, None],
-        baseline=(linear[keep] + offset)[:, None],
-        signatures=signatures[:, None, :],
-        estimate=estimate,
-        names=tuple(t.name for t in result.terms),
-    )
+        return AffineReconstruction.of_result(result, measured[:, None], np.zeros((len(measured), 1)),
+                                              signatures[:, None, :])
+    return AffineReconstruction.of_result(result, f[keep][:, None], (linear[keep] + offset)[:, None],
+                                          signatures[:, None, :])
 
 
 def short_horizon_nrmse(result, signals: Signals, horizon: int, n_init: int | None = None) -> float:

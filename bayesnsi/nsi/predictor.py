@@ -129,10 +129,4 @@ def predictor_reconstruction(result, signals: Signals, noise_std=None) -> Affine
     fitted = baseline + signatures @ estimate
     x0 = initial_state(by_forces, None, y - fitted, forced=np.zeros_like(y))
     baseline = baseline + by_forces.initial_response(x0, n_samples)
-    return AffineReconstruction(
-        measured=y,
-        baseline=baseline,
-        signatures=signatures,
-        estimate=estimate,
-        names=tuple(t.name for t in result.terms),
-    )
+    return AffineReconstruction.of_result(result, y, baseline, signatures)

@@ -264,6 +264,24 @@ class AffineReconstruction:
     estimate: np.ndarray
     names: tuple[str, ...]
 
+    @classmethod
+    def of_result(cls, result, measured, baseline, signatures) -> AffineReconstruction:
+        """The affine reconstruction of an NSI result: its estimate and term names with the given arrays.
+
+        Parameters
+        ----------
+        result : NSIResult
+        measured, baseline : ndarray, shape (n_samples, l)
+        signatures : ndarray, shape (n_samples, l, q)
+
+        Returns
+        -------
+        AffineReconstruction
+        """
+        return cls(measured=measured, baseline=baseline, signatures=signatures,
+                   estimate=np.asarray(result.coefficient_values, dtype=float),
+                   names=tuple(t.name for t in result.terms))
+
     @property
     def base_residual(self) -> np.ndarray:
         """``y - ŷ₀``, shape (n_samples, l)."""
@@ -313,8 +331,7 @@ def affine_reconstruction(result, signals: Signals) -> AffineReconstruction:
         raise NotIdentifiableError("a coefficient estimate is exactly zero; its per-unit signature is undefined")
     if _harmonic.applies(result, signals):  # frequency route, whole periods: on the fitted lines (docs/method.md §11)
         y, baseline, signatures = _harmonic.periodic_affine(result, signals)
-        return AffineReconstruction(measured=y, baseline=baseline, signatures=signatures, estimate=estimate,
-                                    names=tuple(t.name for t in result.terms))
+        return AffineReconstruction.of_result(result, y, baseline, signatures)
     factor = result.upsample
     work = result.working_signals(signals)
     u = result.extended_input(work, on_grid=True)
@@ -329,10 +346,4 @@ def affine_reconstruction(result, signals: Signals) -> AffineReconstruction:
     free = model.initial_response(x0, len(u))
     baseline = (forced_by_force + free)[::factor]
     signatures = np.ascontiguousarray(each[::factor, :, m:])
-    return AffineReconstruction(
-        measured=y,
-        baseline=baseline,
-        signatures=signatures,
-        estimate=estimate,
-        names=tuple(t.name for t in result.terms),
-    )
+    return AffineReconstruction.of_result(result, y, baseline, signatures)

@@ -28,7 +28,9 @@ def sample_collapsed(target: Target, rng, n_walkers: int, n_steps: int, n_burn: 
     """Draws of ``λ`` from the collapsed posterior (module notes), then ``σ`` and ``ρ`` given each draw.
 
     Returns ``(PosteriorSamples, CollapsedTarget)``; the draws hold ``θ = (λ, log σ, ρ)`` as those of
-    :func:`~bayesnsi.evidence.sample_posterior`, and ``log_posterior`` is the joint one at ``θ``.
+    :func:`~bayesnsi.evidence.sample_posterior`, and ``log_posterior`` is the joint one at ``θ``. The
+    autocorrelation time is estimated for ``λ``; ``σ`` and ``ρ``, drawn afresh given each ``λ``, get the
+    largest of ``λ``'s (their chains move only with it).
     ``found``: what ``target.find_mode(target.initial_theta(start))`` returned, when the caller has it.
     """
     import emcee
@@ -77,7 +79,12 @@ def sample_collapsed(target: Target, rng, n_walkers: int, n_steps: int, n_burn: 
     flat = lam.reshape(n_walkers * n_draws, q)
     u, rho = collapsed.draw_noise(flat, rng)
     samples = np.concatenate([flat, u, rho.reshape(len(flat), -1)], axis=-1).reshape(n_walkers, n_draws, -1)
-    tau, reliable = _integrated_time(np.swapaxes(samples, 0, 1))
+    # σ and ρ are drawn afresh given each λ: their chains move only with λ's, diluted by those draws
+    if q:
+        tau_lam, reliable = _integrated_time(lam)
+        tau = np.concatenate([tau_lam, np.full(samples.shape[-1] - q, np.max(tau_lam))])
+    else:  # independent draws
+        tau, reliable = np.ones(samples.shape[-1]), True
     posterior = PosteriorSamples(
         samples=np.ascontiguousarray(samples),
         log_posterior=target.log_posterior(samples),
@@ -98,8 +105,8 @@ def sample_collapsed(target: Target, rng, n_walkers: int, n_steps: int, n_burn: 
     return posterior, collapsed
 
 
-def _integrated_time(chain: np.ndarray, c: float = 5.0, tol: float = 50.0):
-    """emcee's integrated autocorrelation time of a (draw, walker, param) chain, all parameters at once.
+def _integrated_time(chains: np.ndarray, c: float = 5.0, tol: float = 50.0):
+    """emcee's integrated autocorrelation time of (walker, draw, param) chains, all parameters at once.
 
     The estimator of :func:`emcee.autocorr.integrated_time` (walker-averaged normalised autocorrelation,
     Sokal's window with ``c = 5``), vectorised over walkers and parameters; ``reliable`` is False
@@ -107,12 +114,14 @@ def _integrated_time(chain: np.ndarray, c: float = 5.0, tol: float = 50.0):
     """
     from scipy.fft import irfft, next_fast_len, rfft
 
-    n_t = chain.shape[0]
+    n_t = chains.shape[1]
     n_fft = next_fast_len(2 * n_t - 1, real=True)  # any length >= 2n-1 gives the same (linear) autocorrelation
-    spectrum = rfft(chain - chain.mean(axis=0), n=n_fft, axis=0)
-    acf = irfft(spectrum.real**2 + spectrum.imag**2, n=n_fft, axis=0)[:n_t]
+    x = np.ascontiguousarray(np.moveaxis(chains, 1, -1))  # (walker, param, draw): transforms along rows
+    x -= x.mean(axis=-1, keepdims=True)
+    spectrum = rfft(x, n=n_fft, axis=-1)
+    acf = irfft(spectrum.real**2 + spectrum.imag**2, n=n_fft, axis=-1)[..., :n_t]
     with np.errstate(invalid="ignore", divide="ignore"):
-        f = np.mean(acf / acf[0], axis=1)  # (draw, param)
+        f = np.mean(acf / acf[..., :1], axis=0).T  # (draw, param)
     taus = 2.0 * np.cumsum(f, axis=0) - 1.0
     inside = np.arange(n_t)[:, None] < c * taus
     window = np.where(np.any(inside, axis=0), np.argmin(inside, axis=0), n_t - 1)
@@ -186,12 +195,12 @@ def collapsed_summary(posterior, rhat_threshold: float, ess_threshold: float, ci
     if posterior.ar_order:
         names += [f"rho[{c}]" for c in posterior.channel_names]
         parts.append(posterior.rho[..., 0].reshape(-1, posterior.n_channels))
-    x = np.sort(np.concatenate(parts, axis=1), axis=0)
-    inc = int(np.floor(ci_prob * len(x)))
-    start = np.argmin(x[inc:] - x[: len(x) - inc], axis=0)
-    cols = np.arange(x.shape[1])
-    table = np.full((x.shape[1], len(columns)), np.nan)
-    table[:, 0], table[:, 1] = x.mean(axis=0), x.std(axis=0)
-    table[:, 2], table[:, 3] = x[start, cols], x[start + inc, cols]
+    x = np.sort(np.concatenate(parts, axis=1).T, axis=1)  # one contiguous row per parameter
+    inc = int(np.floor(ci_prob * x.shape[1]))
+    start = np.argmin(x[:, inc:] - x[:, : x.shape[1] - inc], axis=1)
+    rows = np.arange(x.shape[0])
+    table = np.full((x.shape[0], len(columns)), np.nan)
+    table[:, 0], table[:, 1] = x.mean(axis=1), x.std(axis=1)
+    table[:, 2], table[:, 3] = x[rows, start], x[rows, start + inc]
     frames.append(pd.DataFrame(table, index=names, columns=columns))
     return pd.concat(frames), report

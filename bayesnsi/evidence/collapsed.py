@@ -168,15 +168,17 @@ class CollapsedTarget:
         lo2, hi2 = (np.ravel(np.broadcast_to(v, rho.shape)) for v in (self.lo2, self.hi2))
         out = rho.reshape(-1)  # a copy: rho came from np.clip
         pending = np.arange(out.size)
-        for _ in range(40):  # rejection rounds over the draws still pending
+        for first in [True] + [False] * 39:  # rejection rounds over the draws still pending
             if not pending.size:
                 break
-            r_hat, sc, c2, m2, env = (v[pending] for v in flat)
+            # the first round takes every draw: no gather
+            r_hat, sc, c2, m2, env, l2, h2 = flat + [lo2, hi2] if first else (
+                v[pending] for v in flat + [lo2, hi2])
             prop = r_hat + sc * rng.standard_t(nu, size=pending.size)
             s = c2 * (prop - r_hat) ** 2 + m2
             with np.errstate(divide="ignore", invalid="ignore"):
-                log_acc = 0.5 * np.log1p(-np.minimum(prop**2, 1.0)) + _log_mass(
-                    0.5 * self.n, 0.5 * s / hi2[pending], 0.5 * s / lo2[pending])
+                log_acc = 0.5 * np.log1p(-np.minimum(prop**2, 1.0)) + _log_mass(0.5 * self.n, 0.5 * s / h2,
+                                                                                 0.5 * s / l2)
             ok = (prop > lower) & (prop < upper) & (np.log(rng.uniform(size=pending.size)) < log_acc - env)
             out[pending[ok]] = prop[ok]
             pending = pending[~ok]

@@ -97,8 +97,29 @@ def measured_noise_std(signals: Signals):
     -------
     displacement_std : ndarray, shape (l,)
     velocity_std : ndarray, shape (l,) or None
-        None when the signals carry no velocities.
+        None when the signals carry no velocities. Both read-only, computed once per
+        :class:`~bayesnsi.signals.Signals` (whose arrays are read-only copies).
     """
+    if not isinstance(signals, Signals):
+        return _estimate_noise_std(signals)
+    memo = vars(signals)  # Signals hold read-only copies of the data: once per record (every candidate reads it)
+    if _MEMO_KEY not in memo:
+        memo[_MEMO_KEY] = tuple(None if v is None else _read_only(v) for v in _estimate_noise_std(signals))
+    return memo[_MEMO_KEY]
+
+
+_MEMO_KEY = "_measured_noise_std"
+
+
+def _read_only(values: np.ndarray) -> np.ndarray:
+    """A read-only copy of ``values`` (float)."""
+    values = np.array(values, dtype=float)
+    values.setflags(write=False)
+    return values
+
+
+def _estimate_noise_std(signals: Signals):
+    """:func:`measured_noise_std` without the memo."""
     x = np.asarray(signals.displacement, dtype=float)
     realisations = getattr(signals, "realisations", 1)
     scatter = period_scatter_std(x, getattr(signals, "period", None), realisations)

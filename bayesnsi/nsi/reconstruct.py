@@ -10,7 +10,7 @@ from ..exceptions import UnstableModelError
 from ..signals import Signals
 from . import _harmonic
 from ._recursion import delayed_first_order
-from .statespace import StateSpaceModel
+from .statespace import StateSpaceModel, decay_lengths
 
 _FIXED_POINT_ITERATIONS = 4
 
@@ -120,9 +120,11 @@ def initial_state(model: StateSpaceModel, inputs: np.ndarray, outputs: np.ndarra
     normal = (vinv.T @ ((cm.T @ cm) * series) @ vinv).real
     # Σ_k λ_p^k r_k · C v_p by Horner backwards, one mode of each conjugate pair (real data)
     lam_half, vec_half, vinv_half, weight = model._modal_half()
-    projected = residual[::-1] @ (model.C @ vec_half)
+    lengths = decay_lengths(lam_half, n_samples)  # λ^k r_k beyond: below rounding
+    projected = residual[: int(np.max(lengths, initial=0))] @ (model.C @ vec_half)
     # the last output of lfilter([1], [1, -λ]) is the final state of the delayed recursion
-    weighted = np.array([delayed_first_order(lp, projected[:, p])[1][0] for p, lp in enumerate(lam_half)])
+    weighted = np.array([delayed_first_order(lp, projected[: lengths[p], p][::-1])[1][0]
+                         for p, lp in enumerate(lam_half)])
     rhs = (vinv_half.T @ (weighted * weight)).real
     return np.linalg.lstsq(normal, rhs, rcond=None)[0]
 

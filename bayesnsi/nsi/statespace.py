@@ -40,6 +40,29 @@ def modal_filter(eigenvalue: complex, signal: np.ndarray):
     return out
 
 
+def decay_lengths(eigenvalues, n_samples: int) -> np.ndarray:
+    """Samples after which ``|λ|^k`` falls below ``2⁻⁶⁰`` (beneath the rounding of the first terms).
+
+    A free response ``λ^k z₀`` or a weighted sum ``Σ_k λ^k r_k`` is exact to rounding when cut there:
+    a heavily damped mode (e.g. of a Kalman predictor) needs a fraction of a long record.
+
+    Parameters
+    ----------
+    eigenvalues : array_like of complex
+    n_samples : int
+
+    Returns
+    -------
+    ndarray of int
+        One length per eigenvalue, between 1 and ``n_samples``.
+    """
+    radius = np.abs(np.asarray(eigenvalues, dtype=complex))
+    with np.errstate(divide="ignore"):
+        decay = -np.log(radius)
+    needed = np.where(decay > 0, np.ceil(60.0 * np.log(2.0) / np.where(decay > 0, decay, 1.0)) + 1, n_samples)
+    return np.clip(needed, 1, max(n_samples, 1)).astype(int)
+
+
 def modal_filter_step(lam: complex, u: np.ndarray, state):
     """One chunk of :func:`modal_filter`: ``(filtered, state)``.
 
@@ -264,13 +287,14 @@ class StateSpaceModel:
         ndarray, shape (n_samples, n_outputs)
         """
         lam, vec, vinv, weight = self._modal_half()
-        impulse = np.zeros(n_samples)
-        impulse[0] = 1.0
+        lengths = decay_lengths(lam, n_samples)
+        impulse = np.zeros(int(np.max(lengths, initial=0)))
+        impulse[:1] = 1.0
         modal_x0 = vinv @ np.asarray(x0, dtype=float)
-        states = np.empty((n_samples, len(lam)), dtype=complex)
+        states = np.zeros((n_samples, len(lam)), dtype=complex)
         for p, lp in enumerate(lam):
-            # λ^k = λ · (response of 1/(z - λ) to a unit impulse at k = 0)[k] for k >= 1
-            states[:, p] = modal_filter(lp, impulse) * (lp * modal_x0[p])
+            # λ^k = λ · (response of 1/(z - λ) to a unit impulse at k = 0)[k] for k >= 1, until it underflows
+            states[: lengths[p], p] = modal_filter(lp, impulse[: lengths[p]]) * (lp * modal_x0[p])
             states[0, p] = modal_x0[p]
         return (states @ (self.C @ vec * weight).T).real
 

@@ -293,7 +293,7 @@ class StateSpaceModel:
         modal_x0 = vinv @ np.asarray(x0, dtype=float)
         states = np.zeros((n_samples, len(lam)), dtype=complex)
         for p, lp in enumerate(lam):
-            # λ^k = λ · (response of 1/(z - λ) to a unit impulse at k = 0)[k] for k >= 1, until it underflows
+            # λ^k = λ · (response of 1/(z - λ) to a unit impulse at k = 0)[k] for k >= 1, until below 2^-60
             states[: lengths[p], p] = modal_filter(lp, impulse[: lengths[p]]) * (lp * modal_x0[p])
             states[0, p] = modal_x0[p]
         return (states @ (self.C @ vec * weight).T).real

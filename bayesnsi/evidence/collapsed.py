@@ -32,6 +32,7 @@ _GH_NODES = 12  # Gauss-Hermite nodes in ρ: exact for a Gaussian, < 1e-9 nat fo
 _GL_NODES = 64  # Gauss-Legendre nodes on the truncated interval when ρ lies near a prior bound
 _RHO_MARGIN_SD = 8.0  # GH is used when ρ̂ lies farther than this (in posterior sd) from a bound
 _SERIES_MIN_N = 50  # below, the ρ integral is always done by quadrature
+_QUADRATURE_BLOCK = 8192  # integrals per block of the node arrays (x 64 nodes: 4 MB each, whatever the draws)
 _GH_X, _GH_W = np.polynomial.hermite.hermgauss(_GH_NODES)
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(_GL_NODES)
 
@@ -105,9 +106,24 @@ class CollapsedTarget:
                 lo2, hi2 = np.broadcast_to(self.lo2, m.shape)[slow], np.broadcast_to(self.hi2, m.shape)[slow]
                 out[slow] = self._log_rho_quadrature(m[slow], C[slow], rho_hat[slow], sd[slow], near[slow], lo2, hi2)
             return out
-        return self._log_rho_quadrature(m, C, rho_hat, sd, near, self.lo2, self.hi2)
+        lo2, hi2 = (np.broadcast_to(v, m.shape) for v in (self.lo2, self.hi2))
+        return self._log_rho_quadrature(m, C, rho_hat, sd, near, lo2, hi2)
 
     def _log_rho_quadrature(self, m, C, rho_hat, sd, near, lo2, hi2) -> np.ndarray:
+        """:meth:`_log_rho_nodes` over blocks of :data:`_QUADRATURE_BLOCK` integrals (the nodes' arrays stay small).
+
+        All arguments share one shape; so does the result.
+        """
+        args = [np.ravel(np.asarray(v, dtype=float)) for v in (m, C, rho_hat, sd, lo2, hi2)]
+        flat_near = np.ravel(near)
+        out = np.empty(args[0].size)
+        for start in range(0, out.size, _QUADRATURE_BLOCK):
+            block = slice(start, start + _QUADRATURE_BLOCK)
+            mb, cb, rb, sb, lb, hb = (v[block] for v in args)
+            out[block] = self._log_rho_nodes(mb, cb, rb, sb, flat_near[block], lb, hb)
+        return out.reshape(np.shape(m))
+
+    def _log_rho_nodes(self, m, C, rho_hat, sd, near, lo2, hi2) -> np.ndarray:
         """The ρ integral by Gauss-Hermite nodes, Gauss-Legendre on the truncated interval where ``near``."""
         lower, upper = self.priors.ar.lower, self.priors.ar.upper
         nodes = rho_hat[..., None] + np.sqrt(2.0) * sd[..., None] * _GH_X

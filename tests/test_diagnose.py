@@ -157,6 +157,16 @@ def test_accepted_step_reports_closed_loop_errors_and_residual_force(coulomb):
     assert all(s.residual_force is None and np.isnan(s.closed_loop_nrmse_after) for s in rejected)
 
 
+def test_accepted_steps_posterior_interval_holds_its_estimate(coulomb):
+    # the posterior given the linear part is centred on its own mean, outside its narrow interval from the
+    # NSI estimate on a trial (1.92647e8 against [1.92726e8, 1.92768e8]): the step reports it moved onto λ
+    _, loop = coulomb
+    for step in loop.added:
+        low, high = step.ci95
+        assert low < step.coefficient < high
+        assert high - low < 0.2 * abs(step.coefficient)  # the posterior's own width, not the final intervals'
+
+
 def test_simulate_command_writes_an_undeclared_case_with_what_is_missing(tmp_path):
     from bayesnsi.cli import main
     from bayesnsi.io import load_config
@@ -382,3 +392,17 @@ def test_diagnose_command_writes_effects_and_their_scores(tmp_path):
     scored = [row["log_evidence_laplace"] for row in first if isinstance(row["log_evidence_laplace"], float)]
     assert len(scored) == 6 and scored == sorted(scored, reverse=True)  # the screen's best 6
     assert len(first) == results["settings"]["loop"]["n_effects"]  # the declared model is linear: every effect
+
+
+def test_posterior_intervals_are_moved_onto_the_nsi_estimates():
+    from types import SimpleNamespace
+
+    from bayesnsi.diagnose.guards import about_estimates
+
+    rng = np.random.default_rng(0)
+    draws = rng.normal([2.0, -1.0], [0.01, 0.02], size=(8, 500, 2))  # (chain, draw, q): centred away from NSI
+    hdi = np.quantile(draws.reshape(-1, 2), [0.025, 0.975], axis=0).T
+    evidence = SimpleNamespace(posterior=SimpleNamespace(coefficients=draws), ci95=hdi)
+    moved = about_estimates(evidence, np.array([2.5 + 0.3j, -0.9]))  # real parts count
+    np.testing.assert_allclose(moved[:, 1] - moved[:, 0], hdi[:, 1] - hdi[:, 0])  # the posterior's widths
+    np.testing.assert_allclose(moved.mean(axis=1), [2.5, -0.9], atol=2e-3)  # about the estimates

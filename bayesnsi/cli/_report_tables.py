@@ -187,7 +187,7 @@ def loop_frame(rows):
     names = {
         "step": "step", "effect": "effect", "where": "where", "decision": "decision",
         "bayes_factor_log": "log Bayes factor [nat]", "coefficient": "coefficient λ",
-        "ci95": "posterior 95 % given the linear part",
+        "ci95": "posterior 95 % about λ, given the linear part",
         "imag_ratio": "|Im|/|Re|", "halves": "λ on record halves", "nrmse_before": "NRMSE before",
         "nrmse_after": "NRMSE after", "closed_loop_nrmse_before": "closed-loop NRMSE before",
         "closed_loop_nrmse_after": "closed-loop NRMSE after", "reason": "reason",

@@ -123,7 +123,8 @@ class Verdict:
     log_evidence : float
         Laplace log-evidence of the enlarged model.
     ci95 : ndarray or None
-        Credible intervals of all its coefficients when it was sampled (accepted effects).
+        Credible intervals of all its coefficients when it was sampled (accepted effects), moved onto
+        their NSI estimates (:func:`about_estimates`).
     quality_only : bool
         True when the effect passed every guard but the quality index |Im|/|Re|.
     """
@@ -132,6 +133,30 @@ class Verdict:
     log_evidence: float
     ci95: np.ndarray | None
     quality_only: bool
+
+
+def about_estimates(evidence, estimates) -> np.ndarray:
+    """The coefficients' 95 % posterior intervals moved onto the NSI estimates: the posterior's spread about them.
+
+    The posterior is conditional on the identified linear part and centred on its own mean, which can lie
+    outside its narrow interval from the NSI estimate the loop reports (a trial: 1.92647e8 against
+    [1.92726e8, 1.92768e8]); moved by ``estimate - posterior mean``, as the final intervals' posterior-only
+    column is (:mod:`bayesnsi.evidence.intervals`). The final model's intervals carry the linear part's
+    uncertainty.
+
+    Parameters
+    ----------
+    evidence : EvidenceResult
+    estimates : array_like, shape (q,)
+        NSI estimates (their real parts are used).
+
+    Returns
+    -------
+    ndarray, shape (q, 2)
+    """
+    means = np.mean(evidence.posterior.coefficients, axis=(0, 1))
+    shift = np.real(np.asarray(estimates)) - means
+    return np.asarray(evidence.ci95, dtype=float) + shift[:, None]
 
 
 def without(candidate: CandidateModel, term: Term) -> CandidateModel:
@@ -346,8 +371,8 @@ def check_effect(
     ci95, intervals = (math.nan, math.nan), None
     if reason == "accepted":  # emcee only for what is kept: its credible intervals
         full = candidate_evidence(trial, signals, context.evidence, seed, warn=False)[context.evidence.likelihood]
-        intervals = full.ci95
-        ci95 = (float(full.ci95[-1][0]), float(full.ci95[-1][1]))
+        intervals = about_estimates(full, trial.coefficient_values)
+        ci95 = (float(intervals[-1][0]), float(intervals[-1][1]))
     step = LoopStep(
         effect=entry.effect,
         accepted=reason == "accepted",

@@ -81,7 +81,9 @@ class LoopStep:
     coefficient : float
         NSI estimate of its coefficient.
     ci95 : (float, float)
-        95 % highest-density interval of the coefficient (posterior); NaN when not sampled.
+        95 % highest-density interval of the coefficient's posterior given the identified linear part,
+        moved onto ``coefficient`` (:func:`~bayesnsi.diagnose.guards.about_estimates`); NaN when not
+        sampled. The final model's intervals (``final_intervals``) carry the linear part's uncertainty.
     imag_ratio : float
         Quality index |Im λ|/|Re λ|.
     half_coefficients : (float, float)

@@ -172,6 +172,32 @@ def test_config_dofs_orders_candidates(tmp_path, edit, message):
         load_config(_experiment(tmp_path, edit))
 
 
+def test_term_acting_away_from_the_dofs_it_reads_is_kept_with_a_warning(tmp_path):
+    from bayesnsi.exceptions import BayesNSIWarning
+    from bayesnsi.io import load_config
+
+    def edit(raw):
+        raw["candidates"][0]["terms"] = [{"expr": "(x1-x2)**3", "at": 2}, {"expr": "x1**3", "at": 2}]
+
+    with pytest.warns(BayesNSIWarning, match=r"terms\[2\]: 'x1\*\*3' reads DOF\(s\) \[1\] but acts at \[2\].*at = 1"):
+        config = load_config(_experiment(tmp_path, edit))  # terms[1] overlaps its DOFs: no warning for it
+    assert [t.at for t in config.candidates[0].terms] == [(2,), (2,)]
+
+
+def test_term_reading_an_unmeasured_dof_names_the_sensors_to_add(tmp_path):
+    from bayesnsi.exceptions import ConfigError
+    from bayesnsi.io import load_config
+
+    def edit(raw):
+        raw["data"].pop("outputs")
+        raw["data"]["accelerations"] = {"x1": 1, "x2": 2}
+        raw["data"]["integrate"] = {"band_hz": [1.0, 40.0]}
+        raw["candidates"][0]["terms"] = [{"expr": "x3**3", "at": 1}]
+
+    with pytest.raises(ConfigError, match=r"reads DOF\(s\) \[3\].*to \[data\] accelerations"):
+        load_config(_experiment(tmp_path, edit))
+
+
 def test_all_zero_channel_in_a_file(tmp_path):
     from bayesnsi.io import load_config, load_signals
 

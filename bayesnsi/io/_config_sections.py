@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, cast
 
-from ..exceptions import ConfigError, ExpressionError
+from ..exceptions import BayesNSIWarning, ConfigError, ExpressionError
 from ..models import CandidateModel, Term
 from ..options import EvidenceOptions, NSIOptions
 from ..preprocess import INTEGRATION_METHODS
@@ -351,9 +352,10 @@ def _parse_terms(item: Mapping, where: Where, data: DataSpec) -> tuple[tuple[Ter
             raise where.problem(f"{key}.expr", f"{exc}") from exc
         unmeasured = sorted(set(term.expr.dofs) - measured)
         if unmeasured:
+            sensors = "accelerations" if data.accelerations else "velocities" if data.integrate else "outputs"
             raise where.problem(
-                f"{key}.expr", f"{expr!r} reads DOF(s) {unmeasured}, but outputs measure only DOFs "
-                f"{sorted(measured)}; use measured DOFs or add the missing displacement columns to [data] outputs"
+                f"{key}.expr", f"{expr!r} reads DOF(s) {unmeasured}, but the responses measure only DOFs "
+                f"{sorted(measured)}; use measured DOFs or add a column for each missing DOF to [data] {sensors}"
             )
         outside = sorted(set(term.at) - located)
         if outside:
@@ -361,6 +363,14 @@ def _parse_terms(item: Mapping, where: Where, data: DataSpec) -> tuple[tuple[Ter
                 f"{key}.at", f"the term acts at DOF(s) {outside}, which are neither forced nor measured "
                 f"(known DOFs: {sorted(located)}), so its coefficient cannot be identified (docs/method.md §4); "
                 "place it at a measured DOF"
+            )
+        read = set(term.expr.dofs)
+        if read and not read & set(term.at):  # e.g. "(x2-x3)**3" at = 1: legal, but rarely what is meant
+            warnings.warn(
+                f"{where.path}: {where.section} {key}: {expr!r} reads DOF(s) {sorted(read)} but acts at "
+                f"{list(term.at)}; a local element's force acts where it is attached (at = "
+                f"{sorted(read)[0] if len(read) == 1 else sorted(read)}). Kept as written",
+                BayesNSIWarning, stacklevel=2,
             )
         terms.append(term)
         scales.append(get_number(entry, "prior_scale", here, None, positive=True))

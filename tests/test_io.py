@@ -274,7 +274,8 @@ def test_term_reads_unmeasured_dof(tmp_path):
     def edit(raw):
         raw["candidates"][0]["terms"][0]["expr"] = "x3**3"
 
-    _assert_config_error(tmp_path, edit, "terms[1].expr", "DOF(s) [3]", "responses measure only DOFs [1, 2]", "to [data] outputs")
+    _assert_config_error(tmp_path, edit, "terms[1].expr", "DOF(s) [3]", "responses measure only DOFs [1, 2]",
+                         "to [data] outputs")
 
 
 def test_term_acts_at_unknown_dof(tmp_path):

@@ -51,8 +51,9 @@ from .separable import shared_fraction
 from .state import Baseline, LoopContext, measured_nrmse
 
 __all__ = [
-    "MIN_HALF_OVERLAP", "NEGATIVE_DISSIPATION", "TOO_SHORT", "Verdict", "check_effect", "dissipative_shape",
-    "documented", "half_block_rows", "half_coefficients", "half_overlap", "injects_energy", "without",
+    "MIN_HALF_OVERLAP", "NEGATIVE_DISSIPATION", "TOO_SHORT", "Verdict", "about_estimates", "check_effect",
+    "dissipative_shape", "documented", "half_block_rows", "half_coefficients", "half_overlap", "injects_energy",
+    "without",
 ]
 
 TOO_SHORT = "record too short for the halves"

@@ -151,3 +151,21 @@ def test_modes_below_the_integration_band_are_set_aside():
     assert informed_modes([low], signals) == ([low], [])  # nothing would remain: all kept
     plain = replace(signals, measured="displacement", acceleration_noise=None)
     assert informed_modes([low, first], plain) == ([low, first], [])
+
+
+def test_heavily_damped_mode_at_the_integration_corner_is_set_aside():
+    # trial of an accelerometer chain integrated from 1 Hz at order 10: a 1.33-1.41 Hz "mode" with ζ 0.42-0.45
+    # (the integrated noise, largest at the band's lower edge) was reported as f1 of every candidate
+    from bayesnsi.nsi.identify import informed_modes
+    from bayesnsi.nsi.physics import Mode
+    from bayesnsi.signals import Signals
+
+    fs = 1000.0
+    noise = AccelerationNoise(acceleration_std=(0.01,), fs=fs, band_hz=(1.0, 200.0))
+    rng = np.random.default_rng(1)
+    signals = Signals(force=rng.standard_normal((512, 1)), displacement=rng.standard_normal((512, 1)), fs=fs,
+                      input_dofs=(1,), output_dofs=(1,), measured="acceleration", acceleration_noise=noise)
+    artefact = Mode(1.37, 0.43, -3.7 + 7.8j)  # half-power band from 0.78 Hz, below the 1 Hz corner
+    near_corner = Mode(1.05, 0.02, -0.13 + 6.6j)  # lightly damped just above the corner: a mode the data show
+    damped_above = Mode(10.3, 0.3, -19 + 62j)  # heavily damped but well inside the band (7.2 Hz)
+    assert informed_modes([artefact, near_corner, damped_above], signals) == ([near_corner, damped_above], [artefact])

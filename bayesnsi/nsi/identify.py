@@ -249,8 +249,9 @@ def identify(
             spurious = np.concatenate([spurious, [m.pole for m in below], [np.conj(m.pole) for m in below]])
             warnings.warn(
                 f"candidate {cand.name!r}: {len(below)} mode(s) at {', '.join(f'{m.frequency_hz:.3g}' for m in below)} "
-                "Hz below the band the sensors were integrated in (the data hold no motion there) set aside as "
-                "non-physical; see NSIResult.spurious_poles", SpuriousPoleWarning, stacklevel=2,
+                "Hz below the band the sensors were integrated in (the data hold no motion there), or heavily damped "
+                "at its lower edge (the integrated noise), set aside as non-physical; see NSIResult.spurious_poles",
+                SpuriousPoleWarning, stacklevel=2,
             )
     if len(spurious):
         warnings.warn(
@@ -302,7 +303,9 @@ def informed_modes(modes, signals) -> tuple[list, list]:
     A record integrated from accelerometers or velocity sensors in time holds no motion below the
     integration window's lower edge ``f_lo (1 - taper)`` (:attr:`Signals.acceleration_noise`); a "mode"
     the subspace step places there (a trial's swept beam: 1.6 Hz with ζ = 0.99, integration from 8 Hz)
-    fits nothing the structure did, and it set the default averaging band of λ below the data.
+    fits nothing the structure did, and it set the default averaging band of λ below the data. So does
+    a heavily damped one (ζ > :data:`INTEGRATION_ARTEFACT_DAMPING`) whose half-power band
+    ``f (1 - ζ)`` starts below ``f_lo``: the integrated noise, largest at the band's lower edge.
 
     Parameters
     ----------
@@ -320,9 +323,23 @@ def informed_modes(modes, signals) -> tuple[list, list]:
     noise = acceleration_noise_of(signals)
     if noise is None:
         return list(modes), []
-    floor = float(noise.band_hz[0]) * (1.0 - float(noise.taper) if noise.method == "frequency" else 0.5)
-    kept = [m for m in modes if m.frequency_hz >= floor]
-    return (kept, [m for m in modes if m.frequency_hz < floor]) if kept else (list(modes), [])
+    corner = float(noise.band_hz[0])
+    floor = corner * (1.0 - float(noise.taper) if noise.method == "frequency" else 0.5)
+
+    def informed(mode) -> bool:
+        # a heavily damped "mode" whose half-power band reaches below the corner is the integration's
+        # low-frequency noise (a trial integrated from 1 Hz: 1.33-1.41 Hz with ζ 0.42-0.45 at order 10)
+        artefact = mode.damping_ratio > INTEGRATION_ARTEFACT_DAMPING and mode.frequency_hz * (
+            1.0 - mode.damping_ratio) < corner
+        return mode.frequency_hz >= floor and not artefact
+
+    kept = [m for m in modes if informed(m)]
+    return (kept, [m for m in modes if not informed(m)]) if kept else (list(modes), [])
+
+
+INTEGRATION_ARTEFACT_DAMPING = 0.2
+"""Damping ratio above which a mode whose half-power band starts below the integration band's lower edge
+is set aside as integration noise (:func:`informed_modes`)."""
 
 
 def _free_body_failure(eigenvalues, dt: float, n_samples: int, colocated: bool = False) -> bool:

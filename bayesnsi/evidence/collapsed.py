@@ -184,12 +184,12 @@ class CollapsedTarget:
         lo2, hi2 = (np.ravel(np.broadcast_to(v, rho.shape)) for v in (self.lo2, self.hi2))
         out = rho.reshape(-1)  # a copy: rho came from np.clip
         pending = np.arange(out.size)
-        for first in [True] + [False] * 39:  # rejection rounds over the draws still pending
+        columns = [*flat, lo2, hi2]
+        for attempt in range(40):  # rejection rounds over the draws still pending
             if not pending.size:
                 break
             # the first round takes every draw: no gather
-            r_hat, sc, c2, m2, env, l2, h2 = flat + [lo2, hi2] if first else (
-                v[pending] for v in flat + [lo2, hi2])
+            r_hat, sc, c2, m2, env, l2, h2 = columns if attempt == 0 else (v[pending] for v in columns)
             prop = r_hat + sc * rng.standard_t(nu, size=pending.size)
             s = c2 * (prop - r_hat) ** 2 + m2
             with np.errstate(divide="ignore", invalid="ignore"):

@@ -295,7 +295,7 @@ def band_coefficients(spectrum: np.ndarray, terms, band) -> tuple[CoefficientEst
         out.append(CoefficientEstimate(
             term=term,
             value=value,
-            imag_ratio=float(np.mean(np.abs(lines.imag)) / np.abs(np.mean(lines.real))),
+            imag_ratio=float(np.mean(np.abs(lines.imag)) / abs(value)),
             band_hz=band,
             spread=float(np.std(lines.real)),
             excluded_fraction=float(1.0 - np.mean(keep)),

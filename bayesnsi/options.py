@@ -149,6 +149,12 @@ class NSIOptions(_Options):
         40, 'largest order "auto" and the stabilisation diagram consider', kind="int", low=1, high=10_000)
     band_hz: tuple[float, float] | None = _option(
         None, "band [Hz] over which λ(ω) is averaged (default: the band holding the modes)", kind="band", none=True)
+    band_mean: str = _option(
+        "auto", "how Re λ(ω) is averaged over the band on the time route: weighted by the power the term puts on "
+        "the outputs over the sensor noise at each line (information; to first order its inverse variance), the "
+        "plain mean of the paper, or auto: information for records integrated from accelerometers or velocity "
+        "sensors, whose noise grows as 1/ω⁴ or 1/ω² towards the integration corner, plain otherwise",
+        kind="choice", choices=("auto", "information", "plain"))
     velocity_method: str = _option(
         "fourth", "finite-difference stencil for velocities not measured", kind="choice",
         choices=("central", "fourth", "sixth"))

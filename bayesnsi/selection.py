@@ -23,9 +23,18 @@ from .nsi.physics import excluded_lines_messages
 from .options import EvidenceOptions, ExecutionOptions, NSIOptions
 from .run.adequacy import ModelCheck, adequacy_warnings, model_checks, widen_inadequate
 from .run.batch import CandidateOutcome, run_candidates
+from .run.force_noise import force_noise_messages
 from .run.free_view import one_view
 from .run.velocity_noise import velocity_noise_messages
-from .validation import SegmentError, Whiteness, open_loop_error, residual_whiteness, validate, whiteness_applies
+from .validation import (
+    SegmentError,
+    Whiteness,
+    level_messages,
+    open_loop_error,
+    residual_whiteness,
+    validate,
+    whiteness_applies,
+)
 
 __all__ = ["Selection", "select"]
 
@@ -245,6 +254,7 @@ def select(
     messages = adequacy_warnings(fits, selection.selected, **limits, max_band_ratio=evidence.max_band_ratio)
     messages += order_messages(outcomes) + excluded_lines_messages(outcomes, selection.selected)
     messages += view_notes + tuple(velocity_noise_messages(signals, candidates, (nsi or NSIOptions()).velocity_method))
+    messages += tuple(level_messages(signals, segments)) + tuple(force_noise_messages(signals))
     for message in messages:
         warnings.warn(message, AdequacyWarning, stacklevel=2)
     open_loop = {o.name: e for o in identified if (e := open_loop_error(o.result, signals)) is not None}

@@ -17,8 +17,8 @@ from ._measured import MeasuredError, measured_error
 from .exceptions import BayesNSIError, ConfigError
 
 __all__ = [
-    "ADEQUACY_LEVEL", "VALIDATION_INIT_SAMPLES", "SegmentError", "Whiteness", "measured_errors", "open_loop_error",
-    "residual_whiteness", "validate", "whiteness_applies", "whiteness_test",
+    "ADEQUACY_LEVEL", "LEVEL_MISMATCH", "VALIDATION_INIT_SAMPLES", "SegmentError", "Whiteness", "level_messages",
+    "measured_errors", "open_loop_error", "residual_whiteness", "validate", "whiteness_applies", "whiteness_test",
 ]
 
 ADEQUACY_LEVEL = 0.01
@@ -122,6 +122,58 @@ def validate(result, segments) -> tuple[SegmentError, ...]:
             )
         )
     return tuple(out)
+
+
+LEVEL_MISMATCH = 30.0
+"""Factor by which a validation segment's response level, relative to its force level, may differ from the
+estimation record's before :func:`level_messages` suspects a unit (the nonlinearity of a structure tested at
+another force level changes it by a few times at most)."""
+
+
+def level_messages(estimation, segments) -> list[str]:
+    """Messages for validation segments whose response level does not follow their force level.
+
+    A validation file in other units than the estimation record (mm against m, with no units row to
+    say so) scales its responses by 1000 at the same force, and every candidate then validates with
+    an NRMSE near 1. Each response channel's rms over the segment's force rms, against the same ratio
+    on the estimation record, beyond :data:`LEVEL_MISMATCH` either way, gives a message.
+
+    Parameters
+    ----------
+    estimation : Signals
+        The estimation record.
+    segments : iterable of (str, Signals)
+        The validation segments.
+
+    Returns
+    -------
+    list of str
+    """
+    def levels(signals):
+        force = float(np.sqrt(np.mean(np.asarray(signals.force, dtype=float) ** 2)))
+        response = np.sqrt(np.mean(np.asarray(signals.displacement, dtype=float) ** 2, axis=0))
+        return response / force if force > 0 else None
+
+    reference = levels(estimation)
+    names = estimation.output_names or tuple(f"x{d}" for d in estimation.output_dofs)
+    out = []
+    for name, signals in segments:
+        level = levels(signals)
+        if reference is None or level is None or level.shape != reference.shape:
+            continue
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = level / reference
+        odd = [(n, r) for n, r in zip(names, ratio) if np.isfinite(r) and r > 0
+               and not 1 / LEVEL_MISMATCH <= r <= LEVEL_MISMATCH]
+        if odd:
+            listed = ", ".join(f"{n!r} {r:.3g}x" for n, r in odd)
+            out.append(
+                f"validation segment {name!r}: for the same force its responses are not at the estimation record's "
+                f"level ({listed} of it, force level taken into account): a different unit (mm against m?) in a "
+                "file without a units row? Give both files a units row, or [data] scale, or check the columns; its "
+                "validation errors compare unlike quantities"
+            )
+    return out
 
 
 def measured_errors(result, signals, closed_loop: bool = False) -> MeasuredError:

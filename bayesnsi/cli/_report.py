@@ -302,9 +302,10 @@ def selection_sections(report, signals, selection, selected, units=None, role: s
         evidence.append(adequacy_frame(selection.adequacy))
     elif selection.checks and not whiteness_applies(signals):
         evidence.append(
-            f"Adequacy: no whiteness test - the responses were integrated from {signals.measured}s, whose noise the "
-            "integration colours, so no model's residual is white; the residual against that integrated noise (below) "
-            "says whether a model explains the data."
+            f"Adequacy: no whiteness test - the responses were integrated from "
+            f"{ {'acceleration': 'accelerations', 'velocity': 'velocities'}.get(signals.measured, signals.measured)}, "
+            "whose noise the integration colours, so no model's residual is white; the residual against that "
+            "integrated noise (below) says whether a model explains the data."
         )
     if selection.checks:
         evidence.append(

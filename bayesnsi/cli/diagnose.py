@@ -72,7 +72,8 @@ def run(args) -> int:
     validation = load_validation(config)
     progress(f"loop done ({len(loop.steps)} effects checked); evidence, intervals and check of the final model ...",
              args.quiet)
-    final_evidence, final_intervals, final_check = _final_evidence(loop, signals, selection, start)
+    final_validation = validate(loop.final, validation)
+    final_evidence, final_intervals, final_check = _final_evidence(loop, signals, selection, start, final_validation)
     steps = []
     for step in loop.steps:
         steps.append(
@@ -113,7 +114,7 @@ def run(args) -> int:
         loop=[s for s in steps if s["accepted"]],
         loop_rejected=[s for s in steps if not s["accepted"]],
         validation_before=[e.to_dict() for e in validate(loop.start, validation)],
-        validation=[e.to_dict() for e in validate(loop.final, validation)],
+        validation=[e.to_dict() for e in final_validation],
     )
     payload["settings"]["loop"] = to_jsonable(loop.settings)
     if final_intervals is not None:  # as select's "intervals": coefficients and modes, method, windows
@@ -150,7 +151,7 @@ def run(args) -> int:
     return 0
 
 
-def _final_evidence(loop, signals, selection, start):
+def _final_evidence(loop, signals, selection, start, validation=()):
     """Evidence (primary likelihood; None when the final model is the start), intervals and adequacy of the final model.
 
     The intervals include the linear part's uncertainty (:func:`bayesnsi.diagnose.final_intervals`) and,
@@ -169,7 +170,8 @@ def _final_evidence(loop, signals, selection, start):
     evidence, intervals = final_intervals(loop, signals, selection.evidence)  # its warnings are shown by the report
     limits = {"max_noise_ratio": selection.evidence.max_noise_ratio,
               "max_imag_ratio": selection.evidence.max_imag_ratio}
-    return (evidence, *widen_final(loop.final, intervals, signals, **limits))  # as select's: the model error too
+    return (evidence, *widen_final(loop.final, intervals, signals, **limits,  # as select's: the model error too
+                                   validation=validation))
 
 
 def _final_coefficients(loop, intervals, posterior) -> list:

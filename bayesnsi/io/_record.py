@@ -20,7 +20,7 @@ from ..signals import Signals
 from ._columns import MeasurementColumns, file_format
 from ._csv import read_csv_any
 from ._formats import read_matlike
-from ._lowband import below_band_messages
+from ._lowband import below_band_messages, noise_edge_messages
 from ._realisations import Split, joined, split_parts
 from ._specs import DataSpec
 from ._split import read_split
@@ -164,6 +164,9 @@ class Record:
         else:
             std = list(acceleration_noise_std(self.response[start:stop], self.fs, self.force[start:stop],
                                               spec.band_hz[0]))
+        for message in noise_edge_messages(self.response[start:stop], std, self.fs, spec.band_hz,
+                                           self.response_columns, self.data.integrated):
+            warnings.warn(f"{self.path.name}: {message}", IntegrationWarning, stacklevel=3)
         return AccelerationNoise(
             acceleration_std=tuple(std), fs=self.fs, band_hz=spec.band_hz, method=spec.method, taper=spec.taper,
             filter_order=spec.filter_order, detrend_order=spec.detrend_order, decimate=self.data.decimate,

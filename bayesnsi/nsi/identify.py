@@ -19,6 +19,7 @@ from ..signals import Signals
 from . import _hankel, _subspace
 from ._eiv import refine_prediction_error, refine_prediction_error_bc
 from ._frequency import identify_frequency
+from ._line_information import band_weighting
 from ._noise import white_noise_std
 from ._output_error import refine_output_error
 from ._output_error import refine_poles as _refine_poles
@@ -262,10 +263,12 @@ def identify(
             stacklevel=2,
         )
     band = tuple(float(b) for b in (options.band_hz or default_band(band_modes, signals.fs)))
+    weighting = band_weighting(options.band_mean, u, noise_std, measured)
     settings = dict(
         block_rows=int(block_rows),
         order=order,
         band_hz=list(band),
+        band_mean="plain" if weighting is None else "information",
         velocity_method=velocity_method,
         route=options.route,
         bd_method=options.bd_method,
@@ -291,7 +294,7 @@ def identify(
         band_hz=(float(band[0]), float(band[1])),
         modes=tuple(modes),
         spurious_poles=spurious,
-        coefficients=_coefficients(model, signals, cand.terms, band),
+        coefficients=_coefficients(model, signals, cand.terms, band, weighting),
         settings=settings,
         rigid_body_poles=rigid,
     )
@@ -411,14 +414,23 @@ def _input_output_matrices(options: NSIOptions, data, A, C_s, stack, signals: Si
     return B, C, D
 
 
-def _coefficients(model: StateSpaceModel, signals: Signals, terms, band) -> tuple[CoefficientEstimate, ...]:
-    """λ_i as the band mean of Re λ_i(ω), with its imaginary ratio and spread (docs/method.md §4)."""
+def _coefficients(model: StateSpaceModel, signals: Signals, terms, band, weighting=None
+                  ) -> tuple[CoefficientEstimate, ...]:
+    """λ_i as the band mean of Re λ_i(ω), with its imaginary ratio and spread (docs/method.md §4).
+
+    ``weighting`` (:func:`._line_information.band_weighting`) weighs the mean by where the data
+    inform λ_i(ω); None: the plain mean.
+    """
     if not terms:
         return ()
     freqs = np.linspace(band[0], band[1], _BAND_POINTS)
-    spectrum = coefficient_spectrum(model.frf(freqs), signals.input_dofs, signals.output_dofs, terms)
-    if any(t.expr.is_constant for t in terms):  # a constant force acts at DC: its coefficient is read there
+    frf = model.frf(freqs)
+    spectrum = coefficient_spectrum(frf, signals.input_dofs, signals.output_dofs, terms)
+    constant = [t.expr.is_constant for t in terms]
+    if any(constant):  # a constant force acts at DC: its coefficient is read there
         at_dc = coefficient_spectrum(model.frf([0.0]), signals.input_dofs, signals.output_dofs, terms)
-        constant = [t.expr.is_constant for t in terms]
         spectrum[:, constant] = at_dc[:, constant]
-    return band_coefficients(spectrum, terms, band)
+    weights = None if weighting is None else weighting(frf, freqs, len(signals.input_dofs), model.dt)
+    if weights is not None:
+        weights[:, constant] = 1.0  # one value over the band: any weights give it
+    return band_coefficients(spectrum, terms, band, weights)

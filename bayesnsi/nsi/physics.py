@@ -53,9 +53,11 @@ class CoefficientEstimate:
     term : Term
     value : float
         Mean of Re λ_i(ω) over the band (units of force / units of n_i), gross outliers left out
-        (:func:`band_coefficients`).
+        (:func:`band_coefficients`); weighted by where the data inform λ_i(ω) on the time route
+        (``NSIOptions.band_mean``).
     imag_ratio : float
-        mean |Im λ_i(ω)| / |value| over the same lines: the quality index (small is good).
+        mean |Im λ_i(ω)| / |mean Re λ_i(ω)| over the same lines (plain means): the quality index
+        (small is good).
     band_hz : (float, float)
     spread : float
         Standard deviation of Re λ_i(ω) over the same lines.
@@ -222,11 +224,15 @@ def identification_routes(terms, input_dofs, output_dofs) -> list[str]:
         elif shared and all(d in output_dofs for d in term.at):
             routes.append("reciprocity")
         else:
+            missing = [d for d in term.at if d not in output_dofs]
+            fix = (f"measure the response at DOF(s) {missing} as well, or move the term" if shared else
+                   f"measure the response at a forced DOF too (a driving point: one of {input_dofs}), through which "
+                   "reciprocity scales the term's column of the FRF"
+                   + (f", and at DOF(s) {missing}" if missing else ""))
             raise NotIdentifiableError(
                 f"coefficient of {term.name} cannot be identified: it needs a force measured at "
                 f"DOF(s) {list(term.at)}, or a response measured there together with a DOF that is both "
-                f"forced and measured (forces at {input_dofs}, responses at {output_dofs}); "
-                "measure the response at the term's DOFs or move the term"
+                f"forced and measured (forces at {input_dofs}, responses at {output_dofs}); {fix}"
             )
     return routes
 
@@ -266,12 +272,15 @@ def consistent_lines(values) -> np.ndarray:
         return finite & (np.abs(values - median) <= OUTLIER_SCALES * scale)
 
 
-def band_coefficients(spectrum: np.ndarray, terms, band) -> tuple[CoefficientEstimate, ...]:
+def band_coefficients(spectrum: np.ndarray, terms, band, weights=None) -> tuple[CoefficientEstimate, ...]:
     """Each term's λ_i as the band mean of Re λ_i(ω), with its quality index (docs/method.md §4).
 
     The mean and the index are taken over the lines :func:`consistent_lines` keeps: all of them for a
     consistent λ_i(ω); the lines where it runs away (near a zero of the transfer function it is divided
-    by) are left out and counted in ``excluded_fraction``.
+    by) are left out and counted in ``excluded_fraction``. With ``weights`` the value is the weighted
+    mean of Re λ_i(ω) over those lines (the information-weighted band mean,
+    :mod:`bayesnsi.nsi._line_information`); the quality index and the spread stay those of the plain
+    mean, so that the guards read the same index either way.
 
     Parameters
     ----------
@@ -280,6 +289,9 @@ def band_coefficients(spectrum: np.ndarray, terms, band) -> tuple[CoefficientEst
     terms : sequence of Term
     band : (float, float)
         The averaging band [Hz].
+    weights : ndarray, shape (n_freq, n_terms), optional
+        Non-negative weight of each line (default: equal). A term whose kept lines weigh nothing
+        gets the plain mean.
 
     Returns
     -------
@@ -291,11 +303,16 @@ def band_coefficients(spectrum: np.ndarray, terms, band) -> tuple[CoefficientEst
     for k, term in enumerate(terms):
         keep = consistent_lines(spectrum[:, k].real)
         lines = spectrum[keep, k]
-        value = float(np.mean(lines.real))
+        plain = float(np.mean(lines.real))
+        value = plain
+        if weights is not None:
+            w = np.asarray(weights, dtype=float)[keep, k]
+            if np.all(np.isfinite(w)) and np.sum(w) > 0:
+                value = float(np.sum(w * lines.real) / np.sum(w))
         out.append(CoefficientEstimate(
             term=term,
             value=value,
-            imag_ratio=float(np.mean(np.abs(lines.imag)) / abs(value)),
+            imag_ratio=float(np.mean(np.abs(lines.imag)) / abs(plain)),
             band_hz=band,
             spread=float(np.std(lines.real)),
             excluded_fraction=float(1.0 - np.mean(keep)),

@@ -125,10 +125,12 @@ def period_problems(force, response, period, offset: int = 0, step: int = 1, rea
     scatter = float(np.sum((fp - f_mean) ** 2)) / (n - 1)
     if power <= 0 or scatter > FORCE_SCATTER_LIMIT * power:
         ratio = np.inf if power <= 0 else scatter / power
+        found = repeating_period(f)
+        hint = f"; it repeats every {found} samples" if found and found != period else ""
         return [
             f"the force does not repeat every {period} samples (its scatter between the {n} periods is "
-            f"{ratio:.3g} of its power, limit {FORCE_SCATTER_LIMIT:g}): check [data] period and that the window "
-            "holds one realisation of the excitation"
+            f"{ratio:.3g} of its power, limit {FORCE_SCATTER_LIMIT:g}){hint}: check [data] period and that the "
+            "window holds one realisation of the excitation"
         ]
     dev = period_deviations(y, period)
     assert dev is not None  # three or more whole periods

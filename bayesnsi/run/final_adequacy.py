@@ -24,7 +24,8 @@ class _Model:
     intervals: Any
 
 
-def widen_final(result, intervals, signals, *, max_noise_ratio: float = 1.3, max_imag_ratio: float = 0.3):
+def widen_final(result, intervals, signals, *, max_noise_ratio: float = 1.3, max_imag_ratio: float = 0.3,
+                validation=()):
     """The intervals of a model outside a selection (the loop's final model), widened as ``select`` widens.
 
     Parameters
@@ -37,6 +38,9 @@ def widen_final(result, intervals, signals, *, max_noise_ratio: float = 1.3, max
         The estimation data.
     max_noise_ratio, max_imag_ratio : float
         As :func:`model_checks`.
+    validation : tuple of SegmentError
+        The model's errors on the validation segments (:func:`bayesnsi.validation.validate`), for the
+        check's ``validation_nrmse``.
 
     Returns
     -------
@@ -47,6 +51,7 @@ def widen_final(result, intervals, signals, *, max_noise_ratio: float = 1.3, max
         The model's adequacy figures (None when its residual cannot be computed).
     """
     model = _Model(name="final", result=result, intervals=intervals)
-    checks = model_checks([model], signals, max_noise_ratio=max_noise_ratio, max_imag_ratio=max_imag_ratio)
+    checks = model_checks([model], signals, {"final": tuple(validation)} if validation else None,
+                          max_noise_ratio=max_noise_ratio, max_imag_ratio=max_imag_ratio)
     (widened,), checks = widen_inadequate([model], checks, signals)
     return widened.intervals, checks.get("final")

@@ -206,6 +206,7 @@ def band_warning(check, selected: str | None, role: str = "the selected model",
         f"{low:.3g}-{high:.3g} Hz (output at DOF {check['band_dof']}) {overall}: something there is not in the model - "
         "a mode beyond its order (raise [nsi] order, or set it to \"auto\"; the stabilisation diagram and the "
         "data's FRF in the report show the peaks), an effect whose force falls in that band, near the top of the "
-        "band the discrete-time model's approximation ([nsi] zero_feedthrough = false, or upsample = 2-4), or, "
-        "in the lowest band, a slow drift of the record that the force does not explain",
+        "band the discrete-time model's approximation ([nsi] zero_feedthrough = false, or upsample = 2-4), noise "
+        "on the measured force (the model takes the force as exact; near a resonance its noise reaches the "
+        "response amplified), or, in the lowest band, a slow drift of the record that the force does not explain",
     )

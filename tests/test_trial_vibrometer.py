@@ -116,3 +116,41 @@ def test_final_model_check_carries_its_validation_error():
     assert check.validation_nrmse == pytest.approx(errors[0].nrmse) and check.validation_log_predictive is not None
     _, without = widen_final(result, None, case.signals)
     assert without.validation_nrmse is None
+
+
+def test_periodic_noise_draws_carry_the_forces_scatter():
+    # the noise replicates and the adequacy yardstick perturb the force by its own period scatter: 0.5 % noise on
+    # the measured force left the f1 and ζ1 intervals covering 4 of 11 seeds of the trial
+    from types import SimpleNamespace
+
+    from bayesnsi.evidence.perturbation import noise_draws
+
+    model = SimpleNamespace(modes=())
+    noisy = _periodic(0.005)
+    _, draw = noise_draws(model, noisy, np.random.default_rng(0))
+    e_y, e_v, e_f = draw()
+    assert e_v is None and e_f.shape == noisy.force.shape and e_y.shape == noisy.displacement.shape
+    clean_force = np.tile(noisy.force[:1024, 0], 8)  # not the clean force, but its scale
+    drawn = np.sqrt(np.mean([np.var(draw()[2]) for _ in range(40)]))  # one draw's std scatters by about 9 %
+    assert drawn == pytest.approx(0.005 * np.std(clean_force), rel=0.1)
+    _, exact = noise_draws(model, _periodic(0.0), np.random.default_rng(0))
+    assert np.allclose(exact()[2], 0.0)  # a force that repeats exactly is not perturbed
+
+
+def test_periodic_screen_reads_the_periods_lines_only():
+    # averaging each column over its periods before the DFT is keeping the full record's bins at multiples of the
+    # number of periods: the other bins hold only the noise that effects built from noisy outputs fit
+    from bayesnsi.diagnose.screen import _group_spectra, _periods
+
+    rng = np.random.default_rng(3)
+    period, m = 64, 5
+    columns = rng.standard_normal((period * m, 2))
+    bins = np.arange(1, 25)
+    lines = _group_spectra(columns, bins, 3, 8, (1, m))
+    full = np.fft.rfft(columns / columns.std(axis=0), axis=0)[bins * m] / m
+    assert np.allclose(lines.reshape(-1, 2), full)
+    record = _periodic(0.0)
+    assert _periods(record) == (1, 8)
+    from dataclasses import replace
+
+    assert _periods(replace(record, period=None)) is None

@@ -94,7 +94,8 @@ def noise_replicates(result, signals, options=None, n_replicates: int = 16, seed
         more whole periods (``signals.period``) it is the period-to-period scatter and each copy's
         noise is drawn from that scatter (:mod:`bayesnsi.evidence._period_noise`: its spectrum
         and channel correlation, e.g. integrated accelerations whose noise lies in the
-        integration band only); for accelerations integrated in time
+        integration band only; the forces' scatter is drawn with it, so a force measured with
+        noise of its own perturbs the copies too); for accelerations integrated in time
         (``signals.acceleration_noise``) white acceleration noise integrated by the same recipe,
         displacement and velocity from one draw (:mod:`bayesnsi._integrated_noise`); else
         high-order differences and white noise.
@@ -115,12 +116,16 @@ def noise_replicates(result, signals, options=None, n_replicates: int = 16, seed
     v = None if signals.velocity is None else np.asarray(signals.velocity, dtype=float)
     y_std, draw = noise_draws(result, signals, rng)
 
+    f = np.asarray(signals.force, dtype=float)
+
     def copies():
         for k in range(int(n_replicates)):
-            e_y, e_v = draw()
+            e_y, e_v, e_f = draw()
             noisy = {"displacement": y + e_y}
             if v is not None:
                 noisy["velocity"] = v + e_v
+            if e_f is not None:
+                noisy["force"] = f + e_f
             yield f"noise replicate {k}", replace(signals, **noisy)
 
     return (y_std, *reidentify(result, copies(), options))
@@ -143,29 +148,33 @@ def noise_draws(result, signals, rng: np.random.Generator):
     noise_std : ndarray, shape (n_outputs,)
         Noise std of each displacement channel (as :func:`noise_replicates` returns it).
     draw : callable
-        ``draw() -> (e_displacement, e_velocity)``, one draw shaped as the record's displacement and
-        velocity (``e_velocity`` None without measured velocities).
+        ``draw() -> (e_displacement, e_velocity, e_force)``, one draw shaped as the record's
+        displacement, velocity and force (``e_velocity`` None without measured velocities;
+        ``e_force`` None unless the record holds whole periods, whose force scatter is drawn jointly
+        with the responses': a force measured with noise, or varying between periods, and the
+        response it drives keep their correlation).
     """
     from ..nsi import white_noise_std
 
     y = np.asarray(signals.displacement, dtype=float)
     v = None if signals.velocity is None else np.asarray(signals.velocity, dtype=float)
-    n_y = y.shape[1]
+    f = np.asarray(signals.force, dtype=float)
+    n_y, n_v = y.shape[1], 0 if v is None else v.shape[1]
     # whole periods: the noise is the period-to-period scatter (spectrum and channels kept, _period_noise)
-    scatter = period_noise(y if v is None else np.column_stack([y, v]), getattr(signals, "period", None),
+    scatter = period_noise(np.column_stack([y] + ([] if v is None else [v]) + [f]), getattr(signals, "period", None),
                            getattr(signals, "realisations", 1))  # each realisation from its own scatter
     if scatter is not None:
         y_std = scatter.std[:n_y]
 
         def draw():
             e = scatter.draw(len(y), rng)
-            return e[:, :n_y], None if v is None else e[:, n_y:]
+            return e[:, :n_y], None if v is None else e[:, n_y : n_y + n_v], e[:, n_y + n_v :]
     elif (accelerometers := acceleration_noise_of(signals)) is not None:
         # integrated accelerations: white acceleration noise through the same integration (_integrated_noise)
         y_std = accelerometers.std(len(y))[0]
 
         def draw():
-            return accelerometers.draw(len(y), rng)
+            return (*accelerometers.draw(len(y), rng), None)
     else:
         y_std = white_noise_std(y)
         lowest = min((m.frequency_hz for m in result.modes), default=0.0)
@@ -173,7 +182,7 @@ def noise_draws(result, signals, rng: np.random.Generator):
 
         def draw():
             e_y = rng.standard_normal(y.shape) * y_std
-            return e_y, None if v is None else rng.standard_normal(v.shape) * v_std
+            return e_y, None if v is None else rng.standard_normal(v.shape) * v_std, None
     return y_std, draw
 
 

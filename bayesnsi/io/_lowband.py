@@ -130,9 +130,10 @@ def noise_edge_messages(acc, noise_std, fs: float, band_hz, names, measured: str
     damped "mode" near ``f_lo`` in place of a structural one (a three-DOF chain integrated from 2 Hz
     with 2 % accelerometer noise: a 2.09 Hz "mode" replaced the 42 Hz one and a cubic coefficient
     read 26 % low; integrated from 4.6 Hz, where the motion clears the noise, the three modes within
-    0.2 % in frequency and the coefficient within 5 %). A channel warns when the median over ``[f_lo, 1.5 f_lo]`` of its
-    motion's power over the noise's (measured power over the noise's, less one) is below
-    :data:`EDGE_SNR_MIN`; the message names the lowest frequency from which that median is above it.
+    0.2 % in frequency and the coefficient within 5 %). A channel warns when the median over
+    ``[f_lo, 1.5 f_lo]`` of its motion's power over the noise's (measured power over the noise's,
+    less one) is below :data:`EDGE_SNR_MIN`; the message names the lowest frequency from which that
+    median is above it.
 
     Parameters
     ----------

@@ -1,16 +1,20 @@
 """Noise on the measured force of a periodic test: when it reaches the responses above their own noise.
 
-Identification, evidence and intervals take the measured force as exact: the residual's noise is the
-response sensors'. A force measured with noise of its own (a load cell's, a drive current's) enters
+Identification and evidence take the measured force as exact: the residual's noise is the response
+sensors'. A force measured with noise of its own (a load cell's, a drive current's) enters
 the responses through the structure, ``H(ω) N_f(ω)``, amplified at the resonances, and no candidate
 can explain it. On a periodic record both noises show as the scatter between periods, line by line:
 at line k the force's noise reaches output o at ``R_k = (σ²_F(k) / |F̄(k)|²) |Ȳ_o(k)|² / σ²_Y,o(k)``
 times the output's own noise (one force: ``Ȳ = H F̄``). A trial (4-DOF chain, laser vibrometer, flat
 multisine of 8 periods, 1 % velocity noise) with 0.5 % noise on the force: R > 1 on the lines holding
 77-84 % of each response's power, and the superset true + Coulomb beat the true model by 26-258 nat
-on 5 of 5 seeds, its f1 and ζ1 intervals covering the truth on 4 of 11; without the force noise the
-true model won on 4 of 5 (the fifth by 1.8 nat) and the intervals covered. With 0.1 % force noise the
-share was 2-15 %. :func:`force_noise_messages` warns from :data:`FORCE_NOISE_SHARE`.
+on 5 of 5 seeds; without the force noise the true model won on 4 of 5 (the fifth by 1.8 nat). With
+0.1 % force noise the share was 2-15 %. :func:`force_noise_messages` warns from
+:data:`FORCE_NOISE_SHARE`. The intervals carry it since the noise replicates draw the force's period
+scatter with the responses' (:func:`bayesnsi.evidence.perturbation.noise_draws`): f1 and ζ1 held
+the truth on 2 of 5 seeds before (seeds 2-6; 4 of 11 over seeds 1-11) and on 6 of 6 after (seeds
+1-6), and the adequacy yardstick no longer reads the force noise at the first mode as a missing
+effect (2.1-2.8x the noise there before, no band warning after).
 """
 
 from __future__ import annotations
@@ -77,8 +81,8 @@ def force_noise_messages(signals: Signals) -> list[str]:
     return [
         f"the measured force scatters between periods by {100 * level:.2g} % of its level, and through the "
         f"structure that noise reaches the responses above their own noise on the lines holding "
-        f"{100 * share[worst]:.0f} % of the power of output {names[worst]!r}: the identification, the evidence and "
-        "the intervals take the force as exact, so the evidence can favour a candidate whose extra term fits that "
-        "noise (check that an extra term's interval excludes zero) and the intervals of modes and coefficients do "
-        "not carry it; measure the force with less noise or average more periods"
+        f"{100 * share[worst]:.0f} % of the power of output {names[worst]!r}: the identification and the evidence "
+        "take the force as exact, so the evidence can favour a candidate whose extra term fits that noise (check "
+        "that an extra term's interval excludes zero; the intervals and the adequacy check do carry the force's "
+        "scatter); measure the force with less noise or average more periods"
     ]

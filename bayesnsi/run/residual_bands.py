@@ -13,7 +13,9 @@ band. Here the residual is compared with the noise band by band:
   negative-stiffness twin's true model leaves 3.6x the white noise level at its 11 Hz modes). So each
   model's yardstick is the change of its own residual when fresh sensor noise is added to the data
   (``n_draws`` draws, :func:`bayesnsi.evidence.perturbation.noise_draws`: period scatter, the
-  integrated sensor noise or white noise, as the noise replicates draw it). Against the white noise
+  integrated sensor noise or white noise, as the noise replicates draw it; on a periodic record the
+  forces' scatter is drawn with the responses', so noise on the measured force, which the model
+  passes on at its resonances, is part of the yardstick). Against the white noise
   alone the twin's true model read 3.6 at its modes; against this yardstick 1.05 (:data:`MAX_BAND_RATIO`);
 * **lines**: the DFT lines where the record holds data (:func:`bayesnsi.run.sensor_noise.spectral_lines`;
   per period, averaged over the periods, for a periodic record);
@@ -112,9 +114,11 @@ def propagated_noise(result, signals, residual, n_draws: int = 2, seed: int = 0)
     v = None if signals.velocity is None else np.asarray(signals.velocity, dtype=float)
     base = np.asarray(residual, dtype=float)
     changes = []
+    f = np.asarray(signals.force, dtype=float)
     for _ in range(int(n_draws)):
-        e_y, e_v = draw()
-        noisy = replace(signals, displacement=y + e_y, **({} if v is None else {"velocity": v + e_v}))
+        e_y, e_v, e_f = draw()
+        noisy = replace(signals, displacement=y + e_y, **({} if v is None else {"velocity": v + e_v}),
+                        **({} if e_f is None else {"force": f + e_f}))
         try:
             change = np.asarray(result.reconstruct(noisy).residual, dtype=float) - base
         except (BayesNSIError, np.linalg.LinAlgError):

@@ -108,3 +108,32 @@ def test_loader_warns_when_the_integration_band_starts_in_the_noise(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error", IntegrationWarning)
         load_signals(load_config(tmp_path / "c.toml"))
+
+
+def test_the_datas_warnings_reach_the_report_and_results_json(tmp_path):
+    # the loader's warnings were printed on the command line only; a report read later showed the consequences
+    # (a residual far above the noise near a missing mode) without their cause
+    import json
+
+    from bayesnsi.cli import main
+
+    rng = np.random.default_rng(4)
+    n = 20_000
+    motion = _motion_above(6.0, n, rng)
+    force = 2.0 * motion + 0.01 * rng.standard_normal(n)
+    acc = motion + 0.05 * rng.standard_normal(n)
+    np.savetxt(tmp_path / "r.csv", np.column_stack([np.arange(n) / FS, force, acc]), delimiter=",",
+               header="t,f,a1", comments="")
+    (tmp_path / "c.toml").write_text(
+        '[data]\nfile = "r.csv"\ntime_column = "t"\ninputs = { f = 1 }\naccelerations = { a1 = 1 }\n'
+        "integrate = { band_hz = [2.0, 45.0], noise_std = 0.05 }\n[nsi]\norder = 2\nblock_rows = 10\n"
+        '[[candidates]]\nname = "linear"\nterms = []\n'
+    )
+    with pytest.warns(IntegrationWarning, match="lower edge"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", category=UserWarning)  # the identification's own (e.g. spurious poles)
+        warnings.simplefilter("always", category=IntegrationWarning)
+        assert main(["identify", str(tmp_path / "c.toml"), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+    (message,) = json.loads((tmp_path / "out" / "results.json").read_text())["data_warnings"]
+    assert "integration band's lower edge" in message
+    html = (tmp_path / "out" / "report.html").read_text()
+    assert "Loading the data:" in html and "lower edge" in html

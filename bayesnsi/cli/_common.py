@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import sys
+import warnings
 from dataclasses import fields
 from pathlib import Path
 
@@ -116,7 +117,12 @@ def start_run(args):
     config : ExperimentConfig
     out : Path
     signals : Signals
+
+    Loading may warn about the data (an integration band starting in the noise, a period the force does not
+    repeat); those warnings are shown as raised and kept in ``args.data_warnings`` for the report and
+    results.json.
     """
+    from ..exceptions import BayesNSIWarning
     from ..io import load_config, load_signals, prepare_output_dir
     from ..io.results import output_folder
     from ._warnings import periodic_hint
@@ -127,7 +133,12 @@ def start_run(args):
         out = resources.enter_context(output_folder(args.out, args.force, config=config.path))
     else:
         out = prepare_output_dir(args.out, force=args.force)
-    signals = load_signals(config)
+    with warnings.catch_warnings(record=True) as caught:  # the data's warnings go to the report too
+        warnings.simplefilter("always")
+        signals = load_signals(config)
+    for found in caught:  # shown as before
+        warnings.warn_explicit(found.message, found.category, found.filename, found.lineno)
+    args.data_warnings = tuple(str(w.message) for w in caught if issubclass(w.category, BayesNSIWarning))
     hint = periodic_hint(config, signals)
     if hint:  # shown with --quiet too, as warnings are
         print(hint, file=sys.stderr)

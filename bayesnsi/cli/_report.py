@@ -101,7 +101,8 @@ def _exact_frf(config, result, freqs):
     return underlying_frf(meta["M"], meta["C"], meta["K"], freqs, result.output_dofs, result.input_dofs)
 
 
-def identification_report(config, signals, results, records, title, report=None, units=None) -> Report:
+def identification_report(config, signals, results, records, title, report=None, units=None,
+                          data_warnings=()) -> Report:
     """Sections of an identification: models, figures (FRF, λ(ω), singular values, stabilisation), settings.
 
     Parameters
@@ -114,6 +115,8 @@ def identification_report(config, signals, results, records, title, report=None,
     title : str
     report : Report, optional
     units : ChannelUnits, optional
+    data_warnings : sequence of str
+        What loading the data warned about (shown in "Data and settings").
 
     Returns
     -------
@@ -123,7 +126,7 @@ def identification_report(config, signals, results, records, title, report=None,
 
     units = units or report_units(config)
     report = report or Report(title)
-    _settings_sections(report, config, signals, records, units)
+    _settings_sections(report, config, signals, records, units, data_warnings)
     periodic_section(report, signals, units)  # periodic data: BLA figure and distortion level
     if not results:
         report.section("Answer", ANSWER).append(
@@ -214,8 +217,10 @@ def identification_answer(report, signals, results, records, units) -> None:
     _reconstruction_figures(report, signals, results, units)
 
 
-def _settings_sections(report, config, signals, records, units) -> None:
+def _settings_sections(report, config, signals, records, units, data_warnings=()) -> None:
     intro = report.section("Data and settings", SETTINGS)
+    for message in data_warnings:
+        intro.append(("warning", f"Loading the data: {message}"))
     stated = ", ".join(f"{q} in {getattr(units, q)}" for q in ("force", "displacement") if getattr(units, q))
     intro.append(
         f"{signals.n_samples} samples at {signals.fs:g} Hz; forces at DOFs {list(signals.input_dofs)}, "

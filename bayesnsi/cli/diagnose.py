@@ -117,6 +117,7 @@ def run(args) -> int:
         validation=[e.to_dict() for e in final_validation],
     )
     payload["settings"]["loop"] = to_jsonable(loop.settings)
+    payload["data_warnings"] = list(args.data_warnings)
     if final_intervals is not None:  # as select's "intervals": coefficients and modes, method, windows
         payload["final_intervals"] = to_jsonable(final_intervals.to_dict())
     if final_check is not None:  # the final model's adequacy, as select's model_check of a candidate
@@ -137,7 +138,8 @@ def run(args) -> int:
         with held_figures():
             units = report_units(config)
             report = identification_report(
-                config, signals, results, payload["candidates"], f"bayesnsi diagnose - {config.path.name}", units=units
+                config, signals, results, payload["candidates"], f"bayesnsi diagnose - {config.path.name}", units=units,
+                data_warnings=args.data_warnings,
             )
             loop_sections(report, signals, loop, payload, units, has_validation=bool(validation),
                           final_evidence=final_evidence)

@@ -37,6 +37,7 @@ def run(args) -> int:
     for note in (*notes, *order_messages(outcomes)):  # order "auto" that may have missed modes, as select says
         print(f"warning: {note}", file=sys.stderr)
     payload = identification_payload(outcomes, "identify", config)
+    payload["data_warnings"] = list(args.data_warnings)
     if not args.no_figures:
         from ._report import held_figures, identification_answer, identification_report, report_units
 
@@ -44,7 +45,8 @@ def run(args) -> int:
             results = {o.name: o.result for o in outcomes if o.result is not None}
             title = f"bayesnsi identify - {config.path.name}"
             units = report_units(config)
-            report = identification_report(config, signals, results, payload["candidates"], title, units=units)
+            report = identification_report(config, signals, results, payload["candidates"], title, units=units,
+                                           data_warnings=args.data_warnings)
             identification_answer(report, signals, results, payload["candidates"], units)
             progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
     path = atomic_write_json(out / RESULTS_FILENAME, payload)  # last: a complete folder, or a rerun resumes

@@ -34,13 +34,14 @@ def run(args) -> int:
     config, out, signals = start_run(args)
     selection = run_selection(config, signals, args, out)
     payload = selection_payload(selection, "select", config)
+    payload["data_warnings"] = list(args.data_warnings)
     payload["posterior_files"] = write_posteriors(out, selection.evidences, selection.likelihood)
     if not args.no_figures:
         with held_figures():
             units = report_units(config)
             report = identification_report(
                 config, signals, selection.results, payload["candidates"], f"bayesnsi select - {config.path.name}",
-                units=units,
+                units=units, data_warnings=args.data_warnings,
             )
             selection_sections(report, signals, selection, selection.selected, units)
             progress(f"wrote {report.write(out / 'report.html')}", args.quiet)

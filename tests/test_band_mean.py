@@ -137,3 +137,4 @@ def test_the_datas_warnings_reach_the_report_and_results_json(tmp_path):
     assert "integration band's lower edge" in message
     html = (tmp_path / "out" / "report.html").read_text()
     assert "Loading the data:" in html and "lower edge" in html
+    assert "Loading the data gave 1 warning(s)" in html  # the Answer points at them

@@ -217,6 +217,21 @@ def identification_answer(report, signals, results, records, units) -> None:
     _reconstruction_figures(report, signals, results, units)
 
 
+def answer_data_warnings(report, data_warnings) -> None:
+    """Close the Answer with a pointer to what loading the data warned about (shown in "Data and settings").
+
+    Parameters
+    ----------
+    report : Report
+    data_warnings : sequence of str
+        ``args.data_warnings`` of :func:`bayesnsi.cli._common.start_run`.
+    """
+    if data_warnings:
+        report.section("Answer", ANSWER).append(("warning", f"Loading the data gave {len(data_warnings)} warning(s), "
+                                                 "shown under Data and settings: read them before the answer above "
+                                                 "(e.g. an integration band that starts in the sensors' noise)."))
+
+
 def _settings_sections(report, config, signals, records, units, data_warnings=()) -> None:
     intro = report.section("Data and settings", SETTINGS)
     for message in data_warnings:

@@ -40,7 +40,13 @@ def run(args) -> int:
     from ..options import ExecutionOptions
     from ..validation import validate
     from ._loop_report import loop_sections, loop_summary
-    from ._report import held_figures, identification_report, report_units, selection_sections
+    from ._report import (
+        answer_data_warnings,
+        held_figures,
+        identification_report,
+        report_units,
+        selection_sections,
+    )
 
     config, out, signals = start_run(args)
     names = [c.name for c in config.candidates]
@@ -147,6 +153,7 @@ def run(args) -> int:
                     "Starting model, the most probable that passes every physical check" if start == selection.plausible
                     else "Starting model")
             selection_sections(report, signals, selection, start, units, role)
+            answer_data_warnings(report, args.data_warnings)
             progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
     path = atomic_write_json(out / RESULTS_FILENAME, payload)  # last: a complete folder, or a rerun resumes
     progress(f"wrote {path}", args.quiet)

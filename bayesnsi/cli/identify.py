@@ -39,7 +39,13 @@ def run(args) -> int:
     payload = identification_payload(outcomes, "identify", config)
     payload["data_warnings"] = list(args.data_warnings)
     if not args.no_figures:
-        from ._report import held_figures, identification_answer, identification_report, report_units
+        from ._report import (
+            answer_data_warnings,
+            held_figures,
+            identification_answer,
+            identification_report,
+            report_units,
+        )
 
         with held_figures():
             results = {o.name: o.result for o in outcomes if o.result is not None}
@@ -48,6 +54,7 @@ def run(args) -> int:
             report = identification_report(config, signals, results, payload["candidates"], title, units=units,
                                            data_warnings=args.data_warnings)
             identification_answer(report, signals, results, payload["candidates"], units)
+            answer_data_warnings(report, args.data_warnings)
             progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
     path = atomic_write_json(out / RESULTS_FILENAME, payload)  # last: a complete folder, or a rerun resumes
     progress(f"wrote {path}", args.quiet)

@@ -29,7 +29,13 @@ def run(args) -> int:
     """Execute the command."""
     from ..io import RESULTS_FILENAME, atomic_write_json, selection_payload
     from ..io.posterior import write_posteriors
-    from ._report import held_figures, identification_report, report_units, selection_sections
+    from ._report import (
+        answer_data_warnings,
+        held_figures,
+        identification_report,
+        report_units,
+        selection_sections,
+    )
 
     config, out, signals = start_run(args)
     selection = run_selection(config, signals, args, out)
@@ -44,6 +50,7 @@ def run(args) -> int:
                 units=units, data_warnings=args.data_warnings,
             )
             selection_sections(report, signals, selection, selection.selected, units)
+            answer_data_warnings(report, args.data_warnings)
             progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
     path = atomic_write_json(out / RESULTS_FILENAME, payload)  # last: a complete folder, or a rerun resumes
     progress(f"wrote {path}", args.quiet)

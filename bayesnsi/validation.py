@@ -155,7 +155,6 @@ def level_messages(estimation, segments) -> list[str]:
         return response / force if force > 0 else None
 
     reference = levels(estimation)
-    names = estimation.output_names or tuple(f"x{d}" for d in estimation.output_dofs)
     out = []
     for name, signals in segments:
         level = levels(signals)
@@ -163,7 +162,7 @@ def level_messages(estimation, segments) -> list[str]:
             continue
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = level / reference
-        odd = [(n, r) for n, r in zip(names, ratio) if np.isfinite(r) and r > 0
+        odd = [(n, r) for n, r in zip(estimation.output_names, ratio) if np.isfinite(r) and r > 0
                and not 1 / LEVEL_MISMATCH <= r <= LEVEL_MISMATCH]
         if odd:
             listed = ", ".join(f"{n!r} {r:.3g}x" for n, r in odd)

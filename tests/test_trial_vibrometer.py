@@ -146,11 +146,11 @@ def test_periodic_screen_reads_the_periods_lines_only():
     period, m = 64, 5
     columns = rng.standard_normal((period * m, 2))
     bins = np.arange(1, 25)
-    lines = _group_spectra(columns, bins, 3, 8, (1, m))
+    lines = _group_spectra(columns, bins, 3, 8, (period, 1))
     full = np.fft.rfft(columns / columns.std(axis=0), axis=0)[bins * m] / m
     assert np.allclose(lines.reshape(-1, 2), full)
     record = _periodic(0.0)
-    assert _periods(record) == (1, 8)
+    assert _periods(record) == (1024, 1)
     from dataclasses import replace
 
     assert _periods(replace(record, period=None)) is None

@@ -43,32 +43,34 @@ import numpy as np
 
 from ..exceptions import BayesNSIError
 from ..nsi import extended_input
+from ..nsi.steady import period_blocks
 
 __all__ = ["screen_effects"]
 
 
 def _periods(signals) -> tuple[int, int] | None:
-    """``(realisations, periods per realisation)`` of a record of whole periods, at least two each; else None."""
-    period = getattr(signals, "period", None)
-    realisations = int(getattr(signals, "realisations", 1) or 1)
-    n = signals.n_samples
-    if period is None or n % realisations or (n // realisations) % period or n // realisations // period < 2:
+    """``(period, realisations)`` of a record with two or more whole periods per realisation; else None."""
+    period, realisations = getattr(signals, "period", None), max(int(getattr(signals, "realisations", 1) or 1), 1)
+    if not period or signals.n_samples // realisations // int(period) < 2:
         return None
-    return realisations, n // realisations // period
+    return int(period), realisations
 
 
 def _group_spectra(columns: np.ndarray, bins: np.ndarray, n_groups: int, group_bins: int, periods=None) -> np.ndarray:
     """DFT of standardised columns at ``bins``, shape (n_groups, group_bins, n_columns).
 
-    ``periods = (R, M)``: each of the R realisations averaged over its M periods first, ``bins``
-    of the one-period DFT, ``n_groups`` per realisation (R × n_groups groups in all).
+    ``periods = (period, R)`` (:func:`_periods`): each of the R realisations averaged over its whole
+    periods first (:func:`bayesnsi.nsi.steady.period_blocks`), ``bins`` of the one-period DFT,
+    ``n_groups`` per realisation (R × n_groups groups in all).
     """
     columns = columns / columns.std(axis=0)
     if periods is None:
         spectrum = np.fft.rfft(columns, axis=0)[bins]
         return spectrum.reshape(n_groups, group_bins, columns.shape[1])
-    realisations, m = periods
-    mean = columns.reshape(realisations, m, -1, columns.shape[1]).mean(axis=1)  # (R, P, k)
+    period, realisations = periods
+    blocks = period_blocks(columns, period, realisations)
+    assert blocks is not None  # two or more whole periods per realisation (_periods)
+    mean = blocks.reshape(realisations, -1, period, columns.shape[1]).mean(axis=1)  # (R, P, k)
     spectrum = np.fft.rfft(mean, axis=1)[:, bins]
     return spectrum.reshape(realisations * n_groups, group_bins, columns.shape[1])
 
@@ -128,8 +130,7 @@ def screen_effects(
     effects = [effect for effect in effects if effect.term.name not in present]
     base = extended_input(signals, candidate.terms, velocity_method, input_hold="sample")
     periods = _periods(signals)  # periodic: the period's lines only (module notes)
-    length = signals.n_samples if periods is None else signals.n_samples // (periods[0] * periods[1])
-    freqs = np.fft.rfftfreq(length, signals.dt)
+    freqs = np.fft.rfftfreq(signals.n_samples if periods is None else periods[0], signals.dt)
     top = signals.fs / 2 if max_frequency_hz is None else min(float(max_frequency_hz), signals.fs / 2)
     bins = np.nonzero((freqs > 0) & (freqs <= top))[0]
     n_groups = len(bins) // group_bins

@@ -39,8 +39,8 @@ from .._integrated_noise import acceleration_noise_of
 from ..exceptions import BayesNSIError, SpuriousPoleWarning
 from ._period_noise import period_noise
 
-__all__ = ["noise_replicates", "noise_draws", "reidentify", "replicate_moments", "match_modes", "velocity_noise_std",
-           "discontinuity_notes"]
+__all__ = ["noise_replicates", "noise_draws", "noisy_copy", "reidentify", "replicate_moments", "match_modes",
+           "velocity_noise_std", "discontinuity_notes"]
 
 _MODE_MATCH = 0.1  # a replicate mode farther than 10 % in frequency from every full-record mode is not matched
 
@@ -112,23 +112,33 @@ def noise_replicates(result, signals, options=None, n_replicates: int = 16, seed
         raise ValueError(f"n_replicates must be at least 2, got {n_replicates!r}")
     options = (options or NSIOptions()).replace(order=result.order, band_hz=tuple(result.band_hz))
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 15]))
-    y = np.asarray(signals.displacement, dtype=float)
-    v = None if signals.velocity is None else np.asarray(signals.velocity, dtype=float)
     y_std, draw = noise_draws(result, signals, rng)
-
-    f = np.asarray(signals.force, dtype=float)
 
     def copies():
         for k in range(int(n_replicates)):
-            e_y, e_v, e_f = draw()
-            noisy = {"displacement": y + e_y}
-            if v is not None:
-                noisy["velocity"] = v + e_v
-            if e_f is not None:
-                noisy["force"] = f + e_f
-            yield f"noise replicate {k}", replace(signals, **noisy)
+            yield f"noise replicate {k}", noisy_copy(signals, draw())
 
     return (y_std, *reidentify(result, copies(), options))
+
+
+def noisy_copy(signals, noise):
+    """``signals`` with one draw of :func:`noise_draws` added to what it perturbs.
+
+    Parameters
+    ----------
+    signals : Signals
+    noise : tuple
+        ``(e_displacement, e_velocity, e_force)``; None leaves that field as it is.
+
+    Returns
+    -------
+    Signals
+    """
+    changed = {}
+    for field_name, added in zip(("displacement", "velocity", "force"), noise):
+        if added is not None:
+            changed[field_name] = np.asarray(getattr(signals, field_name), dtype=float) + added
+    return replace(signals, **changed)
 
 
 def noise_draws(result, signals, rng: np.random.Generator):

@@ -34,7 +34,7 @@ noise (R_k > 1) from which the selection warns."""
 def _shares(signals: Signals) -> tuple[np.ndarray, float] | None:
     """Per output channel, the power share of the lines with R_k > 1, and the force's noise over its level."""
     spectra = period_spectra(signals)
-    if spectra.n_periods < 3 or spectra.force.shape[1] != 1:
+    if spectra.n_periods < 3:
         return None
     lines = spectra.lines()
     force_power = np.abs(spectra.force[lines, 0]) ** 2
@@ -77,12 +77,11 @@ def force_noise_messages(signals: Signals) -> list[str]:
     worst = int(np.argmax(share))
     if share[worst] < FORCE_NOISE_SHARE:
         return []
-    names = signals.output_names or tuple(f"x{d}" for d in signals.output_dofs)
     return [
         f"the measured force scatters between periods by {100 * level:.2g} % of its level, and through the "
-        f"structure that noise reaches the responses above their own noise on the lines holding "
-        f"{100 * share[worst]:.0f} % of the power of output {names[worst]!r}: the identification and the evidence "
-        "take the force as exact, so the evidence can favour a candidate whose extra term fits that noise (check "
-        "that an extra term's interval excludes zero; the intervals and the adequacy check do carry the force's "
-        "scatter); measure the force with less noise or average more periods"
+        "structure that noise reaches the responses above their own noise on the lines holding "
+        f"{100 * share[worst]:.0f} % of the power of output {signals.output_names[worst]!r}: the identification "
+        "and the evidence take the force as exact, so the evidence can favour a candidate whose extra term fits "
+        "that noise (check that an extra term's interval excludes zero; the intervals and the adequacy check do "
+        "carry the force's scatter); measure the force with less noise or average more periods"
     ]

@@ -27,7 +27,7 @@ band. Here the residual is compared with the noise band by band:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -105,20 +105,15 @@ def propagated_noise(result, signals, residual, n_draws: int = 2, seed: int = 0)
         One residual change per draw whose reconstruction succeeded (none that is zero throughout or not
         finite).
     """
-    from ..evidence.perturbation import noise_draws
+    from ..evidence.perturbation import noise_draws, noisy_copy
     from ..exceptions import BayesNSIError
 
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 23]))
     _std, draw = noise_draws(result, signals, rng)
-    y = np.asarray(signals.displacement, dtype=float)
-    v = None if signals.velocity is None else np.asarray(signals.velocity, dtype=float)
     base = np.asarray(residual, dtype=float)
     changes = []
-    f = np.asarray(signals.force, dtype=float)
     for _ in range(int(n_draws)):
-        e_y, e_v, e_f = draw()
-        noisy = replace(signals, displacement=y + e_y, **({} if v is None else {"velocity": v + e_v}),
-                        **({} if e_f is None else {"force": f + e_f}))
+        noisy = noisy_copy(signals, draw())
         try:
             change = np.asarray(result.reconstruct(noisy).residual, dtype=float) - base
         except (BayesNSIError, np.linalg.LinAlgError):

@@ -210,10 +210,12 @@ class EvidenceOptions(_Options):
     seed: int = _option(0, "root seed of every random draw (emcee walkers, Monte-Carlo errors)", kind="int",
                         low=0, high=2**63 - 1)
     interval: str = _option(
-        "noise", "intervals of coefficients and modes: the posterior given the linear part, widened by the "
+        "auto", "intervals of coefficients and modes: the posterior given the linear part, widened by the "
         "scatter of the identification over sub-records (segments), or the scatter and errors-in-variables bias "
-        "over copies of the record with added sensor noise (noise)", kind="choice",
-        choices=("posterior", "segments", "noise"))
+        "over copies of the record with added sensor noise (noise) or over records of the identified model driven "
+        "by phase-randomised forces (surrogate); auto: surrogate for a candidate with Coulomb friction (a sign() of "
+        "velocities alone) on a single non-periodic record of a grounded structure, else noise", kind="choice",
+        choices=("auto", "posterior", "segments", "noise", "surrogate"))
     n_replicates: int = _option(16, "noisy copies of the record re-identified for the noise interval", kind="int",
                                 low=2, high=1000)
     n_segments: int = _option(8, "sub-records re-identified for the segments interval", kind="int", low=2, high=1000)

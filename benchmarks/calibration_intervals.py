@@ -6,7 +6,8 @@ it simulates the case at its default noise, identifies the true model with the c
 recommended settings, computes the evidence exactly as ``bayesnsi select`` does
 (:func:`bayesnsi.evidence.candidate_evidence`, ``EvidenceOptions()`` defaults: AR(1), innovations)
 and the intervals (:func:`bayesnsi.evidence.candidate_intervals`, default ``interval =
-"noise"``: 16 copies of the record with added sensor noise, Student-t intervals about the
+"auto"``: 16 copies of the record with added sensor noise - none of these cases holds the Coulomb
+friction for which it draws records of the identified model instead - Student-t intervals about the
 bias-corrected estimate, stretched to hold the reported one; ``--interval segments`` gives the
 sub-record intervals). It prints, per coefficient and per modal parameter (natural frequency,
 damping ratio against the simulator's exact modes):
@@ -25,6 +26,7 @@ Run::
     nice .venv/bin/python benchmarks/calibration_intervals.py                # 100 seeds per case, 2 workers
     .venv/bin/python benchmarks/calibration_intervals.py --quick             # 6 seeds per case
     .venv/bin/python benchmarks/calibration_intervals.py --cases two-dof --seeds 200 --json out.json
+    .venv/bin/python benchmarks/calibration_intervals.py --cases negative-stiffness --tables out.json
 """
 
 from __future__ import annotations
@@ -139,12 +141,19 @@ def main(argv=None) -> int:
     ap.add_argument("--seed0", type=int, default=0)
     ap.add_argument("--cases", nargs="+", default=list(CASE_NAMES), choices=CASE_NAMES)
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--interval", default=None, choices=("noise", "segments", "posterior"))
+    ap.add_argument("--interval", default=None, choices=("auto", "noise", "surrogate", "segments", "posterior"))
     ap.add_argument("--n-replicates", type=int, default=None)
     ap.add_argument("--n-segments", type=int, default=None)
     ap.add_argument("--segment-fraction", type=float, default=None)
     ap.add_argument("--json", default=None, help="write the per-seed records here")
+    ap.add_argument("--tables", default=None, help="print the tables of records written by --json, and stop")
     args = ap.parse_args(argv)
+    if args.tables:
+        with open(args.tables) as fh:
+            kept = json.load(fh)
+        for name in args.cases:
+            print_case(name, sorted((r for r in kept if r["case"] == name), key=lambda r: r["seed"]))
+        return 0
     n_seeds = 6 if args.quick else args.seeds
     given = {"n_segments": args.n_segments, "segment_fraction": args.segment_fraction, "interval": args.interval,
              "n_replicates": args.n_replicates}

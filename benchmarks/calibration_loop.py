@@ -4,9 +4,10 @@ For each case (``coulomb-dof2``: declared 20 v1|v1|, missing sign(v2) = 1 N; ``c
 declared linear, missing (x1-x2)³ = 2e5) and seed, it simulates the case (30 s, 2 % noise),
 runs :func:`bayesnsi.diagnose.close_the_loop` from the declared model with default
 ``LoopOptions`` and the case's NSI settings, and gives the final model the intervals of
-``bayesnsi select`` (:func:`bayesnsi.diagnose.final_intervals`, default ``interval = "noise"``:
-16 noisy copies of the record, errors-in-variables bias removed from the centre, Student-t
-quantiles). It prints, as ``calibration_intervals.py`` does, per coefficient of
+``bayesnsi select`` (:func:`bayesnsi.diagnose.final_intervals`, default ``interval = "auto"``:
+16 noisy copies of the record, or for a final model with Coulomb friction (a sign() of a velocity)
+16 records of the identified model driven by phase-randomised forces; errors-in-variables bias removed from the
+centre, Student-t quantiles). It prints, as ``calibration_intervals.py`` does, per coefficient of
 the final model (truth 0 for a term the truth does not hold) and per modal parameter: bias,
 seed-to-seed sd, coverage of the 50 % / 95 % intervals and of the posterior-only 95 % interval,
 and the mean 95 % width over 2 x 1.96 x sd; seeds whose loop did not end on the true model are

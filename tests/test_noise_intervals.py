@@ -156,7 +156,7 @@ def test_sign_terms_carry_a_note_on_the_bias_estimate(monkeypatch):
                          ((Term("(((abs(x1)-0.01)*(sign(abs(x1)-0.01)+1))/2)*sign(x1)", 1),), None)):
         result = SimpleNamespace(coefficient_values=np.array([1.0, 2.0][:len(terms)]), modes=(), terms=terms)
         evidence = _fake_evidence([t.name for t in terms], result.coefficient_values)
-        iv = candidate_intervals(result, SimpleNamespace(n_samples=100), evidence, EvidenceOptions())
+        iv = candidate_intervals(result, SimpleNamespace(n_samples=100), evidence, EvidenceOptions(interval="noise"))
         assert iv.method == "noise"
         notes = [n for n in iv.notes if "discontinuous" in n]
         assert (notes[0].startswith(named) if named else not notes), iv.notes

@@ -271,8 +271,9 @@ def loop_sections(report, signals, loop, payload, units, has_validation: bool, f
         )
         section.append(
             "Coefficients of the final model (NSI estimate; quality index |Im|/|Re|). Its 95 % and 50 % intervals "
-            "include the linear part's uncertainty (the identification repeated on noisy copies of the record, its "
-            "errors-in-variables bias removed from the centre; or on record windows) + the posterior; "
+            "include the linear part's uncertainty (the identification repeated on noisy copies of the record or on "
+            "records of the model, its errors-in-variables bias removed from the centre; or on record windows) + the "
+            "posterior; "
             "the posterior-only interval beside them takes the linear part as exact."
             + note + _discontinuity(payload, loop)
         )
@@ -326,10 +327,14 @@ def _final_posterior(report, loop, evidence, units=None) -> None:
 
 
 def _discontinuity(payload, loop) -> str:
-    """The note on the noise intervals of a final model with a sign() of a velocity (:mod:`bayesnsi.evidence`)."""
+    """How the intervals of a final model with a sign() of a velocity were drawn (:mod:`bayesnsi.evidence`)."""
     from ..evidence.perturbation import discontinuity_notes
+    from ._report_intervals import SURROGATE_TEXT
 
-    if (payload.get("final_intervals") or {}).get("method") != "noise":
+    intervals = payload.get("final_intervals") or {}
+    if intervals.get("method") == "surrogate":
+        return " " + SURROGATE_TEXT.format(names="The final model", n=intervals.get("n_segments", 0))
+    if intervals.get("method") != "noise":
         return ""
     return "".join(f" {note}." for note in discontinuity_notes(loop.final))
 

@@ -11,8 +11,8 @@ from __future__ import annotations
 import math
 
 __all__ = [
-    "INTERVAL_TEXT", "NOISE_TEXT", "coefficient_intervals_frame", "mode_intervals_frame", "interval_text",
-    "interval_sections", "final_coefficients_frame", "format_interval",
+    "INTERVAL_TEXT", "NOISE_TEXT", "SURROGATE_TEXT", "coefficient_intervals_frame", "mode_intervals_frame",
+    "interval_text", "interval_sections", "final_coefficients_frame", "format_interval",
 ]
 
 INTERVAL_TEXT = (
@@ -31,7 +31,14 @@ NOISE_TEXT = (
     "narrow (issue 15). Error that does not come from the sensor noise (discretisation, a structure outside the model, "
     "coloured or force-side noise) is not included."
 )
-_LABELS = {"segments": "windows + posterior", "noise": "noise replicates + posterior"}
+SURROGATE_TEXT = (
+    "{names}: Coulomb friction (a sign() of a velocity), so the identification is repeated instead on {n} "
+    "records of the identified model driven by copies of the measured force with fresh random phases, with sensor "
+    "noise added at the data's level (docs/method.md §11): their scatter and mean shift also carry the bias that "
+    "varies with where the velocity reverses, which noise added to the measured record re-randomises."
+)
+_LABELS = {"segments": "windows + posterior", "noise": "noise replicates + posterior",
+           "surrogate": "model replicates + posterior"}
 _POSTERIOR_TEXT = (
     "The intervals are the coefficient posterior's alone, given the identified linear part as if it were exact: "
     "they do not include the linear part's uncertainty and are too narrow."
@@ -79,8 +86,10 @@ def interval_text(outcomes) -> str:
             continue
         if iv.method == "segments":
             text = INTERVAL_TEXT.format(n=iv.n_segments, samples=iv.segment_samples)
-        elif iv.method == "noise":
+        elif iv.method in ("noise", "surrogate"):
             text = NOISE_TEXT.format(n=iv.n_segments, dof=iv.n_segments - 1) + _discontinuity_text(outcomes)
+            model = [o.name for o in outcomes if getattr(getattr(o, "intervals", None), "method", None) == "surrogate"]
+            text += " " + SURROGATE_TEXT.format(names=", ".join(model), n=iv.n_segments) if model else ""
         else:
             text = _POSTERIOR_TEXT + (" " + " ".join(iv.notes) if iv.notes else "")
         return text + _widened_text(outcomes)
@@ -212,7 +221,9 @@ def interval_sections(report, outcomes, selected, likelihood: str, answer: list,
                 text += f" (posterior only, given the linear part: {_pair(posterior[k])})"
             parts.append(text)
         what = {"segments": "linear-part uncertainty from the record windows + posterior",
-                "noise": "linear-part uncertainty and errors-in-variables bias from noise replicates + posterior"}.get(
+                "noise": "linear-part uncertainty and errors-in-variables bias from noise replicates + posterior",
+                "surrogate": "linear-part uncertainty and errors-in-variables bias from model replicates on "
+                             "phase-randomised forces + posterior"}.get(
             iv.method, "posterior only, given the linear part: too narrow")
         answer.append(f"Coefficients of {selected}: " + "; ".join(parts) + f". Intervals include: {what}.")
     coefficients, modes = coefficient_intervals_frame(outcomes, likelihood), mode_intervals_frame(outcomes)

@@ -4,7 +4,8 @@ The loop decides with Laplace evidences and samples only the effects it accepts;
 intervals condition on the identified linear part. :func:`final_intervals` gives the final model
 the intervals of ``bayesnsi select`` (:func:`bayesnsi.evidence.candidate_intervals`): the
 posterior widened by the scatter (and errors-in-variables bias) of the whole identification over
-noisy copies of the record (default ``interval = "noise"``) or record windows, re-identified with
+noisy copies of the record or, for Coulomb friction, over records of the model
+driven by phase-randomised forces (default ``interval = "auto"``), or record windows, re-identified with
 the settings the final model was identified with (``settings["final_nsi"]``, upsampled for
 velocity-switching terms).
 """

@@ -1,37 +1,26 @@
 """Intervals that carry the uncertainty of the identified linear part (issue 15, docs/method.md §11).
 
-Default (``interval = "noise"``): the scatter and the errors-in-variables bias of the whole
-identification over copies of the record with added sensor noise (:mod:`.perturbation`), with
-Student-t quantiles; the intervals are centred on ``estimate - bias``, the 95 % one stretched to
-hold the reported estimate. The sub-record method below (``interval = "segments"``) is kept: its variance
-carries about 2.7 degrees of freedom (overlapping windows), so its normal intervals under-cover.
-
 The coefficient posterior of :func:`~bayesnsi.evidence.marginal_evidence` conditions on the
 identified underlying linear model (A, C and, with them, B, D) as if it were exact; on the
 two-DOF case its sd of α is about 10× smaller than the seed-to-seed scatter of the estimate.
-:func:`candidate_intervals` widens it with the scatter of the whole identification over
-sub-records (moving-block subsampling, a delete-a-block jackknife):
+:func:`candidate_intervals` widens it with the scatter of the whole identification over replicates
+of the record (:data:`INTERVAL_METHODS`):
 
-* ``n_segments`` windows of ``b = segment_fraction · N`` contiguous samples, at evenly spaced
-  offsets (non-overlapping when ``segment_fraction · n_segments <= 1``), are re-identified with
-  the same settings, the full record's order and band (a window is lengthened to what the block
-  rows need, up to 90 % of the record);
-* for an estimator whose error variance is ``σ²/b`` on ``b`` samples, a window's deviation from
-  the full-record estimate has variance ``σ²/b - σ²/N``, so the variance of the full-record
-  estimate is ``σ²/N = b/(N - b) · mean_w (θ_w - θ_N)²`` (the delete-d jackknife factor);
-* coefficients: total variance = posterior variance + that variance, interval centred on the
-  reported estimate, the full-record NSI coefficient (the value the model holds and the windows
-  scatter about; the posterior mean is kept beside it, and a note says when it falls outside the
-  95 % interval: the evidence's estimator and NSI then disagree by more than their scatter, as on
-  a free body whose posterior is that of the inverse model); natural frequencies and damping
-  ratios: that variance, centred on the full-record mode (each full-record mode is matched to the
-  window mode nearest in frequency). The posterior-only intervals are the posterior's quantiles
-  shifted by ``NSI value - posterior mean``: its spread about the reported estimate.
+* ``"noise"`` and ``"surrogate"`` (the default ``"auto"`` picks one per candidate): the scatter and
+  the errors-in-variables bias over copies of the record with added sensor noise
+  (:mod:`.perturbation`) or over records of the identified model driven by phase-randomised
+  forces (:mod:`.surrogate`), with Student-t quantiles; the intervals are centred on
+  ``estimate - bias``, the 95 % one stretched to hold the reported estimate.
+* ``"segments"`` (kept): ``n_segments`` windows of ``b = segment_fraction · N`` samples are
+  re-identified with the full record's order and band; for an error variance ``σ²/b`` the
+  full-record variance is ``b/(N - b) · mean_w (θ_w - θ_N)²`` (delete-d jackknife), added to the
+  posterior's, normal quantiles about the NSI value (the windows overlap, so the variance carries
+  about 2.7 degrees of freedom and under-covers); modes are matched to the nearest window mode.
 
-Normal quantiles give the 50 % and 95 % intervals. Measured coverage and widths are in
-``benchmarks/calibration_intervals.py`` and the README. What this does not carry: a bias shared
-by every window (e.g. errors-in-variables bias or discretisation error of the simulation) is not
-scatter and stays outside the interval.
+The posterior-only intervals are the posterior's quantiles shifted by ``NSI value - posterior mean``.
+A note says when the posterior mean falls outside the 95 % interval (the evidence's estimator and
+NSI then disagree by more than their scatter, as on a free body). Measured coverage and widths are
+in ``benchmarks/calibration_intervals.py`` and the README.
 """
 
 from __future__ import annotations
@@ -47,11 +36,15 @@ from .perturbation import reidentify
 
 __all__ = ["INTERVAL_METHODS", "ParameterInterval", "Intervals", "segment_estimates", "candidate_intervals", "widen"]
 
-INTERVAL_METHODS = ("posterior", "segments", "noise")
+INTERVAL_METHODS = ("posterior", "segments", "noise", "surrogate")
 """``"posterior"``: the coefficient posterior alone (conditional on the linear part);
 ``"segments"``: widened by the sub-record scatter of the identification (module notes);
-``"noise"`` (default): the scatter and errors-in-variables bias of the identification over copies
-of the record with added sensor noise (:mod:`bayesnsi.evidence.perturbation`)."""
+``"noise"``: the scatter and errors-in-variables bias of the identification over copies
+of the record with added sensor noise (:mod:`bayesnsi.evidence.perturbation`); ``"surrogate"``:
+the same over records of the identified model driven by phase-randomised copies of the force
+(:mod:`bayesnsi.evidence.surrogate`). The option's default ``"auto"`` is ``"surrogate"`` for a
+candidate with a Coulomb friction term (a sign() of velocities alone) where the record allows it,
+else ``"noise"``."""
 
 _Z95 = 1.959963984540054
 _Z50 = 0.6744897501960817
@@ -118,14 +111,14 @@ class Intervals:
     Attributes
     ----------
     method : str
-        ``"noise"``, ``"segments"`` or ``"posterior"`` (see :data:`INTERVAL_METHODS`); ``"posterior"`` also when
-        the sub-records could not be identified (see ``notes``).
+        ``"noise"``, ``"surrogate"``, ``"segments"`` or ``"posterior"`` (:data:`INTERVAL_METHODS`; never
+        ``"auto"``); ``"posterior"`` also when the replicates could not be identified (see ``notes``).
     coefficients : tuple of ParameterInterval
         One per term, in the candidate's order.
     frequencies, damping_ratios : tuple of ParameterInterval
         One per full-record mode (empty with ``method = "posterior"``).
     n_segments : int
-        Sub-records (or noise replicates, ``method = "noise"``) identified successfully.
+        Sub-records (or noise or model replicates) identified successfully.
     segment_samples : int
         Samples per sub-record or replicate (0 when none was used).
     notes : tuple of str
@@ -154,13 +147,9 @@ class Intervals:
             Method, per-parameter records, segments used and notes.
         """
         return {
-            "method": self.method,
-            "coefficients": [p.to_dict() for p in self.coefficients],
-            "frequencies": [p.to_dict() for p in self.frequencies],
-            "damping_ratios": [p.to_dict() for p in self.damping_ratios],
-            "n_segments": self.n_segments,
-            "segment_samples": self.segment_samples,
-            "notes": list(self.notes),
+            "method": self.method, **{key: [p.to_dict() for p in getattr(self, key)]
+                                      for key in ("coefficients", "frequencies", "damping_ratios")},
+            "n_segments": self.n_segments, "segment_samples": self.segment_samples, "notes": list(self.notes),
             "widening": self.widening,
         }
 
@@ -329,7 +318,7 @@ def candidate_intervals(result, signals, evidence_result, options=None, nsi_opti
     centres = value if value.shape == post_mean.shape else post_mean
     if options.interval == "posterior":
         return _posterior_only(names, draws, centres, ())
-    if options.interval == "noise":
+    if options.interval in ("noise", "surrogate", "auto"):
         found = _noise_intervals(result, signals, options, nsi_options, (names, centres, post_sd, post_mean))
         return found if found is not None else _posterior_only(names, draws, centres, (_NOISE_FALLBACK,))
     n = signals.n_samples
@@ -381,19 +370,37 @@ def _posterior_only(names, draws: np.ndarray, centres, notes) -> Intervals:
     return Intervals(method="posterior", coefficients=found, notes=tuple(notes) + _disagreements(found))
 
 
-_NOISE_FALLBACK = (
-    "fewer than two noise replicates of the record could be identified; the intervals are the posterior's alone, "
-    "conditional on the identified linear part, and too narrow"
-)
+_NOISE_FALLBACK = ("fewer than two replicates of the record could be identified; the intervals are the posterior's "
+                   "alone, conditional on the identified linear part, and too narrow")
+
+
+def _replicates(result, signals, options, nsi_options):
+    """The replicates of ``options.interval`` (noise, model or "auto"): method, estimates, failures, notes."""
+    from .perturbation import discontinuity_notes, noise_replicates
+    from .surrogate import holds_coulomb_friction, model_replicates, surrogate_problem
+
+    problem = surrogate_problem(result, signals)
+    wanted = options.interval == "surrogate" or (options.interval == "auto" and holds_coulomb_friction(result))
+    notes: tuple[str, ...] = ()
+    if wanted and problem is None:
+        _, *found, failures = model_replicates(result, signals, nsi_options, options.n_replicates, options.seed)
+        if len(found[0]) >= 2:
+            return "surrogate", found, failures, ()
+        notes = (f"model replicates failed ({failures[0] if failures else 'none identified'}); noise replicates "
+                 "used instead",)
+    elif options.interval == "surrogate":
+        notes = (f"model replicates do not apply: {problem}; noise replicates used instead",)
+        warnings.warn(notes[0], IntervalWarning, stacklevel=4)
+    _, *found, failures = noise_replicates(result, signals, nsi_options, options.n_replicates, options.seed)
+    return "noise", found, failures, notes + discontinuity_notes(result)
 
 
 def _noise_intervals(result, signals, options, nsi_options, posterior) -> Intervals | None:
-    """Intervals from noise replicates (:mod:`.perturbation`); None (with a warning) when fewer than 2 identify."""
-    from .perturbation import discontinuity_notes, noise_replicates, replicate_moments
+    """Intervals from noise or model replicates; None (with a warning) when fewer than 2 identify."""
+    from .perturbation import replicate_moments
 
     names, centres, post_sd, post_mean = posterior
-    _, coefs, freqs, zetas, failures = noise_replicates(result, signals, nsi_options, options.n_replicates,
-                                                        options.seed)
+    method, (coefs, freqs, zetas), failures, notes = _replicates(result, signals, options, nsi_options)
     if len(coefs) < 2:
         warnings.warn(f"{_NOISE_FALLBACK} ({failures[0] if failures else 'none tried'})", IntervalWarning,
                       stacklevel=3)
@@ -413,9 +420,8 @@ def _noise_intervals(result, signals, options, nsi_options, posterior) -> Interv
             _bias_corrected(*row) for row in zip(labels, full, sd, bias, count, extra_sd, means)
         ))
     return Intervals(
-        method="noise", coefficients=out[0], frequencies=out[1], damping_ratios=out[2], n_segments=len(coefs),
-        segment_samples=int(signals.n_samples),
-        notes=tuple(failures) + _disagreements(out[0]) + discontinuity_notes(result),
+        method=method, coefficients=out[0], frequencies=out[1], damping_ratios=out[2], n_segments=len(coefs),
+        segment_samples=int(signals.n_samples), notes=tuple(failures) + _disagreements(out[0]) + notes,
     )
 
 

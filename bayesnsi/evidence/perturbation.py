@@ -1,7 +1,8 @@
 """Noise replicates of an identification: its scatter and its errors-in-variables bias (issue 15).
 
-The default intervals of :func:`~bayesnsi.evidence.candidate_intervals` (``interval = "noise"``,
-docs/method.md §11). The whole identification (A, C, B, D, the coefficients λ and the modes) is
+The intervals of :func:`~bayesnsi.evidence.candidate_intervals` with ``interval = "noise"``, and with
+the default ``"auto"`` for every candidate without Coulomb friction (docs/method.md §11; for those,
+:mod:`.surrogate`). The whole identification (A, C, B, D, the coefficients λ and the modes) is
 repeated on ``n_replicates`` copies of the record with fresh white noise added to every measured
 response channel (displacements, and velocities where measured) at the sensor noise level
 estimated from the data (:func:`bayesnsi.nsi.white_noise_std`); the force is taken as exact, as

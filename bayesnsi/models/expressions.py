@@ -104,6 +104,13 @@ class Expression:
         interval-mean input and, for accurate coefficients, an upsampled identification grid)."""
         return _sign_of_velocity(self._tree)
 
+    @property
+    def is_coulomb(self) -> bool:
+        """True when the expression is a sign() of velocities alone: Coulomb friction, a force of constant
+        magnitude that jumps at every velocity reversal (not a position-dependent friction sign(v)·g(x))."""
+        node = self._tree
+        return node.kind == "func" and node.value == "sign" and bool(self.velocity_dofs) and not self.displacement_dofs
+
     def evaluate(self, x, v):
         """Evaluate n(x, v).
 

@@ -168,5 +168,5 @@ def test_the_select_report_names_the_candidates_with_model_replicates():
 
     text = interval_text([outcome("smooth", "noise"), outcome("coulomb", "surrogate")])
     assert "16 copies of the record with fresh sensor noise" in text
-    assert "coulomb: Coulomb friction" in text and "smooth: Coulomb" not in text
+    assert "For coulomb (Coulomb friction" in text and "smooth (Coulomb" not in text
     assert "coulomb" not in interval_text([outcome("smooth", "noise")])

@@ -333,7 +333,7 @@ def _discontinuity(payload, loop) -> str:
 
     intervals = payload.get("final_intervals") or {}
     if intervals.get("method") == "surrogate":
-        return " " + SURROGATE_TEXT.format(names="The final model", n=intervals.get("n_segments", 0))
+        return " " + SURROGATE_TEXT.format(names="the final model", n=intervals.get("n_segments", 0))
     if intervals.get("method") != "noise":
         return ""
     return "".join(f" {note}." for note in discontinuity_notes(loop.final))

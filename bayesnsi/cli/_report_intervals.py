@@ -32,7 +32,7 @@ NOISE_TEXT = (
     "coloured or force-side noise) is not included."
 )
 SURROGATE_TEXT = (
-    "{names}: Coulomb friction (a sign() of a velocity), so the identification is repeated instead on {n} "
+    "For {names} (Coulomb friction, a sign() of a velocity) the identification is repeated instead on {n} "
     "records of the identified model driven by copies of the measured force with fresh random phases, with sensor "
     "noise added at the data's level (docs/method.md §11): their scatter and mean shift also carry the bias that "
     "varies with where the velocity reverses, which noise added to the measured record re-randomises."

@@ -170,3 +170,22 @@ def test_the_select_report_names_the_candidates_with_model_replicates():
     assert "16 copies of the record with fresh sensor noise" in text
     assert "For coulomb (Coulomb friction" in text and "smooth (Coulomb" not in text
     assert "coulomb" not in interval_text([outcome("smooth", "noise")])
+
+
+def test_a_model_that_diverges_on_the_surrogates_falls_back_to_noise_replicates(coulomb, monkeypatch):
+    from bayesnsi.evidence import candidate_evidence, candidate_intervals
+    from bayesnsi.exceptions import UnstableModelError
+
+    def diverges(result, signals, forces):
+        raise UnstableModelError("closed-loop simulation diverged by sample 63")
+
+    monkeypatch.setattr(surrogate, "_simulated_records", diverges)
+    signals, result = coulomb
+    options = EvidenceOptions(n_steps=100, n_burn=20, likelihood="white", compare=(), n_replicates=3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        evidence = candidate_evidence(result, signals, options, warn=False)["white"]
+        found = candidate_intervals(result, signals, evidence, options, NSIOptions(block_rows=60, order=4))
+    assert found.method == "noise" and found.n_segments == 3
+    assert any(n.startswith("model replicates failed (model replicates: UnstableModelError") for n in found.notes)
+    assert any("sign(v2)@2 is discontinuous" in n for n in found.notes)  # the noise replicates' own caveat

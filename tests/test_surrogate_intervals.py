@@ -20,7 +20,7 @@ import pytest
 from bayesnsi.evidence import surrogate
 from bayesnsi.evidence.surrogate import model_replicates, surrogate_forces, surrogate_problem
 from bayesnsi.nsi import identify
-from bayesnsi.nsi.reconstruct import closed_loop_response
+from bayesnsi.nsi.closed_loop import closed_loop_response
 from bayesnsi.options import EvidenceOptions, NSIOptions
 
 TERMS = [("v1*abs(v1)", 1), ("sign(v2)", 2)]
@@ -70,8 +70,8 @@ def test_a_batch_of_records_simulates_as_the_records_one_by_one(coulomb):
 
 def _noise_free_replicates(result, signals, options, monkeypatch, interval_mean=None):
     """Model replicates without sensor noise (optionally forcing point-value or interval-mean inputs)."""
-    reconstruct = importlib.import_module("bayesnsi.nsi.reconstruct")  # the module, not the function it exports
-    real_draws, real_response = surrogate.noise_draws, reconstruct.closed_loop_response
+    closed_loop = importlib.import_module("bayesnsi.nsi.closed_loop")
+    real_draws, real_response = surrogate.noise_draws, closed_loop.closed_loop_response
 
     def no_noise(result, signals, rng):
         std, draw = real_draws(result, signals, rng)
@@ -83,7 +83,7 @@ def _noise_free_replicates(result, signals, options, monkeypatch, interval_mean=
         return real_response(*args, **kwargs)
 
     monkeypatch.setattr(surrogate, "noise_draws", no_noise)
-    monkeypatch.setattr(reconstruct, "closed_loop_response", response)
+    monkeypatch.setattr(closed_loop, "closed_loop_response", response)
     return model_replicates(result, signals, options, 3, seed=1)
 
 

@@ -3,7 +3,7 @@
 A parametric bootstrap (``interval = "surrogate"``, and the default ``"auto"`` for a candidate with
 Coulomb friction, a sign() of velocities alone, :func:`holds_coulomb_friction`; docs/method.md
 §11). Each replicate drives the identified model in closed loop
-(:func:`bayesnsi.nsi.reconstruct.closed_loop_response`) with a *surrogate force*: the measured
+(:func:`bayesnsi.nsi.closed_loop.closed_loop_response`) with a *surrogate force*: the measured
 force with its Fourier phases drawn afresh, the same phase for every force channel at a
 frequency, so its amplitude spectrum and the forces' cross-spectra are kept; the surrogate is
 circular, and the simulation starts a decay length early on its periodic extension. The model is
@@ -125,8 +125,8 @@ def _warm_up(result, n_samples: int) -> int:
 def _simulated_records(result, signals, forces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Displacements and velocities of the model on each surrogate force, at the data's samples."""
     from .._resample import upsample
+    from ..nsi.closed_loop import closed_loop_response
     from ..nsi.feedback import resolve_input_hold
-    from ..nsi.reconstruct import closed_loop_response
 
     n, factor = forces.shape[0], result.upsample
     warm = _warm_up(result, n)

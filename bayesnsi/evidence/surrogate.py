@@ -125,7 +125,7 @@ def _warm_up(result, n_samples: int) -> int:
 def _simulated_records(result, signals, forces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Displacements and velocities of the model on each surrogate force, at the data's samples."""
     from .._resample import upsample
-    from ..nsi.closed_loop import closed_loop_response
+    from ..nsi.closed_loop import closed_loop_response, divergence_bound
     from ..nsi.feedback import resolve_input_hold
 
     n, factor = forces.shape[0], result.upsample
@@ -134,7 +134,7 @@ def _simulated_records(result, signals, forces: np.ndarray) -> tuple[np.ndarray,
     if factor > 1:
         shape = extended.shape
         extended = upsample(extended.reshape(shape[0], -1), factor).reshape(shape[0] * factor, *shape[1:])
-    bound = 1e6 * max(1.0, float(np.max(np.abs(signals.displacement))))
+    bound = divergence_bound(signals.displacement)
     hold = resolve_input_hold(result.settings.get("input_hold", "auto"), result.terms)
     displacement, velocity = closed_loop_response(result, extended, np.zeros(result.free_model.order), bound,
                                                   signals.n_dofs, signals.fs * factor, interval_mean=hold == "average",

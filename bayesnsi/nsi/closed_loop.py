@@ -11,7 +11,7 @@ import numpy as np
 
 from ..exceptions import UnstableModelError
 
-__all__ = ["closed_loop_response"]
+__all__ = ["closed_loop_response", "divergence_bound"]
 
 _FIXED_POINT_ITERATIONS = 4
 
@@ -83,17 +83,16 @@ def closed_loop_response(
         force = _band_limited_interval_mean(force.reshape(n_samples, -1)).reshape(force.shape)
     b_force, d_force = B[:, :m], D[:, :m]
     outputs = np.vstack([C, c_vel])  # displacement and velocity outputs in one product
-    kept = -(-n_samples // int(stride))
-    out, vel = np.empty((kept, n_out, n_rec)), np.empty((kept, n_out, n_rec))
     x = np.array(np.broadcast_to(np.asarray(x0, dtype=float).reshape(A.shape[0], -1), (A.shape[0], n_rec)))
-    xs = np.full((n_dofs, n_rec), np.nan)
-    vs = np.full((n_dofs, n_rec), np.nan)
-    nl = np.zeros((len(terms), n_rec))
     functions = [term.expr.function for term in terms]
     if averaged:
         out, vel = _interval_mean_loop(A, (b_force, b_nl, d_force), outputs, force, functions, x, rows, n_dofs,
                                        (bound, 1.0 / fs, int(subsamples), result.candidate.name, int(stride)))
         return (out, vel) if batch else (out[:, :, 0], vel[:, :, 0])
+    out, vel = _kept_arrays(n_samples, int(stride), n_out, n_rec)
+    xs = np.full((n_dofs, n_rec), np.nan)
+    vs = np.full((n_dofs, n_rec), np.nan)
+    nl = np.zeros((len(terms), n_rec))
     with np.errstate(over="ignore", invalid="ignore"):  # a diverging state is caught every 64 samples
         for k in range(n_samples):
             both = outputs @ x
@@ -107,12 +106,39 @@ def closed_loop_response(
             if k % stride == 0:
                 out[k // stride], vel[k // stride] = yk, vs[rows]
             x = A @ x + b_force @ force[k] - b_nl @ nl
-            if (k % 64 == 63 or k == n_samples - 1) and not np.abs(x).max() < bound:
-                raise UnstableModelError(
-                    f"closed-loop simulation of {result.candidate.name!r} diverged by sample {k} "
-                    f"(t = {k / fs:.3g} s): the model is unstable in feedback"
-                )
+            _check_bounded(x, k, n_samples, bound, result.candidate.name, k / fs)
     return (out, vel) if batch else (out[:, :, 0], vel[:, :, 0])
+
+
+def divergence_bound(displacement) -> float:
+    """The state magnitude past which a closed-loop simulation of a record counts as diverged.
+
+    Parameters
+    ----------
+    displacement : array_like
+        The measured displacements of the record.
+
+    Returns
+    -------
+    float
+        ``1e6 · max(1, max |displacement|)``.
+    """
+    return 1e6 * max(1.0, float(np.max(np.abs(displacement))))
+
+
+def _kept_arrays(n_samples: int, stride: int, n_out: int, n_rec: int) -> tuple[np.ndarray, np.ndarray]:
+    """Empty displacement and velocity arrays for every ``stride``-th of ``n_samples`` samples."""
+    kept = -(-n_samples // stride)
+    return np.empty((kept, n_out, n_rec)), np.empty((kept, n_out, n_rec))
+
+
+def _check_bounded(x: np.ndarray, k: int, n_samples: int, bound: float, name: str, time: float) -> None:
+    """Raise UnstableModelError when the state has left ``bound`` (checked every 64 samples and at the end)."""
+    if (k % 64 == 63 or k == n_samples - 1) and not np.abs(x).max() < bound:
+        raise UnstableModelError(
+            f"closed-loop simulation of {name!r} diverged by sample {k} (t = {time:.3g} s): the model is unstable "
+            "in feedback"
+        )
 
 
 def _interval_mean_loop(A, gains, outputs, force, functions, x, rows, n_dofs, settings):
@@ -122,8 +148,7 @@ def _interval_mean_loop(A, gains, outputs, force, functions, x, rows, n_dofs, se
     s = ((np.arange(subsamples) + 0.5) / subsamples)[:, None]  # quadrature points, shape (S, 1)
     add, weight = np.add.reduce, 1.0 / subsamples
     h00, h10, h01, h11 = 2 * s**3 - 3 * s**2 + 1, dt * (s**3 - 2 * s**2 + s), -2 * s**3 + 3 * s**2, dt * (s**3 - s**2)
-    kept = -(-n_samples // stride)
-    out, vel = np.empty((kept, n_out, n_rec)), np.empty((kept, n_out, n_rec))
+    out, vel = _kept_arrays(n_samples, stride, n_out, n_rec)
     xs = np.full((n_dofs, subsamples, n_rec), np.nan)
     vs = np.full((n_dofs, subsamples, n_rec), np.nan)
     nl = np.zeros((len(functions), n_rec))
@@ -142,9 +167,5 @@ def _interval_mean_loop(A, gains, outputs, force, functions, x, rows, n_dofs, se
                 value = function(xs, vs)
                 nl[idx] = add(value, axis=0) * weight if np.ndim(value) == 2 else value  # a constant: itself
             x = free - b_nl @ nl
-            if (k % 64 == 63 or k == n_samples - 1) and not np.abs(x).max() < bound:
-                raise UnstableModelError(
-                    f"closed-loop simulation of {name!r} diverged by sample {k} "
-                    f"(t = {k * dt:.3g} s): the model is unstable in feedback"
-                )
+            _check_bounded(x, k, n_samples, bound, name, k * dt)
     return out, vel

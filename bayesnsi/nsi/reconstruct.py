@@ -10,7 +10,7 @@ from ..exceptions import UnstableModelError
 from ..signals import Signals
 from . import _harmonic
 from ._recursion import delayed_first_order
-from .closed_loop import closed_loop_response
+from .closed_loop import closed_loop_response, divergence_bound
 from .statespace import StateSpaceModel, decay_lengths
 
 __all__ = [
@@ -201,7 +201,7 @@ def _measured_grid(result, signals: Signals) -> Signals:
 
 def _closed_loop(result, signals: Signals, x0: np.ndarray) -> np.ndarray:
     """Simulate with the nonlinear inputs fed back from the model's own output (free model)."""
-    bound = 1e6 * max(1.0, float(np.max(np.abs(signals.displacement))))
+    bound = divergence_bound(signals.displacement)
     return closed_loop_response(result, signals.force, x0, bound, signals.n_dofs, signals.fs)[0]
 
 

@@ -15,7 +15,7 @@ import numpy as np
 from .exceptions import InputDataError, ShapeError
 
 if TYPE_CHECKING:
-    from ._integrated_noise import AccelerationNoise
+    from .noise.integrated import AccelerationNoise
 
 __all__ = ["Signals", "differentiate", "join_realisations", "MIN_FS", "MAX_FS", "MEASURED_QUANTITIES"]
 
@@ -235,7 +235,7 @@ class Signals:
         integrated in time (not line by line on whole periods): the sensors' white noise std and the
         integration recipe, from which
         the noise replicates and the adequacy check integrate the noise the data carry
-        (bayesnsi._integrated_noise; docs/method.md §11). None otherwise.
+        (bayesnsi.noise.integrated; docs/method.md §11). None otherwise.
     """
 
     force: np.ndarray

@@ -11,7 +11,7 @@ default settings (order 4) and their noise-replicate 95 % intervals computed twi
   ``acceleration_noise`` - the replicates add white noise at the level high-order differences read
   on the integrated displacement, the adequacy noise is that level, no widening;
 * after: the same samples, with the accelerometers' white noise (estimated on the accelerations
-  before integration) integrated by the same recipe (``bayesnsi._integrated_noise``);
+  before integration) integrated by the same recipe (``bayesnsi.noise.integrated``);
 * trimmed: the default now, ``trim_edges = true`` (2/(taper f_lo) = 4 s dropped at each end, where
   the integrated motion misses the acceleration outside the record), with that noise.
 

@@ -18,14 +18,14 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bayesnsi._integrated_noise import AccelerationNoise, acceleration_noise_of
 from bayesnsi.evidence.perturbation import noise_replicates
 from bayesnsi.exceptions import ConfigError
 from bayesnsi.io import load_config, load_signals
 from bayesnsi.models import CandidateModel, Term
-from bayesnsi.nsi import identify, white_noise_std
+from bayesnsi.noise import AccelerationNoise, acceleration_noise_of, noise_model, white_noise_std
+from bayesnsi.nsi import identify
 from bayesnsi.options import NSIOptions
-from bayesnsi.run.adequacy import model_checks, sensor_noise_std, widen_inadequate
+from bayesnsi.run.adequacy import model_checks, widen_inadequate
 from bayesnsi.simulate import band_limited_gaussian, chain_system, simulate_response
 
 FS, BAND = 100.0, (1.0, 45.0)
@@ -125,7 +125,7 @@ def test_adequacy_of_the_true_model_on_integrated_accelerations_is_near_one(tmp_
     assert old[TRUE.name].noise_ratio > 50
     assert 0.5 < checks[TRUE.name].noise_ratio < 2.0
     assert checks[WRONG.name].noise_ratio > 1.3 * checks[TRUE.name].noise_ratio
-    assert np.all(sensor_noise_std(signals) > 10 * white_noise_std(signals.displacement))
+    assert np.all(noise_model(signals).std(interior=True) > 10 * white_noise_std(signals.displacement))
     record = checks[TRUE.name].to_dict()  # results.json model_check says where the noise came from
     assert record["noise_source"] == "accelerometers (estimated)" and len(record["acceleration_noise_std"]) == 2
     assert old[TRUE.name].to_dict()["noise_source"] == "differences"

@@ -121,8 +121,7 @@ def test_periodic_records_take_the_noise_from_the_period_to_period_scatter():
     noise added, computed directly); high-order differences see only its part near Nyquist."""
     from scipy.signal import butter, lfilter
 
-    from bayesnsi.nsi import white_noise_std
-    from bayesnsi.run.adequacy import sensor_noise_std
+    from bayesnsi.noise import noise_model, white_noise_std
     from bayesnsi.signals import Signals
 
     rng = np.random.default_rng(5)
@@ -133,10 +132,12 @@ def test_periodic_records_take_the_noise_from_the_period_to_period_scatter():
     x = clean[:, None] + noise
     force = np.tile(rng.standard_normal(period), n_periods)[:, None]
     periodic = Signals(force=force, displacement=x, fs=100.0, input_dofs=(1,), output_dofs=(1, 2), period=period)
-    np.testing.assert_allclose(sensor_noise_std(periodic), noise.std(axis=0), rtol=0.05)
+    np.testing.assert_allclose(noise_model(periodic).std(), noise.std(axis=0), rtol=0.05)
+    assert noise_model(periodic).source == "period scatter"
     assert np.all(white_noise_std(x) < 0.5 * noise.std(axis=0))
     plain = Signals(force=force, displacement=x, fs=100.0, input_dofs=(1,), output_dofs=(1, 2))
-    np.testing.assert_array_equal(sensor_noise_std(plain), white_noise_std(x))
+    np.testing.assert_array_equal(noise_model(plain).std(), white_noise_std(x))
+    assert noise_model(plain).source == "differences"
 
 
 def test_gvt_with_no_fitting_candidate_is_reported_inadequate():

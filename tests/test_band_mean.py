@@ -13,8 +13,8 @@ import pytest
 
 from bayesnsi.exceptions import IntegrationWarning
 from bayesnsi.io import load_config, load_signals
-from bayesnsi.io._lowband import EDGE_SNR_MIN, noise_edge_messages
 from bayesnsi.models import Term
+from bayesnsi.noise.lowband import EDGE_SNR_MIN, noise_edge_messages
 from bayesnsi.nsi._line_information import averaged_periodogram, line_information, output_noise_psd
 from bayesnsi.nsi.physics import band_coefficients
 
@@ -36,7 +36,7 @@ def test_averaged_periodogram_of_white_noise_and_of_a_sine():
 
 
 def test_output_noise_psd_follows_the_integrated_sensor():
-    from bayesnsi._integrated_noise import AccelerationNoise
+    from bayesnsi.noise import AccelerationNoise
 
     freqs = np.array([4.0, 8.0])
     white = output_noise_psd(freqs, [0.1, 0.2])

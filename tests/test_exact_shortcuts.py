@@ -14,7 +14,7 @@ import pytest
 from bayesnsi.evidence._collapsed_run import _integrated_time
 from bayesnsi.evidence._target import Target
 from bayesnsi.evidence.likelihood import sufficient_statistics
-from bayesnsi.nsi._noise import measured_noise_std
+from bayesnsi.noise import measured_noise_std
 from bayesnsi.nsi.reconstruct import initial_state
 from bayesnsi.nsi.statespace import StateSpaceModel, decay_lengths
 from bayesnsi.signals import Signals

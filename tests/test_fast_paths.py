@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bayesnsi.nsi._noise import column_std, white_noise_std
+from bayesnsi.noise import column_std, white_noise_std
 
 
 def _reference_white_noise_std(y):

@@ -125,8 +125,7 @@ def test_velocity_noise_from_the_mismatch_with_the_displacement():
     displacement mismatch below the first mode does not (measured: 0.62-1.30x on single seeds of
     1000 samples, mean 0.97x; on the twin 1.02x its 1 %, 10x by differences).
     """
-    from bayesnsi.evidence.perturbation import velocity_noise_std
-    from bayesnsi.nsi import white_noise_std
+    from bayesnsi.noise import velocity_noise_std, white_noise_std
 
     ratios, by_differences = [], []
     for case in simulate_cases("two-dof", range(10)):

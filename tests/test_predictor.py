@@ -74,7 +74,7 @@ def test_measured_noise_std_from_channel_consistency():
     """Independent reference: the simulator's own noise. On the negative-stiffness twin the velocity
     has broadband content (base excitation, friction): high-order differences overestimate its
     noise 10×, the displacement-velocity consistency fit does not."""
-    from bayesnsi.nsi._noise import measured_noise_std, white_noise_std
+    from bayesnsi.noise import measured_noise_std, white_noise_std
 
     case = twin_case(0)
     true_disp = (case.signals.displacement - case.clean.displacement).std(axis=0)
@@ -104,7 +104,7 @@ def test_prediction_error_on_an_upsampled_record_with_friction():
     # difference estimate instead of failing (it raised LinAlgError, with LAPACK messages).
     # Reference: the simulated coefficients of the undeclared-effect case (quadratic damping 20,
     # Coulomb 1 N at DOF 2).
-    from bayesnsi.nsi._noise import measured_noise_std
+    from bayesnsi.noise import measured_noise_std
     from bayesnsi.preprocess import upsample
     from bayesnsi.simulate.undeclared import undeclared_case
 

@@ -15,8 +15,9 @@ from bayesnsi.evidence.intervals import segment_estimates
 from bayesnsi.evidence.perturbation import noise_replicates
 from bayesnsi.exceptions import BayesNSIError, ConfigError, InputDataError, PeriodicityWarning
 from bayesnsi.models import Term
+from bayesnsi.noise import period_scatter_std
 from bayesnsi.nsi import best_linear_approximation, identify, predictor_reconstruction, reconstruct
-from bayesnsi.nsi.steady import period_problems, period_scatter_std
+from bayesnsi.nsi.steady import period_problems
 from bayesnsi.options import NSIOptions
 from bayesnsi.signals import Signals, join_realisations
 from bayesnsi.simulate import chain_system, multisine, multisine_lines, simulate_response

@@ -19,11 +19,11 @@ import pytest
 
 from bayesnsi.io import load_config, load_signals
 from bayesnsi.models import CandidateModel, Term
-from bayesnsi.nsi import identify, white_noise_std
+from bayesnsi.noise import spectral_lines, white_noise_std
+from bayesnsi.nsi import identify
 from bayesnsi.options import NSIOptions
 from bayesnsi.run.adequacy import adequacy_warnings, model_checks
 from bayesnsi.run.residual_bands import MAX_BAND_RATIO, propagated_noise, residual_bands
-from bayesnsi.run.sensor_noise import spectral_lines
 from bayesnsi.simulate import band_limited_gaussian, chain_system, modal_parameters, simulate_case, simulate_response
 
 FS = 200.0
@@ -172,6 +172,6 @@ def test_a_model_whose_residual_does_not_follow_the_noise_or_blows_up_gives_no_y
         return SimpleNamespace(residual=np.full((600, 1), np.nan) if changed else fixed)
 
     for reconstruct in (lambda record: SimpleNamespace(residual=fixed), blows_up):
-        result = SimpleNamespace(modes=[], reconstruct=reconstruct)
+        result = SimpleNamespace(modes=[], lowest_frequency_hz=0.0, reconstruct=reconstruct)
         assert propagated_noise(result, signals, fixed) == []
         assert residual_bands(fixed, [], spectral_lines(signals)) is None

@@ -19,6 +19,7 @@ import pytest
 
 from bayesnsi.evidence import surrogate
 from bayesnsi.evidence.surrogate import model_replicates, surrogate_forces, surrogate_problem
+from bayesnsi.noise import NoiseDraw
 from bayesnsi.nsi import identify
 from bayesnsi.nsi.closed_loop import closed_loop_response
 from bayesnsi.options import EvidenceOptions, NSIOptions
@@ -71,18 +72,27 @@ def test_a_batch_of_records_simulates_as_the_records_one_by_one(coulomb):
 def _noise_free_replicates(result, signals, options, monkeypatch, interval_mean=None):
     """Model replicates without sensor noise (optionally forcing point-value or interval-mean inputs)."""
     closed_loop = importlib.import_module("bayesnsi.nsi.closed_loop")
-    real_draws, real_response = surrogate.noise_draws, closed_loop.closed_loop_response
+    real_model, real_response = surrogate.noise_model, closed_loop.closed_loop_response
 
-    def no_noise(result, signals, rng):
-        std, draw = real_draws(result, signals, rng)
-        return std, lambda: tuple(None if e is None else 0.0 * e for e in draw())
+    class Silent:  # the record's noise model with every draw scaled to zero
+        def __init__(self, model):
+            self.model, self.source = model, model.source
+
+        def std(self, interior=False):
+            return self.model.std(interior)
+
+        def draw(self, rng):
+            return NoiseDraw(*(None if e is None else 0.0 * e for e in self.model.draw(rng)))
+
+    def no_noise(signals, lowest_hz=0.0):
+        return Silent(real_model(signals, lowest_hz))
 
     def response(*args, **kwargs):
         if interval_mean is not None:
             kwargs["interval_mean"] = interval_mean
         return real_response(*args, **kwargs)
 
-    monkeypatch.setattr(surrogate, "noise_draws", no_noise)
+    monkeypatch.setattr(surrogate, "noise_model", no_noise)
     monkeypatch.setattr(closed_loop, "closed_loop_response", response)
     return model_replicates(result, signals, options, 3, seed=1)
 

@@ -16,7 +16,8 @@ import numpy as np
 
 from bayesnsi.evidence.perturbation import noise_replicates
 from bayesnsi.models import Term
-from bayesnsi.nsi import identify, periodic_integration, white_noise_std
+from bayesnsi.noise import white_noise_std
+from bayesnsi.nsi import identify, periodic_integration
 from bayesnsi.options import NSIOptions
 from bayesnsi.signals import Signals
 from bayesnsi.simulate import chain_system, multisine, simulate_response
@@ -59,7 +60,7 @@ def test_replicate_noise_level_of_integrated_periodic_accelerations_is_the_perio
 
 
 def test_period_noise_draws_keep_the_scatter_spectrum_and_channel_link():
-    from bayesnsi.evidence._period_noise import period_noise
+    from bayesnsi.noise import period_noise
 
     signals, _, _ = _integrated_record(1)
     y = np.column_stack([signals.displacement, signals.velocity])
@@ -221,7 +222,7 @@ def test_a_periodic_record_without_period_gets_a_note_naming_the_period(tmp_path
 
 def test_predictor_noise_of_integrated_periodic_accelerations_is_the_period_scatter():
     """The errors-in-variables predictor (default evidence residual) read 5e-18 m of noise on the trial."""
-    from bayesnsi.nsi._noise import measured_noise_std
+    from bayesnsi.noise import measured_noise_std
 
     signals, x_noise, v_noise = _integrated_record(0)
     disp, vel = measured_noise_std(signals)

@@ -121,20 +121,22 @@ def test_final_model_check_carries_its_validation_error():
 def test_periodic_noise_draws_carry_the_forces_scatter():
     # the noise replicates and the adequacy yardstick perturb the force by its own period scatter: 0.5 % noise on
     # the measured force left the f1 and ζ1 intervals covering 4 of 11 seeds of the trial
-    from types import SimpleNamespace
+    from bayesnsi.noise import noise_model
 
-    from bayesnsi.evidence.perturbation import noise_draws
-
-    model = SimpleNamespace(modes=())
     noisy = _periodic(0.005)
-    _, draw = noise_draws(model, noisy, np.random.default_rng(0))
+    rng = np.random.default_rng(0)
+    model = noise_model(noisy)
+
+    def draw():
+        return model.draw(rng)
+
     e_y, e_v, e_f = draw()
     assert e_v is None and e_f.shape == noisy.force.shape and e_y.shape == noisy.displacement.shape
     clean_force = np.tile(noisy.force[:1024, 0], 8)  # not the clean force, but its scale
     drawn = np.sqrt(np.mean([np.var(draw()[2]) for _ in range(40)]))  # one draw's std scatters by about 9 %
     assert drawn == pytest.approx(0.005 * np.std(clean_force), rel=0.1)
-    _, exact = noise_draws(model, _periodic(0.0), np.random.default_rng(0))
-    assert np.allclose(exact()[2], 0.0)  # a force that repeats exactly is not perturbed
+    exact = noise_model(_periodic(0.0)).draw(np.random.default_rng(0))
+    assert np.allclose(exact.force, 0.0)  # a force that repeats exactly is not perturbed
 
 
 def test_periodic_screen_reads_the_periods_lines_only():

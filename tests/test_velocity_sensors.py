@@ -5,7 +5,7 @@ The gap (trial of a two-shaker chain measured by a vibrometer, velocities only):
 ("add accelerations") led the user to map velocities as accelerations, which integrated them twice
 without a word. ``[data] velocities`` with ``integrate`` and no ``outputs`` now integrates them once
 (:func:`bayesnsi.preprocess.integrate_velocity`), keeps the white velocity noise with the recipe
-(:class:`bayesnsi._integrated_noise.AccelerationNoise`, ``measured = "velocity"``) for the noise
+(:class:`bayesnsi.noise.integrated.AccelerationNoise`, ``measured = "velocity"``) for the noise
 replicates and the adequacy check, and reports errors in velocity.
 """
 
@@ -18,15 +18,15 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bayesnsi._integrated_noise import AccelerationNoise, acceleration_noise_of
 from bayesnsi.exceptions import ConfigError, InputDataError
 from bayesnsi.io import load_config, load_signals
 from bayesnsi.io.units import data_units
 from bayesnsi.models import CandidateModel, Term
+from bayesnsi.noise import AccelerationNoise, acceleration_noise_of, noise_model
 from bayesnsi.nsi import identify, periodic_integration
 from bayesnsi.options import NSIOptions
 from bayesnsi.preprocess import band_filter, integrate_velocity
-from bayesnsi.run.adequacy import model_checks, sensor_noise_std
+from bayesnsi.run.adequacy import model_checks
 from bayesnsi.simulate import band_limited_gaussian, chain_system, simulate_response
 
 FS, BAND = 100.0, (1.0, 45.0)
@@ -120,8 +120,8 @@ def test_adequacy_on_integrated_velocities_divides_by_their_integrated_noise(tmp
     assert checks[WRONG.name].noise_ratio > 1.3 * checks[TRUE.name].noise_ratio
     assert checks[TRUE.name].to_dict()["noise_source"] == "velocity sensors (estimated)"
     # the noise the ratio divides by is the recipe's, not the differences' of the integrated displacement
-    without = sensor_noise_std(replace(signals, acceleration_noise=None))
-    assert np.all(sensor_noise_std(signals) > 2 * without)
+    without = noise_model(replace(signals, acceleration_noise=None)).std(interior=True)
+    assert np.all(noise_model(signals).std(interior=True) > 2 * without)
 
 
 def test_config_messages_for_velocity_sensors(tmp_path):

@@ -42,8 +42,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..exceptions import BayesNSIError
+from ..noise import period_blocks
 from ..nsi import extended_input
-from ..nsi.steady import period_blocks
 
 __all__ = ["screen_effects"]
 

@@ -74,7 +74,7 @@ def noise_floor_factor(measured) -> np.ndarray:
     -------
     ndarray, shape (l,)
     """
-    from ..nsi import white_noise_std
+    from ..noise import white_noise_std
 
     y = np.asarray(measured, dtype=float).reshape(len(measured), -1)
     std = y.std(axis=0)

@@ -5,7 +5,7 @@ the default ``"auto"`` for every candidate without Coulomb friction (docs/method
 :mod:`.surrogate`). The whole identification (A, C, B, D, the coefficients λ and the modes) is
 repeated on ``n_replicates`` copies of the record with fresh white noise added to every measured
 response channel (displacements, and velocities where measured) at the sensor noise level
-estimated from the data (:func:`bayesnsi.nsi.white_noise_std`); the force is taken as exact, as
+estimated from the data (:func:`bayesnsi.noise.white_noise_std`); the force is taken as exact, as
 NSI takes it.
 
 * **Scatter.** For an estimator that is smooth in the measurement noise, θ(y + e*) - θ(y) ≈ G e*
@@ -32,16 +32,14 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import replace
 
 import numpy as np
 
-from .._integrated_noise import acceleration_noise_of
 from ..exceptions import BayesNSIError, SpuriousPoleWarning
-from ._period_noise import period_noise
+from ..noise import noise_model, noisy_copy
 
-__all__ = ["noise_replicates", "noise_draws", "noisy_copy", "reidentify", "replicate_moments", "match_modes",
-           "velocity_noise_std", "discontinuity_notes"]
+__all__ = ["noise_replicates", "reidentify", "replicate_moments", "match_modes",
+           "discontinuity_notes"]
 
 _MODE_MATCH = 0.1  # a replicate mode farther than 10 % in frequency from every full-record mode is not matched
 
@@ -91,15 +89,9 @@ def noise_replicates(result, signals, options=None, n_replicates: int = 16, seed
     Returns
     -------
     noise_std : ndarray, shape (n_outputs,)
-        The estimated sensor noise std of each response channel (displacement field). On two or
-        more whole periods (``signals.period``) it is the period-to-period scatter and each copy's
-        noise is drawn from that scatter (:mod:`bayesnsi.evidence._period_noise`: its spectrum
-        and channel correlation, e.g. integrated accelerations whose noise lies in the
-        integration band only; the forces' scatter is drawn with it, so a force measured with
-        noise of its own perturbs the copies too); for accelerations integrated in time
-        (``signals.acceleration_noise``) white acceleration noise integrated by the same recipe,
-        displacement and velocity from one draw (:mod:`bayesnsi._integrated_noise`); else
-        high-order differences and white noise.
+        The record's sensor noise std per response channel (displacement field); each copy adds
+        one draw of the record's noise model (:func:`bayesnsi.noise.noise_model`: period scatter
+        of responses and force, integrated sensor noise, or white noise).
     coefficients : ndarray, shape (n_ok, q)
         Coefficients of each copy identified successfully.
     frequencies, damping_ratios : ndarray, shape (n_ok, n_modes)
@@ -113,88 +105,14 @@ def noise_replicates(result, signals, options=None, n_replicates: int = 16, seed
         raise ValueError(f"n_replicates must be at least 2, got {n_replicates!r}")
     options = (options or NSIOptions()).replace(order=result.order, band_hz=tuple(result.band_hz))
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 15]))
-    y_std, draw = noise_draws(result, signals, rng)
+    noise = noise_model(signals, result.lowest_frequency_hz)
 
     def copies():
         for k in range(int(n_replicates)):
-            yield f"noise replicate {k}", noisy_copy(signals, draw())
+            yield f"noise replicate {k}", noisy_copy(signals, noise.draw(rng))
 
-    return (y_std, *reidentify(result, copies(), options))
+    return (noise.std(), *reidentify(result, copies(), options))
 
-
-def noisy_copy(signals, noise):
-    """``signals`` with one draw of :func:`noise_draws` added to what it perturbs.
-
-    Parameters
-    ----------
-    signals : Signals
-    noise : tuple
-        ``(e_displacement, e_velocity, e_force)``; None leaves that field as it is.
-
-    Returns
-    -------
-    Signals
-    """
-    changed = {}
-    for field_name, added in zip(("displacement", "velocity", "force"), noise):
-        if added is not None:
-            changed[field_name] = np.asarray(getattr(signals, field_name), dtype=float) + added
-    return replace(signals, **changed)
-
-
-def noise_draws(result, signals, rng: np.random.Generator):
-    """The sensor noise of a record, and a source of fresh draws of it (:func:`noise_replicates`).
-
-    Parameters
-    ----------
-    result : NSIResult
-        An identification on ``signals`` (its lowest mode bounds the velocity-noise estimate).
-    signals : Signals
-        The record.
-    rng : numpy.random.Generator
-        Source of the draws.
-
-    Returns
-    -------
-    noise_std : ndarray, shape (n_outputs,)
-        Noise std of each displacement channel (as :func:`noise_replicates` returns it).
-    draw : callable
-        ``draw() -> (e_displacement, e_velocity, e_force)``, one draw shaped as the record's
-        displacement, velocity and force (``e_velocity`` None without measured velocities;
-        ``e_force`` None unless the record holds whole periods, whose force scatter is drawn jointly
-        with the responses': a force measured with noise, or varying between periods, and the
-        response it drives keep their correlation).
-    """
-    from ..nsi import white_noise_std
-
-    y = np.asarray(signals.displacement, dtype=float)
-    v = None if signals.velocity is None else np.asarray(signals.velocity, dtype=float)
-    f = np.asarray(signals.force, dtype=float)
-    n_y, n_v = y.shape[1], 0 if v is None else v.shape[1]
-    # whole periods: the noise is the period-to-period scatter (spectrum and channels kept, _period_noise)
-    scatter = period_noise(np.column_stack([y] + ([] if v is None else [v]) + [f]), getattr(signals, "period", None),
-                           getattr(signals, "realisations", 1))  # each realisation from its own scatter
-    if scatter is not None:
-        y_std = scatter.std[:n_y]
-
-        def draw():
-            e = scatter.draw(len(y), rng)
-            return e[:, :n_y], None if v is None else e[:, n_y : n_y + n_v], e[:, n_y + n_v :]
-    elif (accelerometers := acceleration_noise_of(signals)) is not None:
-        # integrated accelerations: white acceleration noise through the same integration (_integrated_noise)
-        y_std = accelerometers.std(len(y))[0]
-
-        def draw():
-            return (*accelerometers.draw(len(y), rng), None)
-    else:
-        y_std = white_noise_std(y)
-        lowest = min((m.frequency_hz for m in result.modes), default=0.0)
-        v_std = velocity_noise_std(y, v, signals.fs, y_std, lowest) if v is not None else np.zeros(0)
-
-        def draw():
-            e_y = rng.standard_normal(y.shape) * y_std
-            return e_y, None if v is None else rng.standard_normal(v.shape) * v_std, None
-    return y_std, draw
 
 
 def reidentify(result, labelled_signals, options):
@@ -241,52 +159,6 @@ def reidentify(result, labelled_signals, options):
         np.array(zetas, dtype=float).reshape(len(zetas), m),
         failures,
     )
-
-
-def velocity_noise_std(displacement, velocity, fs: float, displacement_std, lowest_hz: float) -> np.ndarray:
-    """Noise std of measured velocities: the smaller of two estimates that signal can only inflate.
-
-    High-order differences (:func:`bayesnsi.nsi.white_noise_std`) see the velocity's own broadband
-    content as noise (a driven DOF's velocity is not small near Nyquist: 0.13 for a 2 % noise on the
-    two-DOF chain's driven DOF). The mismatch with the measured displacement, R = V - jωX on
-    Hann-windowed DFT lines below 0.8 x the lowest mode (where the displacement is precise and the
-    derivative relation exact), has power σ_v² + ω² σ_x² per line once the window's own derivative
-    is put back (d(wx)/dt = wv + w'x, so R + DFT(w'x) holds the noise alone); its mean minus the
-    known displacement part estimates σ_v² there.
-
-    Parameters
-    ----------
-    displacement, velocity : ndarray, shape (n_samples, n_channels)
-        Measured displacements and velocities of the same DOFs.
-    fs : float
-        Sampling frequency [Hz].
-    displacement_std : ndarray, shape (n_channels,)
-        Noise std of the displacements.
-    lowest_hz : float
-        Lowest natural frequency of the identified model [Hz] (0: differences only).
-
-    Returns
-    -------
-    ndarray, shape (n_channels,)
-    """
-    from ..nsi import white_noise_std
-
-    x, v = np.asarray(displacement, dtype=float), np.asarray(velocity, dtype=float)
-    by_differences = white_noise_std(v)
-    n = len(v)
-    lines = np.arange(5, int(0.8 * lowest_hz * n / fs) + 1)  # 5 bins clear of the window's DC leakage
-    if len(lines) < 8:
-        return by_differences
-    window = np.hanning(n)
-    omega = 2 * np.pi * np.fft.rfftfreq(n, 1.0 / fs)[lines]
-    X = np.fft.rfft(window[:, None] * (x - x.mean(axis=0)), axis=0)[lines]
-    V = np.fft.rfft(window[:, None] * (v - v.mean(axis=0)), axis=0)[lines]
-    k = np.arange(n)
-    slope = 0.5 * (2 * np.pi / (n - 1)) * np.sin(2 * np.pi * k / (n - 1)) * fs  # d/dt of np.hanning(n)
-    W = np.fft.rfft(slope[:, None] * (x - x.mean(axis=0)), axis=0)[lines]
-    power = np.mean(np.abs(V - 1j * omega[:, None] * X + W) ** 2, axis=0) / np.sum(window**2)
-    by_mismatch = np.sqrt(np.maximum(power - np.mean(omega**2) * np.asarray(displacement_std) ** 2, 0.0))
-    return np.minimum(by_differences, by_mismatch)
 
 
 _DISCONTINUOUS_NOTE = (

@@ -11,7 +11,7 @@ driven with the inputs its identification assumed: interval means for the defaul
 sign() term (driven by point values instead, its own noise-free records came back with sign(v2)
 about 1 % low and ζ1 6-18 % high on the loop's Coulomb case; with interval means within 0.8 % and
 4 %, ``tests/test_surrogate_intervals.py``). Sensor noise at the data's level
-(:func:`~bayesnsi.evidence.perturbation.noise_draws`) is added, and the candidate is identified
+(:func:`~bayesnsi.noise.noise_model`) is added, and the candidate is identified
 again with the same settings, order and band. In the model's world the truth is known (the
 identified coefficients and modes), so the replicates' spread is the scatter of the estimate from
 experiment to experiment and their mean shift its bias, both over the force realisation as well as
@@ -41,7 +41,8 @@ from dataclasses import replace
 import numpy as np
 
 from ..exceptions import BayesNSIError
-from .perturbation import noise_draws, noisy_copy, reidentify
+from ..noise import noise_model, noisy_copy
+from .perturbation import reidentify
 
 __all__ = ["surrogate_forces", "surrogate_problem", "model_replicates", "holds_coulomb_friction"]
 
@@ -182,7 +183,8 @@ def model_replicates(result, signals, options=None, n_replicates: int = 16, seed
         raise ValueError(f"model replicates need a single, non-periodic record of a grounded structure: {problem}")
     options = (options or NSIOptions()).replace(order=result.order, band_hz=tuple(result.band_hz))
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 16]))
-    y_std, draw = noise_draws(result, signals, rng)
+    noise = noise_model(signals, result.lowest_frequency_hz)
+    y_std = noise.std()
     forces = surrogate_forces(signals.force, int(n_replicates), rng)
     q, m = len(result.coefficients), len(result.modes)
     try:
@@ -195,6 +197,6 @@ def model_replicates(result, signals, options=None, n_replicates: int = 16, seed
         for k in range(int(n_replicates)):
             clean = replace(signals, force=forces[:, :, k], displacement=displacement[:, :, k],
                             velocity=None if signals.velocity is None else velocity[:, :, k])
-            yield f"model replicate {k}", noisy_copy(clean, draw())
+            yield f"model replicate {k}", noisy_copy(clean, noise.draw(rng))
 
     return (y_std, *reidentify(result, records(), options))

@@ -11,16 +11,15 @@ from pathlib import Path
 import numpy as np
 
 from .. import preprocess
-from .._integrated_noise import AccelerationNoise, edge_samples
 from ..exceptions import ConfigError, InputDataError, IntegrationWarning, PeriodicityWarning
-from ..nsi._accel_noise import acceleration_noise_std
+from ..noise import AccelerationNoise, acceleration_noise_std, edge_samples
+from ..noise.lowband import below_band_messages, noise_edge_messages
 from ..nsi.periodic import periodic_integration
 from ..nsi.steady import period_problems
 from ..signals import Signals
 from ._columns import MeasurementColumns, file_format
 from ._csv import read_csv_any
 from ._formats import read_matlike
-from ._lowband import below_band_messages, noise_edge_messages
 from ._realisations import Split, joined, split_parts
 from ._specs import DataSpec
 from ._split import read_split
@@ -152,7 +151,7 @@ class Record:
         """The sensors' white noise and the recipe of a window integrated in time (None otherwise).
 
         Declared (``integrate.noise_std``, times each column's scale) or estimated on the measured
-        accelerations (or velocities) of the window before integration (:mod:`bayesnsi.nsi._accel_noise`); whole
+        accelerations (or velocities) of the window before integration (:mod:`bayesnsi.noise.accelerometer`); whole
         periods, integrated line by line, take their noise from the period scatter instead.
         """
         spec = self.integrate

@@ -44,7 +44,7 @@ class IntegrationSpec:
     noise_std : float or None
         Declared white noise std of every accelerometer, in the file's acceleration unit (before
         ``[data] scale``), e.g. from the sensor's data sheet; None (default): estimated from the
-        accelerations before integration (:mod:`bayesnsi.nsi._accel_noise`). On a record without
+        accelerations before integration (:mod:`bayesnsi.noise.accelerometer`). On a record without
         whole periods the noise replicates and the adequacy check integrate it by this recipe.
     trim_edges : bool
         Drop ``2 / (taper f_lo)`` seconds at each end of every window after integrating (and

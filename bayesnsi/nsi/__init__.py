@@ -1,6 +1,5 @@
 """Nonlinear subspace identification (docs/method.md §2-5); numpy/scipy only."""
 
-from ._noise import white_noise_std
 from .feedback import extended_input
 from .free_body import PhysicalParameters, is_free_body, physical_parameters
 from .identify import hankel_correlations, identify
@@ -38,7 +37,6 @@ __all__ = [
     "force_affine",
     "force_noise_std",
     "short_horizon_nrmse",
-    "white_noise_std",
     "hankel_correlations",
     "HankelCorrelations",
     "NSIResult",

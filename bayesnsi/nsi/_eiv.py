@@ -46,8 +46,8 @@ import numpy as np
 from scipy import linalg as _linalg
 
 from ..models import Term
+from ..noise import measured_noise_std
 from ..signals import _DIFFERENTIATORS, Signals
-from ._noise import measured_noise_std
 from ._output_error import refine_output_error
 from .statespace import StateSpaceModel
 

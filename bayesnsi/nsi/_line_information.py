@@ -69,7 +69,7 @@ def output_noise_psd(freqs_hz, displacement_std, sensor_noise=None) -> np.ndarra
         White noise std of each displacement channel (used when ``sensor_noise`` is None).
     sensor_noise : AccelerationNoise, optional
         The white noise of the sensors a record was integrated from (accelerometers or velocity
-        sensors, :class:`bayesnsi._integrated_noise.AccelerationNoise`).
+        sensors, :class:`bayesnsi.noise.integrated.AccelerationNoise`).
 
     Returns
     -------
@@ -130,7 +130,7 @@ def band_weighting(band_mean: str, u: np.ndarray, displacement_std, measured):
         ``weights(frf, freqs_hz, m, dt)`` -> ndarray (n_freq, q) of :func:`line_information`, or
         None for the plain mean (also where the band reaches 0 Hz).
     """
-    from .._integrated_noise import acceleration_noise_of
+    from ..noise import acceleration_noise_of
 
     sensor_noise = acceleration_noise_of(measured)
     if band_mean == "plain" or (band_mean == "auto" and sensor_noise is None):

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import blas as _blas
 
-from ._noise import white_noise_std
+from ..noise import white_noise_std
 from .statespace import modal_filter_step
 
 __all__ = ["refine_output_error", "refine_poles"]

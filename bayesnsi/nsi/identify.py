@@ -14,13 +14,13 @@ import warnings
 import numpy as np
 
 from ..exceptions import InputDataError, OrderError, SpuriousPoleWarning, UnstableModelError
+from ..noise import white_noise_std
 from ..options import NSIOptions
 from ..signals import Signals
 from . import _hankel, _subspace
 from ._eiv import refine_prediction_error, refine_prediction_error_bc
 from ._frequency import identify_frequency
 from ._line_information import band_weighting
-from ._noise import white_noise_std
 from ._output_error import refine_output_error
 from ._output_error import refine_poles as _refine_poles
 from ._stabilise import pole_text, reflect_out_of_band
@@ -321,7 +321,7 @@ def informed_modes(modes, signals) -> tuple[list, list]:
     kept, below : list of Mode
         All modes are kept when none would remain.
     """
-    from .._integrated_noise import acceleration_noise_of
+    from ..noise import acceleration_noise_of
 
     noise = acceleration_noise_of(signals)
     if noise is None:

@@ -106,8 +106,8 @@ def innovation_form(result, signals: Signals, noise_std=None, force_noise_std=No
     """
     from scipy import linalg as _linalg
 
+    from ..noise import measured_noise_std
     from ._eiv import input_noise, kalman_gain
-    from ._noise import measured_noise_std
 
     if result.upsample != 1:
         raise InputDataError(

@@ -21,8 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import NotIdentifiableError
+from ..noise import white_noise_std
 from ..signals import Signals
-from ._noise import white_noise_std
 from .feedback import extended_input, working_signals
 from .reconstruct import AffineReconstruction, initial_state
 

@@ -7,9 +7,9 @@ import warnings
 import numpy as np
 
 from ..exceptions import BlockRowsError, OrderError, OrderWarning
+from ..noise import column_std, row_var
 from ..signals import Signals
 from . import _hankel, _subspace
-from ._noise import column_std, row_var
 from .feedback import as_candidate, extended_input
 from .physics import split_poles
 

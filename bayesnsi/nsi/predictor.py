@@ -61,8 +61,8 @@ def predictor_reconstruction(result, signals: Signals, noise_std=None) -> Affine
     from scipy import linalg as _linalg
 
     from ..exceptions import NotIdentifiableError
+    from ..noise import measured_noise_std
     from ._eiv import input_noise, kalman_gain
-    from ._noise import measured_noise_std
 
     if signals.realisations > 1:  # each realisation's predictor starts afresh: no state across a boundary
         noise_std = measured_noise_std(signals)[0] if noise_std is None else noise_std

@@ -76,6 +76,11 @@ class NSIResult:
         return np.array([c.value for c in self.coefficients])
 
     @property
+    def lowest_frequency_hz(self) -> float:
+        """Lowest natural frequency of the identified modes [Hz] (0 without modes)."""
+        return min((m.frequency_hz for m in self.modes), default=0.0)
+
+    @property
     def virtual_stiffness(self) -> float:
         """Known spring [N/m] on the input during identification (0: none; free bodies)."""
         return float(self.settings.get("virtual_stiffness", 0.0) or 0.0)

@@ -4,19 +4,18 @@ The frequency route averages the periods and takes their spread as the noise. A 
 a period which is not like the others - the leading transient of a realisation, a period of the
 next realisation (new phases) when several are concatenated in one file, or a ``period`` that is
 not the force's - is not refused by anything downstream: the odd period inflates the "noise",
-the weighted misfit then looks small and every result is silently worse (trial of a GVT file:
-a window running one period into the next realisation gave a line misfit of 1.8 where the
-aligned window gives 80, with no message). These checks say so.
+the weighted misfit then looks small and every result is silently worse (a window running one period into
+the next realisation of a measured test gave a line misfit of 1.8 where the aligned window
+gives 80, with no message). These checks say so.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = [
-    "FORCE_SCATTER_LIMIT", "PERIOD_OUTLIER_LIMIT", "REPEAT_CORRELATION", "period_problems", "period_blocks",
-    "period_deviations", "period_scatter_std", "repeating_period",
-]
+from ..noise.periodic import period_deviations
+
+__all__ = ["FORCE_SCATTER_LIMIT", "PERIOD_OUTLIER_LIMIT", "REPEAT_CORRELATION", "period_problems", "repeating_period"]
 
 FORCE_SCATTER_LIMIT = 0.1
 """Largest period-to-period scatter of the force over the power of its period mean."""
@@ -153,84 +152,3 @@ def period_problems(force, response, period, offset: int = 0, step: int = 1, rea
             "frequency route would count that as noise"
         )
     return out
-
-
-def period_blocks(signal, period, realisations: int = 1) -> np.ndarray | None:
-    """The whole periods of each realisation, in order, or None without two of them per realisation.
-
-    Parameters
-    ----------
-    signal : array_like, shape (n_samples, n_channels)
-        A periodic record (a trailing part period is left out).
-    period : int or None
-        Samples per period.
-    realisations : int
-        Equal-length realisations the record holds one after the other (``Signals.realisations``).
-
-    Returns
-    -------
-    ndarray, shape (n_periods, period, n_channels) or None
-        The periods of all realisations in order (``n_periods / realisations`` each).
-    """
-    if not period:
-        return None
-    y = np.asarray(signal, dtype=float)
-    y = y.reshape(len(y), -1)
-    period, realisations = int(period), max(int(realisations), 1)
-    n = len(y) // realisations // period
-    if n < 2:
-        return None
-    length = len(y) // realisations
-    return np.concatenate([y[r * length : r * length + n * period].reshape(n, period, y.shape[1])
-                           for r in range(realisations)])
-
-
-def period_deviations(signal, period, realisations: int = 1) -> np.ndarray | None:
-    """Deviations ``y_p - ȳ`` of each whole period from its realisation's period mean, or None without two periods.
-
-    Parameters
-    ----------
-    signal : array_like, shape (n_samples, n_channels)
-        A periodic record (a trailing part period is left out).
-    period : int or None
-        Samples per period.
-    realisations : int
-        Equal-length realisations the record holds one after the other (``Signals.realisations``):
-        each period deviates from the mean of its own realisation (new phases: another mean).
-
-    Returns
-    -------
-    ndarray, shape (n_periods, period, n_channels) or None
-        The periods of all realisations in order (``n_periods / realisations`` each).
-    """
-    blocks = period_blocks(signal, period, realisations)
-    if blocks is None:
-        return None
-    per_realisation = blocks.reshape(max(int(realisations), 1), -1, *blocks.shape[1:])
-    return (per_realisation - per_realisation.mean(axis=1, keepdims=True)).reshape(blocks.shape)
-
-
-def period_scatter_std(signal, period, realisations: int = 1) -> np.ndarray | None:
-    """Noise std per channel from the scatter between whole periods, or None without two of them.
-
-    Parameters
-    ----------
-    signal : array_like, shape (n_samples, n_channels)
-        A periodic record (a trailing part period is left out).
-    period : int or None
-        Samples per period.
-    realisations : int
-        Realisations in the record (:func:`period_deviations`); the scatter is pooled over them.
-
-    Returns
-    -------
-    ndarray, shape (n_channels,)
-        ``sqrt(Σ_p Σ_t (y_{p,t} - ȳ_t)² / (P R (n - 1)))`` over the n whole periods of each of the R
-        realisations.
-    """
-    deviations = period_deviations(signal, period, realisations)
-    if deviations is None:
-        return None
-    n, samples = deviations.shape[:2]
-    r = max(int(realisations), 1)
-    return np.sqrt(np.sum(deviations**2, axis=(0, 1)) / (samples * (n - r)))

@@ -11,7 +11,7 @@ identified candidate :func:`model_checks` reports
   measurements. Against the sensor noise alone the true clearance and Coulomb models of the
   undeclared cases read 1.09-1.20 and 1.49-2.23 and were called inadequate; against this yardstick
   0.84-0.91 and 0.85-1.63 (README, "Adequacy"). The sensor noise and its draws:
-  :func:`bayesnsi.run.sensor_noise.sensor_noise_std`; band by band: :mod:`bayesnsi.run.residual_bands`;
+  :func:`bayesnsi.noise.noise_model`; band by band: :mod:`bayesnsi.run.residual_bands`;
 * the quality index, the largest |Im λ|/|Re λ| of its coefficients (small is good);
 * with ``[[validation]]`` segments, the mean closed-loop NRMSE over them and the mean log
   predictive density per sample of the validation data under the plug-in Gaussian predictive
@@ -29,13 +29,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._integrated_noise import acceleration_noise_of
 from ..exceptions import BayesNSIError
+from ..noise import IntegratedSensorNoise, WhiteSensorNoise, noise_model, spectral_lines
 from .residual_bands import MAX_BAND_RATIO, band_warning, propagated_noise, residual_bands
-from .sensor_noise import SENSORS, integrated_in_time, sensor_noise_std, spectral_lines
 
 __all__ = [
-    "ModelCheck", "model_checks", "adequacy_warnings", "sensor_noise_std", "widen_inadequate", "VALIDATION_TOLERANCE",
+    "ModelCheck", "model_checks", "adequacy_warnings", "widen_inadequate", "VALIDATION_TOLERANCE",
 ]
 
 EDGE_LIMIT = 2.0
@@ -94,7 +93,7 @@ class ModelCheck:
         With "accelerometers": the accelerometers' white noise std per channel (acceleration unit).
     edge_ratio : float or None
         Accelerations integrated without whole periods and kept to the window's ends: the residual rms
-        over the two edges (:meth:`~bayesnsi._integrated_noise.AccelerationNoise.interior`) over that
+        over the two edges (:meth:`~bayesnsi.noise.AccelerationNoise.interior`) over that
         of the interior, largest channel; None otherwise. Well above 1 it is the integration's edge error,
         which enters the identification and that no replicate carries (``trim_edges``).
     band_ratio, band_hz, band_dof : float, (float, float), int; or None
@@ -197,11 +196,9 @@ def model_checks(
     from ..nsi import force_noise_std, force_prediction, is_free_body
 
     validation = validation or {}
-    noise = sensor_noise_std(signals)
-    accelerometers = acceleration_noise_of(signals) if integrated_in_time(signals) else None
-    period = getattr(signals, "period", None)
-    source = ("period scatter" if period and signals.n_samples // int(period) >= 2 else "differences"
-              if accelerometers is None else f"{SENSORS[accelerometers.measured]} ({accelerometers.source})")
+    sensors = noise_model(signals)
+    noise, source = sensors.std(interior=True), sensors.source
+    accelerometers = sensors.recipe if isinstance(sensors, IntegratedSensorNoise) else None
     noise = np.where(noise > 0, noise, np.finfo(float).tiny)
     lines = spectral_lines(signals)
     checks = {}
@@ -305,9 +302,7 @@ def widen_inadequate(
 
     from ..evidence import widen
 
-    integrated = getattr(signals, "measured", "displacement") != "displacement"
-    period = getattr(signals, "period", None)
-    if integrated and not (period and signals.n_samples // int(period) >= 2) and not integrated_in_time(signals):
+    if signals.measured != "displacement" and isinstance(noise_model(signals), WhiteSensorNoise):
         return tuple(outcomes), dict(checks)
     widened, new_checks = [], dict(checks)
     for outcome in outcomes:

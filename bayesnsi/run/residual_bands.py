@@ -12,12 +12,12 @@ band. Here the residual is compared with the noise band by band:
   measurements, and the model turns that noise into a force that rings at its modes (the
   negative-stiffness twin's true model leaves 3.6x the white noise level at its 11 Hz modes). So each
   model's yardstick is the change of its own residual when fresh sensor noise is added to the data
-  (``n_draws`` draws, :func:`bayesnsi.evidence.perturbation.noise_draws`: period scatter, the
+  (``n_draws`` draws, :func:`bayesnsi.noise.noise_model`: period scatter, the
   integrated sensor noise or white noise, as the noise replicates draw it; on a periodic record the
   forces' scatter is drawn with the responses', so noise on the measured force, which the model
   passes on at its resonances, is part of the yardstick). Against the white noise
   alone the twin's true model read 3.6 at its modes; against this yardstick 1.05 (:data:`MAX_BAND_RATIO`);
-* **lines**: the DFT lines where the record holds data (:func:`bayesnsi.run.sensor_noise.spectral_lines`;
+* **lines**: the DFT lines where the record holds data (:func:`bayesnsi.noise.spectral_lines`;
   per period, averaged over the periods, for a periodic record);
 * **bands**: third octaves from the lowest to the highest line, merged until each holds at least
   ``min_dof`` degrees of freedom of the residual's power (100: the ratio of a right model lies
@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .sensor_noise import SpectralLines
+from ..noise import SpectralLines, noise_model, noisy_copy
 
 __all__ = ["MAX_BAND_RATIO", "ResidualBands", "band_warning", "propagated_noise", "residual_bands"]
 
@@ -105,15 +105,14 @@ def propagated_noise(result, signals, residual, n_draws: int = 2, seed: int = 0)
         One residual change per draw whose reconstruction succeeded (none that is zero throughout or not
         finite).
     """
-    from ..evidence.perturbation import noise_draws, noisy_copy
     from ..exceptions import BayesNSIError
 
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 23]))
-    _std, draw = noise_draws(result, signals, rng)
+    noise = noise_model(signals, result.lowest_frequency_hz)
     base = np.asarray(residual, dtype=float)
     changes = []
     for _ in range(int(n_draws)):
-        noisy = noisy_copy(signals, draw())
+        noisy = noisy_copy(signals, noise.draw(rng))
         try:
             change = np.asarray(result.reconstruct(noisy).residual, dtype=float) - base
         except (BayesNSIError, np.linalg.LinAlgError):
@@ -149,7 +148,7 @@ def residual_bands(residual, noise_changes, lines: SpectralLines, min_dof: float
     noise_changes : sequence of array_like, shape (n_samples, l)
         :func:`propagated_noise` of the same model.
     lines : SpectralLines
-        :func:`bayesnsi.run.sensor_noise.spectral_lines` of the data.
+        :func:`bayesnsi.noise.spectral_lines` of the data.
     min_dof : float
         Least degrees of freedom of a band's residual power.
 

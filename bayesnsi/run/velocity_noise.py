@@ -20,7 +20,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..nsi import white_noise_std
+from ..noise import white_noise_std
 from ..signals import Signals, differentiate
 
 __all__ = ["VELOCITY_NOISE_LIMIT", "velocity_noise_messages"]

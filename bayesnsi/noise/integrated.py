@@ -22,9 +22,9 @@ from functools import lru_cache
 
 import numpy as np
 
-from ._resample import decimate as _decimate_signals
-from .exceptions import InputDataError
-from .preprocess import INTEGRATED_QUANTITIES, INTEGRATION_METHODS, integrate_measured
+from .._resample import decimate as _decimate_signals
+from ..exceptions import InputDataError
+from ..preprocess import INTEGRATED_QUANTITIES, INTEGRATION_METHODS, integrate_measured
 
 __all__ = ["AccelerationNoise", "NOISE_SOURCES", "acceleration_noise_of", "edge_samples"]
 
@@ -251,7 +251,7 @@ def acceleration_noise_of(signals) -> AccelerationNoise | None:
     Parameters
     ----------
     signals : Signals
-        Any signals (an object without ``acceleration_noise`` gives None).
+        Any signals.
 
     Returns
     -------
@@ -259,8 +259,8 @@ def acceleration_noise_of(signals) -> AccelerationNoise | None:
         None unless the signals were integrated from what ``noise.measured`` names with a recipe kept, at the rate
         the recipe gives (a resampled copy, e.g. ``identify``'s upsampled grid, is not described).
     """
-    noise = getattr(signals, "acceleration_noise", None)
-    if noise is None or getattr(signals, "measured", "displacement") != noise.measured:
+    noise = signals.acceleration_noise
+    if noise is None or signals.measured != noise.measured:
         return None
     width = np.asarray(signals.displacement).reshape(len(signals.displacement), -1).shape[1]
     if len(noise.acceleration_std) != width or abs(noise.signals_fs - float(signals.fs)) > 1e-9 * noise.signals_fs:

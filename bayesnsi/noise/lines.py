@@ -1,13 +1,8 @@
-"""The sensor noise a model's residual is held against (issue 15), and the lines where the record holds data.
+"""The frequency lines where a record holds data, on which a residual is compared with the noise.
 
-* :func:`sensor_noise_std`, the level per output channel that the noise draws of the adequacy
-  check follow (:func:`bayesnsi.run.adequacy.model_checks`; reported as ``noise_std``): the
-  period-to-period scatter of a periodic record of at least two whole periods (the force repeats,
-  so whatever differs between periods is noise, coloured or not), the sensors' white noise
-  integrated by the loader's recipe (accelerations or velocities integrated in time), else white
-  noise from high-order differences (:func:`bayesnsi.nsi.white_noise_std`);
-* :func:`spectral_lines`, the frequency lines where the record holds data, for the band-by-band
-  check of :mod:`bayesnsi.run.residual_bands`.
+:func:`spectral_lines` gives the band-by-band residual check (:mod:`bayesnsi.checks.residual_bands`)
+the lines to read: a period's DFT lines on whole periods, else the record's DFT lines inside an
+integration band (the record's ends left out), else every line.
 """
 
 from __future__ import annotations
@@ -16,48 +11,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .._integrated_noise import acceleration_noise_of
+from .integrated import acceleration_noise_of
+from .periodic import period_blocks
 
-__all__ = ["SENSORS", "SpectralLines", "integrated_in_time", "sensor_noise_std", "spectral_lines"]
+__all__ = ["SpectralLines", "spectral_lines"]
 
 _ZERO_LINE = 1e-20  # a line whose power is below this fraction of the channel's largest holds no data
-
-
-def sensor_noise_std(signals) -> np.ndarray:
-    """Noise std of each measured output (module notes): period-to-period scatter, else high-order differences.
-
-    Parameters
-    ----------
-    signals : Signals
-        With ``displacement`` (n_samples, l) and ``period`` (None for a non-periodic record).
-
-    Returns
-    -------
-    ndarray, shape (l,)
-        ``sqrt(Σ_p Σ_t (x_{p,t} - x̄_t)² / (P (n_p - 1)))`` over the ``n_p >= 2`` whole periods of
-        ``P`` samples (the first whole periods; a trailing part period is left out); for
-        accelerations integrated in time (``signals.acceleration_noise``) the std of their white
-        noise integrated by the same recipe (:meth:`bayesnsi._integrated_noise.AccelerationNoise.std`);
-        else :func:`bayesnsi.nsi.white_noise_std` of the record.
-    """
-    from ..nsi import white_noise_std
-    from ..nsi.steady import period_scatter_std
-
-    x = np.asarray(signals.displacement, dtype=float).reshape(len(signals.displacement), -1)
-    scatter = period_scatter_std(x, getattr(signals, "period", None), getattr(signals, "realisations", 1))
-    accelerometers = acceleration_noise_of(signals) if scatter is None and integrated_in_time(signals) else None
-    if accelerometers is not None:  # the accelerometers' noise, integrated (edges left out)
-        return accelerometers.std(len(x), interior=True)[0]
-    return white_noise_std(x) if scatter is None else scatter
-
-
-SENSORS = {"acceleration": "accelerometers", "velocity": "velocity sensors"}
-
-
-def integrated_in_time(signals) -> bool:
-    """Accelerations integrated in time with their noise and recipe kept (no two whole periods to scatter)."""
-    period = getattr(signals, "period", None)
-    return acceleration_noise_of(signals) is not None and not (period and signals.n_samples // int(period) >= 2)
 
 
 @dataclass(frozen=True)
@@ -115,8 +74,6 @@ class SpectralLines:
         r = np.asarray(signal, dtype=float)
         r = r.reshape(len(r), -1)[self.interior]
         if self.period is not None:
-            from ..nsi.steady import period_blocks
-
             blocks = period_blocks(r, self.period, self.realisations)
             return np.mean(np.abs(np.fft.rfft(blocks, axis=1)[:, self.lines]) ** 2, axis=0) / self.period
         return np.abs(np.fft.rfft(r, axis=0)[self.lines]) ** 2 / len(r)
@@ -139,11 +96,9 @@ def spectral_lines(signals) -> SpectralLines:
     -------
     SpectralLines
     """
-    from ..nsi.steady import period_blocks
-
     x = np.asarray(signals.displacement, dtype=float)
     x = x.reshape(len(x), -1)
-    fs, period, realisations = float(signals.fs), getattr(signals, "period", None), int(signals.realisations)
+    fs, period, realisations = float(signals.fs), signals.period, int(signals.realisations)
     blocks = period_blocks(x, period, realisations)
     if blocks is not None:  # two or more whole periods
         period = int(period)
@@ -157,8 +112,8 @@ def spectral_lines(signals) -> SpectralLines:
         lines = np.flatnonzero(keep)
         return SpectralLines(freqs[lines], lines, period, realisations, slice(None), 2.0 * len(blocks))
     interior, low, high = slice(None), 0.0, fs / 2
-    if integrated_in_time(signals):
-        recipe = acceleration_noise_of(signals)
+    recipe = acceleration_noise_of(signals)
+    if recipe is not None:  # integrated in time (no two whole periods: those returned above)
         interior, (low, high) = recipe.interior(len(x)), recipe.band_hz
     freqs = np.fft.rfftfreq(len(x[interior]), 1.0 / fs)
     lines = np.flatnonzero((freqs >= low) & (freqs <= high) & (freqs > 0) & (freqs < fs / 2))

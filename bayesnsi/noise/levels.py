@@ -1,7 +1,11 @@
-"""Measurement-noise level of the recorded channels, estimated from the data (docs/method.md §10).
+"""Noise levels of recorded channels, estimated from the data alone (docs/method.md §10).
 
-Used by the output-error pole refinement (:mod:`._output_error`) and by the errors-in-variables
-predictor (:mod:`._eiv`), which both weigh or model the noise of each output channel.
+* :func:`white_noise_std`: white noise from high-order differences (a signal well below Nyquist
+  is removed by them);
+* :func:`measured_noise_std`: displacement and velocity noise of a record jointly, from the
+  mismatch between measured velocities and the derivative of measured displacements (or the
+  period scatter); the output-error pole refinement and the errors-in-variables predictor of
+  :mod:`bayesnsi.nsi` weigh and model each output channel's noise with it.
 """
 
 from __future__ import annotations
@@ -9,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..signals import Signals
-from .steady import period_scatter_std
+from .periodic import period_scatter_std
 
 __all__ = ["column_std", "measured_noise_std", "row_var", "white_noise_std"]
 
@@ -85,9 +89,9 @@ def measured_noise_std(signals: Signals):
     or fits that fail, fall back to :func:`white_noise_std`. High-order differences alone
     (:func:`white_noise_std`) cannot tell a velocity's noise from its broadband content, and
     overestimate it at a driven DOF. On two or more whole periods (``signals.period``) both are the
-    scatter between periods (:func:`bayesnsi.nsi.steady.period_scatter_std`): accelerations integrated
+    scatter between periods (:func:`bayesnsi.noise.periodic.period_scatter_std`): accelerations integrated
     line by line carry their noise inside the integration band only, where differences and the
-    (exactly consistent) v - dx/dt see none (trial of a GVT file: 5e-18 m against 1.6e-4 m).
+    (exactly consistent) v - dx/dt see none (a measured ground vibration test: 5e-18 m against 1.6e-4 m).
 
     Parameters
     ----------
@@ -121,12 +125,11 @@ def _read_only(values: np.ndarray) -> np.ndarray:
 def _estimate_noise_std(signals: Signals):
     """:func:`measured_noise_std` without the memo."""
     x = np.asarray(signals.displacement, dtype=float)
-    realisations = getattr(signals, "realisations", 1)
-    scatter = period_scatter_std(x, getattr(signals, "period", None), realisations)
+    scatter = period_scatter_std(x, signals.period, signals.realisations)
     if scatter is not None:  # whole periods: the noise is what changes between them (integrated too)
         v = signals.velocity
         return scatter, None if v is None else period_scatter_std(np.asarray(v, dtype=float), signals.period,
-                                                                  realisations)
+                                                                  signals.realisations)
     if signals.velocity is None:
         return white_noise_std(x), None
     v = np.asarray(signals.velocity, dtype=float)

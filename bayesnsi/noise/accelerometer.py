@@ -5,7 +5,7 @@ Integration leaves an accelerometer's noise only in the integration band, weight
 itself the noise is white and the signal is not, so two estimates that the signal can only inflate
 are taken per channel and the smaller kept:
 
-* high-order differences (:func:`bayesnsi.nsi.white_noise_std`): the signal's content far below
+* high-order differences (:func:`bayesnsi.noise.white_noise_std`): the signal's content far below
   Nyquist is removed; content near Nyquist (a force broadband up to fs/2 drives the mass line of
   every acceleration there) is read as noise;
 * with the forces, the part of the acceleration's spectrum they do not explain, the residual of
@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._noise import white_noise_std
+from .levels import white_noise_std
 
 __all__ = ["acceleration_noise_std"]
 

@@ -24,6 +24,8 @@ from .exceptions import BayesNSIError
 from .options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions
 
 if TYPE_CHECKING:
+    from .diagnosis import Diagnosis, FinalModel, diagnose
+    from .findings import Finding
     from .models import CandidateModel, Term, parse_expression
     from .nsi import NSIResult, affine_reconstruction, identify, reconstruct
     from .selection import Selection, select
@@ -33,6 +35,7 @@ if TYPE_CHECKING:
 # The numerical names are imported on first use (PEP 562), so that `import bayesnsi.cli` and
 # `bayesnsi --help` do not pay for numpy and scipy.
 _LAZY = {
+    "Diagnosis": "diagnosis", "FinalModel": "diagnosis", "diagnose": "diagnosis", "Finding": "findings",
     "CandidateModel": "models", "Term": "models", "parse_expression": "models",
     "NSIResult": "nsi", "affine_reconstruction": "nsi", "identify": "nsi", "reconstruct": "nsi",
     "Selection": "selection", "select": "selection",
@@ -71,6 +74,10 @@ __all__ = [
     "affine_reconstruction",
     "select",
     "Selection",
+    "diagnose",
+    "Diagnosis",
+    "FinalModel",
+    "Finding",
     "simulate_case",
     "__version__",
 ]

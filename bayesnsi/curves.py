@@ -49,7 +49,7 @@ def effect_curve(step, signals, max_points: int = 4000) -> EffectCurve:
     Parameters
     ----------
     step : object with ``term`` (:class:`~bayesnsi.models.Term`) and ``coefficient`` (float)
-        E.g. an accepted step of :func:`bayesnsi.diagnose.close_the_loop`.
+        E.g. an accepted step of :func:`bayesnsi.loop.close_the_loop`.
     signals : Signals
         Measured signals; the term's location DOFs must be measured outputs.
     max_points : int

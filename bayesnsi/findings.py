@@ -19,7 +19,7 @@ from typing import Any
 
 from .exceptions import BayesNSIWarning
 
-__all__ = ["SEVERITIES", "Finding", "emit", "finding_from_dict", "messages"]
+__all__ = ["SEVERITIES", "Finding", "emit", "finding_from_dict", "finding_from_warning", "messages"]
 
 SEVERITIES = ("note", "warning")
 """``"note"``: context that changes no decision; ``"warning"``: what a result should not be trusted for."""
@@ -103,7 +103,10 @@ def messages(findings: Iterable[Finding]) -> tuple[str, ...]:
 
 
 def emit(findings: Iterable[Finding], category: type[Warning] = BayesNSIWarning, stacklevel: int = 2) -> None:
-    """Issue each warning-severity finding as a Python warning of ``category``.
+    """Issue each warning-severity finding as a Python warning of ``category`` that carries it.
+
+    The warning's text is the finding's message; :func:`finding_from_warning` gets the finding back
+    from a caught warning (so a batch that records the warnings of a candidate keeps them typed).
 
     Parameters
     ----------
@@ -114,7 +117,27 @@ def emit(findings: Iterable[Finding], category: type[Warning] = BayesNSIWarning,
     """
     for finding in findings:
         if finding.severity == "warning":
-            warnings.warn(finding.message, category, stacklevel=stacklevel + 1)
+            warnings.warn(category(finding), stacklevel=stacklevel + 1)
+
+
+def finding_from_warning(caught: warnings.WarningMessage) -> Finding:
+    """The finding a caught warning carries (:func:`emit`), or one made from its text and category.
+
+    Parameters
+    ----------
+    caught : warnings.WarningMessage
+        As recorded by :func:`warnings.catch_warnings` with ``record=True``.
+
+    Returns
+    -------
+    Finding
+        Kind ``"warning.<Category>"`` for a warning that carries no finding.
+    """
+    message = caught.message
+    args = getattr(message, "args", ())
+    if len(args) == 1 and isinstance(args[0], Finding):
+        return args[0]
+    return Finding(f"warning.{caught.category.__name__}", str(message) or caught.category.__name__)
 
 
 def _plain(value: Value) -> Any:

@@ -259,7 +259,7 @@ class LoopOptions(_Options):
 
     The guards (``threshold``, ``max_imag_ratio``, ``stability_factor``), the search
     (``screen``, ``n_tries``, ``lookahead``, ``max_steps``) and the dictionary (``effects``) are
-    explained in :func:`bayesnsi.diagnose.close_the_loop`.
+    explained in :func:`bayesnsi.loop.close_the_loop`.
     """
 
     SECTION: ClassVar[str] = "diagnose"

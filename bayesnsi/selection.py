@@ -5,36 +5,46 @@ ranks them by the plain Gaussian likelihood of the source paper and by the margi
 side by side (:func:`bayesnsi.evidence.compare_evidence`), picks the most probable model and
 simulates every identified model on held-out segments. The command line, the workflows and the
 results.json record (:func:`bayesnsi.io.selection_payload`) are built from the
-:class:`Selection` it returns.
+:class:`Selection` it returns; :func:`bayesnsi.diagnose` closes the loop from it.
 """
 
 from __future__ import annotations
 
-import warnings
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .exceptions import AdequacyWarning, BayesNSIError
-from .nsi.order import order_messages
-from .nsi.physics import excluded_lines_messages
-from .options import EvidenceOptions, ExecutionOptions, NSIOptions
-from .run.adequacy import ModelCheck, adequacy_warnings, model_checks, widen_inadequate
-from .run.batch import CandidateOutcome, run_candidates
-from .run.force_noise import force_noise_messages
-from .run.free_view import one_view
-from .run.velocity_noise import velocity_noise_messages
-from .validation import (
+from ._measured import MeasuredError
+from .checks.adequacy import ModelCheck, adequacy_findings, model_checks
+from .checks.force_noise import force_noise_findings
+from .checks.validation import (
     SegmentError,
     Whiteness,
-    level_messages,
+    level_findings,
     open_loop_error,
     residual_whiteness,
     validate,
     whiteness_applies,
 )
+from .checks.velocity_noise import velocity_noise_findings
+from .exceptions import AdequacyWarning, BayesNSIError
+from .findings import Finding, emit
+from .nsi.order import order_findings
+from .nsi.physics import excluded_lines_findings
+from .options import EvidenceOptions, ExecutionOptions, NSIOptions
+from .run.batch import CandidateOutcome, run_candidates
+from .run.free_view import one_view
+from .signals import Signals
+from .uncertainty.widening import widen_inadequate
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from .evidence import EvidenceResult
+    from .nsi import NSIResult
 
 __all__ = ["Selection", "select"]
 
@@ -60,37 +70,44 @@ class Selection:
         Closed-loop errors of each identified candidate on each held-out segment.
     adequacy : mapping of str to Whiteness
         Whiteness test of each identified candidate's residual (the evidence's residual) on the
-        estimation data (:func:`bayesnsi.validation.residual_whiteness`): the probabilities
+        estimation data (:func:`bayesnsi.checks.validation.residual_whiteness`): the probabilities
         rank the candidates against each other, this says whether the best one explains the data.
         Empty for responses integrated from velocities or accelerations, whose noise the integration
-        colours (:func:`bayesnsi.validation.whiteness_applies`; ``checks`` hold their adequacy).
+        colours (:func:`bayesnsi.checks.validation.whiteness_applies`; ``checks`` hold their adequacy).
     checks : mapping of str to ModelCheck
         Residual against the noise the model passes on, quality index, validation error and log predictive
-        density of each identified candidate (:func:`bayesnsi.run.adequacy.model_checks`).
-    warnings : tuple of str
-        What the selection should not be trusted for (:func:`bayesnsi.run.adequacy.adequacy_warnings`),
-        each also issued as an :class:`~bayesnsi.exceptions.AdequacyWarning`.
+        density of each identified candidate (:func:`bayesnsi.checks.adequacy.model_checks`).
+    findings : tuple of Finding
+        What the selection should not be trusted for, and what the data hold that it cannot answer
+        (:func:`bayesnsi.checks.adequacy.adequacy_findings` and the data checks), each also issued
+        as an :class:`~bayesnsi.exceptions.AdequacyWarning` when it is a warning.
     open_loop : mapping of str to MeasuredError
         Open-loop error of each identified candidate on the estimation data in the measured
-        quantity (accelerations when accelerations were measured; :func:`bayesnsi.validation.open_loop_error`).
+        quantity (accelerations when accelerations were measured; :func:`bayesnsi.checks.validation.open_loop_error`).
+    signals : Signals or None
+        The estimation data the selection was made on.
+    segments : tuple of (str, Signals)
+        The held-out segments the models were validated on.
     """
 
     outcomes: tuple[CandidateOutcome, ...]
-    table: Any
+    table: pd.DataFrame | None
     nsi: NSIOptions
     evidence: EvidenceOptions | None
     validation: Mapping[str, tuple[SegmentError, ...]] = field(default_factory=dict)
     adequacy: Mapping[str, Whiteness] = field(default_factory=dict)
     checks: Mapping[str, ModelCheck] = field(default_factory=dict)
-    warnings: tuple[str, ...] = ()
-    open_loop: Mapping[str, Any] = field(default_factory=dict)
+    findings: tuple[Finding, ...] = ()
+    open_loop: Mapping[str, MeasuredError] = field(default_factory=dict)
+    signals: Signals | None = field(default=None, repr=False, compare=False)
+    segments: tuple[tuple[str, Signals], ...] = field(default=(), repr=False, compare=False)
 
     def __repr__(self) -> str:
         from ._repr import compact_repr
 
         return compact_repr(
             self, candidates=tuple(o.name for o in self.outcomes), selected=self.selected, likelihood=self.likelihood,
-            failed=tuple(o.name for o in self.outcomes if o.result is None),
+            failed=tuple(o.name for o in self.outcomes if o.result is None), findings=len(self.findings),
         )
 
     @property
@@ -111,7 +128,7 @@ class Selection:
         """The most probable candidate (as :attr:`selected`) whose model passes every physical check.
 
         Its quality index is below ``max_imag_ratio`` and none of its friction or damping terms feeds
-        energy in (negative dissipation; :class:`~bayesnsi.run.adequacy.ModelCheck`). The evidence can
+        energy in (negative dissipation; :class:`~bayesnsi.checks.adequacy.ModelCheck`). The evidence can
         favour a model that fails them: on a nearly linear test a sign() of a noisy velocity with a
         negative coefficient won by 4.6e4 nat. A term whose 95 % interval holds zero is not a failed
         check (the data leave its size open, which the warnings say; a model lacking modes widens the
@@ -136,14 +153,58 @@ class Selection:
         return self._best("p_plain")
 
     @property
-    def results(self) -> dict:
+    def results(self) -> dict[str, NSIResult]:
         """Identified models by candidate name (failed identifications left out)."""
         return {o.name: o.result for o in self.outcomes if o.result is not None}
 
     @property
-    def evidences(self) -> dict:
+    def evidences(self) -> dict[str, dict[str, EvidenceResult]]:
         """Evidence results by candidate name, then by likelihood (candidates without one left out)."""
         return {o.name: dict(o.evidences) for o in self.outcomes if o.evidences is not None}
+
+    def comparison(self) -> pd.DataFrame:
+        """The candidates side by side, most probable first, like :func:`arviz_stats.compare`.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Index ``candidate``; columns ``rank`` (by the marginal evidence), ``log_evidence`` and
+            ``log_evidence_se`` (its Monte-Carlo error) under :attr:`likelihood`, ``delta_log_evidence``
+            (against the best), ``probability`` and ``probability_sd`` (posterior model probability and
+            its Monte-Carlo sd), ``plain_rank`` and ``p_plain`` (the paper's plain Gaussian ranking),
+            ``noise_ratio`` (residual over the noise it passes on), ``adequate`` and ``status``.
+            Candidates without evidence come last with NaN.
+
+        Raises
+        ------
+        BayesNSIError
+            When no evidence was computed (``evidence=None``).
+        """
+        import pandas as pd
+
+        if self.table is None or self.likelihood is None:
+            raise BayesNSIError("no evidence was computed: select(..., evidence=EvidenceOptions()) compares candidates")
+        lik, table = self.likelihood, self.table
+        log_z = table[f"log_evidence_{lik}"].to_numpy(dtype=float)
+        best = np.nanmax(np.where(np.isfinite(log_z), log_z, np.nan)) if np.any(np.isfinite(log_z)) else math.nan
+        frame = pd.DataFrame({
+            "log_evidence": log_z,
+            "log_evidence_se": table[f"log_evidence_se_{lik}"].to_numpy(dtype=float),
+            "delta_log_evidence": log_z - best,
+            "probability": table[f"p_{lik}"].to_numpy(dtype=float),
+            "probability_sd": table[f"p_{lik}_sd"].to_numpy(dtype=float),
+            "p_plain": table["p_plain"].to_numpy(dtype=float) if "p_plain" in table else math.nan,
+            "plain_log_likelihood": (table["log_likelihood_plain"].to_numpy(dtype=float)
+                                     if "log_likelihood_plain" in table else math.nan),
+            "noise_ratio": [self.checks[n].noise_ratio if n in self.checks else math.nan for n in table.index],
+            "adequate": [self.checks[n].adequate if n in self.checks else None for n in table.index],
+            "status": [self.outcome(n).status for n in table.index],
+        }, index=pd.Index(table.index, name="candidate"))
+        frame.insert(0, "rank", frame["log_evidence"].rank(ascending=False, method="min", na_option="bottom"))
+        frame.insert(7, "plain_rank", frame["plain_log_likelihood"].rank(ascending=False, method="min",
+                                                                        na_option="bottom"))
+        frame = frame.drop(columns="plain_log_likelihood")
+        return frame.sort_values(["rank", "probability"], ascending=[True, False])
 
     def outcome(self, name: str) -> CandidateOutcome:
         """The outcome of candidate ``name``.
@@ -203,7 +264,7 @@ def select(
         change a number.
     validation : sequence of (str, Signals)
         Held-out segments on which every identified model is simulated in closed loop
-        (:func:`bayesnsi.validation.validate`).
+        (:func:`bayesnsi.checks.validation.validate`).
 
     Returns
     -------
@@ -227,8 +288,9 @@ def select(
     from .evidence import compare_evidence
 
     evidence = EvidenceOptions() if evidence is None else evidence
+    nsi = nsi or NSIOptions()
     outcomes = tuple(run_candidates(signals, candidates, nsi, evidence, execution=execution))
-    outcomes, view_notes = one_view(signals, outcomes, nsi, evidence, execution)  # free bodies: one view
+    outcomes, view = one_view(signals, outcomes, nsi, evidence, execution)  # free bodies: one view
     rng = np.random.default_rng(np.random.SeedSequence(evidence.seed).spawn(len(outcomes) + 1)[-1])
     table = compare_evidence(
         {o.name: None if o.evidences is None else list(o.evidences.values()) for o in outcomes},
@@ -236,7 +298,7 @@ def select(
         rng=rng,
     )
     identified = [o for o in outcomes if o.result is not None]
-    segments = list(validation)
+    segments = tuple((str(name), record) for name, record in validation)
     checks = {o.name: validate(o.result, segments) for o in identified} if segments else {}
     adequacy = {}
     for o in identified if whiteness_applies(signals) else ():  # integrated responses: coloured noise, no test
@@ -250,12 +312,11 @@ def select(
     limits = {"max_noise_ratio": evidence.max_noise_ratio, "max_imag_ratio": evidence.max_imag_ratio}
     fits = model_checks(outcomes, signals, checks, **limits, seed=evidence.seed)
     outcomes, fits = widen_inadequate(outcomes, fits, signals)  # their intervals carry the model error too
-    selection = Selection(outcomes, table, nsi or NSIOptions(), evidence, checks, adequacy, fits)
-    messages = adequacy_warnings(fits, selection.selected, **limits, max_band_ratio=evidence.max_band_ratio)
-    messages += order_messages(outcomes) + excluded_lines_messages(outcomes, selection.selected)
-    messages += view_notes + tuple(velocity_noise_messages(signals, candidates, (nsi or NSIOptions()).velocity_method))
-    messages += tuple(level_messages(signals, segments)) + tuple(force_noise_messages(signals))
-    for message in messages:
-        warnings.warn(message, AdequacyWarning, stacklevel=2)
+    selection = Selection(outcomes, table, nsi, evidence, checks, adequacy, fits, signals=signals, segments=segments)
+    found = adequacy_findings(fits, selection.selected, **limits, max_band_ratio=evidence.max_band_ratio)
+    found += order_findings(outcomes) + excluded_lines_findings(outcomes, selection.selected) + tuple(view)
+    found += tuple(velocity_noise_findings(signals, candidates, nsi.velocity_method))
+    found += tuple(level_findings(signals, segments)) + tuple(force_noise_findings(signals))
+    emit(found, AdequacyWarning, stacklevel=2)
     open_loop = {o.name: e for o in identified if (e := open_loop_error(o.result, signals)) is not None}
-    return replace(selection, warnings=messages, open_loop=open_loop)
+    return replace(selection, findings=found, open_loop=open_loop)

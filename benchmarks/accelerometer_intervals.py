@@ -44,11 +44,12 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from bayesnsi.checks.adequacy import model_checks
+from bayesnsi.uncertainty import widen_inadequate  # noqa: E402
 from bayesnsi.io import load_config, load_signals  # noqa: E402
 from bayesnsi.models import CandidateModel, Term  # noqa: E402
 from bayesnsi.options import EvidenceOptions, NSIOptions  # noqa: E402
 from bayesnsi.run import run_candidates  # noqa: E402
-from bayesnsi.run.adequacy import model_checks, widen_inadequate  # noqa: E402
 from bayesnsi.simulate import (  # noqa: E402
     band_limited_gaussian,
     chain_system,

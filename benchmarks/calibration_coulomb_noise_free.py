@@ -4,14 +4,14 @@ For each seed of ``coulomb-dof2`` simulated without sensor noise, the true model
 DOF 1, sign(v2) = 1 N at DOF 2) is identified with ``upsample = R`` and 60 R block rows (the
 loop's final model uses R = 4), and the mean and seed-to-seed sd of both coefficients are
 printed per R (``--rows``: other block rows, per data-rate sample). Noise-free, every error is
-one the noise replicates of :func:`bayesnsi.evidence.candidate_intervals` do not reproduce.
+one the noise replicates of :func:`bayesnsi.uncertainty.candidate_intervals` do not reproduce.
 
 ``--draws K`` asks what the replicates do see: per seed, with the loop's final settings (R = 4,
 240 block rows), the true model is identified on the seed's clean response plus K fresh draws of
 white noise at the seed's own noise level per channel (the force record held fixed), and the mean
 and sd of those K estimates (the estimator's distribution given the force record) are printed
 beside the estimate on the seed's data, the 16 noise replicates' sd and their mean shift (the
-bias estimate of :mod:`bayesnsi.evidence.perturbation`).
+bias estimate of :mod:`bayesnsi.uncertainty.replicates`).
 
 ``--pairing K`` asks whether a seed's own noise is a typical draw for its response: per seed, the
 estimate on its own data, on its clean response plus each other seed's noise (rescaled to its
@@ -102,7 +102,7 @@ def _noisy(clean, x_std, v_std, rng):
 
 def conditional(seeds: int, draws: int) -> None:
     """Per seed: the estimator's mean and sd over fresh noise draws beside the noise replicates'."""
-    from bayesnsi.evidence.perturbation import noise_replicates
+    from bayesnsi.uncertainty.replicates import noise_replicates
 
     nsi = NSIOptions(block_rows=240, order=4, upsample=4)
     rng = np.random.default_rng(np.random.SeedSequence([15, draws]))
@@ -176,8 +176,8 @@ def reference(seeds: list[int], draws: int) -> None:
 
     from scipy import stats
 
-    from bayesnsi.evidence.perturbation import noise_replicates
     from bayesnsi.simulate.undeclared import undeclared_cases
+    from bayesnsi.uncertainty.replicates import noise_replicates
 
     nsi = NSIOptions(block_rows=240, order=4, upsample=4)
     truth = np.array([20.0, 1.0])

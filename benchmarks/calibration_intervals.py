@@ -5,7 +5,7 @@ between DOFs 1 and 2; ``negative-stiffness``: the twin of SPEC 8.3, true model 2
 it simulates the case at its default noise, identifies the true model with the case's
 recommended settings, computes the evidence exactly as ``bayesnsi select`` does
 (:func:`bayesnsi.evidence.candidate_evidence`, ``EvidenceOptions()`` defaults: AR(1), innovations)
-and the intervals (:func:`bayesnsi.evidence.candidate_intervals`, default ``interval =
+and the intervals (:func:`bayesnsi.uncertainty.candidate_intervals`, default ``interval =
 "auto"``: 16 copies of the record with added sensor noise - none of these cases holds the Coulomb
 friction for which it draws records of the identified model instead - Student-t intervals about the
 bias-corrected estimate, stretched to hold the reported one; ``--interval segments`` gives the
@@ -52,8 +52,9 @@ CASE_NAMES = ("two-dof", "three-dof", "negative-stiffness")
 def one_seed(case_name: str, seed: int, opts) -> dict:
     """Simulate one seed, identify the true model, its evidence and intervals."""
     from bayesnsi import identify, simulate_case
-    from bayesnsi.evidence import candidate_evidence, candidate_intervals
+    from bayesnsi.evidence import candidate_evidence
     from bayesnsi.exceptions import BayesNSIError
+    from bayesnsi.uncertainty import candidate_intervals
 
     t0 = time.perf_counter()
     case = simulate_case(case_name, seed=seed)

@@ -2,9 +2,9 @@
 
 For each case (``coulomb-dof2``: declared 20 v1|v1|, missing sign(v2) = 1 N; ``cubic-pair``:
 declared linear, missing (x1-x2)³ = 2e5) and seed, it simulates the case (30 s, 2 % noise),
-runs :func:`bayesnsi.diagnose.close_the_loop` from the declared model with default
+runs :func:`bayesnsi.loop.close_the_loop` from the declared model with default
 ``LoopOptions`` and the case's NSI settings, and gives the final model the intervals of
-``bayesnsi select`` (:func:`bayesnsi.diagnose.final_intervals`, default ``interval = "auto"``:
+``bayesnsi select`` (:func:`bayesnsi.loop.final_intervals`, default ``interval = "auto"``:
 16 noisy copies of the record, or for a final model with Coulomb friction (a sign() of a velocity)
 16 records of the identified model driven by phase-randomised forces; errors-in-variables bias removed from the
 centre, Student-t quantiles). It prints, as ``calibration_intervals.py`` does, per coefficient of
@@ -13,7 +13,7 @@ seed-to-seed sd, coverage of the 50 % / 95 % intervals and of the posterior-only
 and the mean 95 % width over 2 x 1.96 x sd; seeds whose loop did not end on the true model are
 counted and left out of the coefficient rows. Then the coverage of the 95 % intervals as
 ``bayesnsi diagnose`` reports them: widened by the final model's residual over the noise it passes
-on where that exceeds ``max_noise_ratio`` (:func:`bayesnsi.run.final_adequacy.widen_final`).
+on where that exceeds ``max_noise_ratio`` (:func:`bayesnsi.uncertainty.widening.widen_final`).
 
 ``--bit-generator`` simulates each seed's case with numpy's PCG64 (the default: ``seed`` as given
 to :func:`bayesnsi.simulate.undeclared_case`), Philox or MT19937 seeded with the seed; the force
@@ -60,11 +60,11 @@ def _case_seed(seed: int, bit_generator: str):
 
 def one_seed(case_name: str, seed: int, opts, bit_generator: str = "pcg64") -> dict:
     """Simulate one seed, close the loop, and compute the final model's intervals."""
-    from bayesnsi.diagnose import close_the_loop, final_intervals
     from bayesnsi.exceptions import BayesNSIError
+    from bayesnsi.loop import close_the_loop, final_intervals
     from bayesnsi.options import LoopOptions
-    from bayesnsi.run.final_adequacy import widen_final
     from bayesnsi.simulate.undeclared import undeclared_case
+    from bayesnsi.uncertainty.widening import widen_final
 
     t0 = time.perf_counter()
     case = undeclared_case(case_name, seed=_case_seed(seed, bit_generator))

@@ -8,7 +8,7 @@ turns that noise into a force that rings at the modes. This script simulates suc
 DOF 3, a clearance spring of 4 kN/m at DOF 9 with its gap at one displacement std, 8 sensors with 2 %
 noise) and prints, for the true model and for wrong ones (gap, DOF, none) that identify stably, the residual's ratio
 to the sensor noise (the yardstick before) and to the noise the model passes on (the change of its
-residual when fresh sensor noise is added: ``model_check.noise_ratio``, bayesnsi/run/adequacy.py),
+residual when fresh sensor noise is added: ``model_check.noise_ratio``, bayesnsi/checks/adequacy.py),
 and the worst band of the band-by-band check.
 
     .venv/bin/python benchmarks/clearance_adequacy.py [--samples 50000] [--seed 0]
@@ -29,10 +29,10 @@ from types import SimpleNamespace  # noqa: E402
 import numpy as np  # noqa: E402
 
 from bayesnsi import NSIOptions, Signals, identify  # noqa: E402
+from bayesnsi.checks.adequacy import model_checks  # noqa: E402
 from bayesnsi.exceptions import BayesNSIError  # noqa: E402
 from bayesnsi.models import CandidateModel, Term  # noqa: E402
 from bayesnsi.models.dictionary import clearance_expression  # noqa: E402
-from bayesnsi.run.adequacy import model_checks  # noqa: E402
 from bayesnsi.simulate import band_limited_gaussian, chain_system, simulate_response  # noqa: E402
 
 FS, N_DOF, SHAKER, CLEARANCE_DOF, STIFFNESS = 200.0, 12, 3, 9, 4000.0

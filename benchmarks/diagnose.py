@@ -3,7 +3,7 @@
 For the two-DOF case (declared model 1 {v1|v1|}) and the beam case (declared {x13², x13³}),
 both with nothing missing (the identified models without one of the beam's two terms are
 unstable, so the loop cannot start from them): wall time of a full loop
-(:func:`bayesnsi.diagnose.close_the_loop`, default dictionary and guards), the number of loop
+(:func:`bayesnsi.loop.close_the_loop`, default dictionary and guards), the number of loop
 steps and of effects scored, and the time of one select of a single candidate: the numerical
 part (NSI + reconstruction + AR(1) evidence) and the whole ``bayesnsi select`` command on a
 config holding only that candidate (adds the white-noise evidence, closed-loop checks and the
@@ -26,8 +26,8 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np  # noqa: E402
 
-from bayesnsi.diagnose import close_the_loop  # noqa: E402
 from bayesnsi.evidence import candidate_evidence  # noqa: E402
+from bayesnsi.loop import close_the_loop  # noqa: E402
 from bayesnsi.models import CandidateModel  # noqa: E402
 from bayesnsi.nsi import identify  # noqa: E402
 from bayesnsi.options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions  # noqa: E402

@@ -1,7 +1,7 @@
 """Closing the loop (SPEC 7) on undeclared-effect cases and negative controls, over seeds.
 
 For every case of :data:`bayesnsi.simulate.undeclared.UNDECLARED_CASES`, every seed and noise
-level, :func:`bayesnsi.diagnose.close_the_loop` starts from the declared candidate with its
+level, :func:`bayesnsi.loop.close_the_loop` starts from the declared candidate with its
 default dictionary (all effect types at every measured DOF and neighbouring pair, clearances on
 a gap grid) and default guards. Per case the table gives
 
@@ -39,7 +39,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np
 
-from bayesnsi.diagnose import close_the_loop
+from bayesnsi.loop import close_the_loop
 from bayesnsi.nsi import identify
 from bayesnsi.nsi.reconstruct import nrmse as _nrmse
 from bayesnsi.options import EvidenceOptions, LoopOptions, NSIOptions

@@ -16,7 +16,7 @@ white; best of 3 runs: the machine is shared; given the open-loop reconstruction
 computes for the NRMSE anyway), for the first candidate of a ``select`` (on a fresh copy of the record)
 and for each further one (the record's measured noise levels are kept with it). Target: at most 1 s
 per candidate and likelihood. Last, the adequacy check of the candidate
-(:func:`bayesnsi.run.adequacy.model_checks`: open-loop residual, two noise draws through the model
+(:func:`bayesnsi.checks.adequacy.model_checks`: open-loop residual, two noise draws through the model
 for the yardstick, the bands), which ``select`` runs once per candidate.
 
 Run::
@@ -130,10 +130,10 @@ def main() -> int:
 
 
 def timed_checks(signals, result) -> float:
-    """Wall time of the adequacy check of one candidate (bayesnsi.run.adequacy.model_checks), as select runs it."""
+    """Wall time of the adequacy check of one candidate (bayesnsi.checks.adequacy.model_checks), as select runs it."""
     from types import SimpleNamespace
 
-    from bayesnsi.run.adequacy import model_checks
+    from bayesnsi.checks.adequacy import model_checks
 
     t0 = time.perf_counter()
     model_checks([SimpleNamespace(name="candidate", result=result, intervals=None)], signals)

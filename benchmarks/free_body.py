@@ -3,7 +3,7 @@
 Simulated carriage (``tests/test_free_body.py``: M 95 kg, Fv 200 N s/m, Fc 20 N, offset -3 N, no
 spring, PD position loop, 5 N force disturbance, 1 µm position noise; fs 200 Hz), seeds 0..S-1, and
 the measured EMPS axis when its files are present. Per record: the rank of sign(v) in the
-force-view screen (:mod:`bayesnsi.diagnose.screen_force`, used for free bodies) and in the
+force-view screen (:mod:`bayesnsi.loop.screen_force`, used for free bodies) and in the
 frequency-domain screen (used for structures, band 1.6 × the top of the identification band);
 the loop from the linear model (default settings but ``refine_final`` off for the simulated
 records): effects added, M, Fv (from the FRF) and Fc errors.
@@ -26,8 +26,8 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bayesnsi.diagnose import close_the_loop, screen_effects  # noqa: E402
-from bayesnsi.diagnose.screen_force import screen_effects_force  # noqa: E402
+from bayesnsi.loop import close_the_loop, screen_effects  # noqa: E402
+from bayesnsi.loop.screen_force import screen_effects_force  # noqa: E402
 from bayesnsi.models import CandidateModel, default_gaps, effect_dictionary  # noqa: E402
 from bayesnsi.nsi import identify  # noqa: E402
 from bayesnsi.options import LoopOptions, NSIOptions  # noqa: E402

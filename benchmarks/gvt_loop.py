@@ -3,12 +3,12 @@
 Per level of :func:`bayesnsi.simulate.gvt_records` (0.1, 1, 8 N; the configs of
 ``workflows/gvt.py``: frequency route, order 20, band 1.5-15 Hz, D free, the joint undeclared):
 
-1. the data-only localisation (:func:`bayesnsi.diagnose.localise.location_distortion`): output
+1. the data-only localisation (:func:`bayesnsi.loop.localise.location_distortion`): output
    power at the unexcited odd lines over that at the excited lines, of each sensor's motion and of
    the relative motion of the neighbouring pair 7-8 (the loop's dictionary locations);
-2. the loop from ``linear`` (:func:`bayesnsi.diagnose.close_the_loop`, default ``LoopOptions``):
+2. the loop from ``linear`` (:func:`bayesnsi.loop.close_the_loop`, default ``LoopOptions``):
    the effects added, in order, with their coefficient and quality index;
-3. the closed-loop validation NRMSE (displacements, :func:`bayesnsi.validation.validate`; and in
+3. the closed-loop validation NRMSE (displacements, :func:`bayesnsi.checks.validation.validate`; and in
    accelerations) on the other realisation of the level and on the other levels, before and after.
    On these periodic records the closed loop of a frequency-route model is its periodic steady
    state on the fitted lines (harmonic balance, :mod:`bayesnsi.nsi._harmonic`): the time
@@ -64,12 +64,12 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from bayesnsi.diagnose import close_the_loop  # noqa: E402
-from bayesnsi.diagnose.localise import location_distortion  # noqa: E402
+from bayesnsi.checks.validation import validate  # noqa: E402
 from bayesnsi.exceptions import BayesNSIError  # noqa: E402
 from bayesnsi.io import load_config, load_signals, load_validation  # noqa: E402
+from bayesnsi.loop import close_the_loop  # noqa: E402
+from bayesnsi.loop.localise import location_distortion  # noqa: E402
 from bayesnsi.simulate import gvt_records  # noqa: E402
-from bayesnsi.validation import validate  # noqa: E402
 
 _WORKFLOW = Path(__file__).resolve().parents[1] / "workflows" / "gvt.py"
 

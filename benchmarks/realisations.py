@@ -31,12 +31,12 @@ import warnings  # noqa: E402
 import numpy as np  # noqa: E402
 
 from bayesnsi import NSIOptions, Signals  # noqa: E402
-from bayesnsi.evidence.intervals import _noise_intervals  # noqa: E402
 from bayesnsi.models import CandidateModel  # noqa: E402
 from bayesnsi.nsi import identify, periodic_integration  # noqa: E402
 from bayesnsi.options import EvidenceOptions  # noqa: E402
 from bayesnsi.signals import join_realisations  # noqa: E402
 from bayesnsi.simulate import GVT_BAND_HZ, GVT_SENSORS, GVT_SHAKER, gvt_records, gvt_structure  # noqa: E402
+from bayesnsi.uncertainty.intervals import _noise_intervals  # noqa: E402
 
 JOINT = CandidateModel.from_terms("joint 7-8", [("tanh((v7-v8)/0.002)", (7, 8)), ("(x7-x8)**3", (7, 8))])
 

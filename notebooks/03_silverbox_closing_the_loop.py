@@ -31,7 +31,7 @@
 # 1. identifies a linear and a cubic model by NSI;
 # 2. simulates both in closed loop on the three test segments and compares the RMS errors with
 #    published results of recurrent neural networks;
-# 3. starts from the linear model and lets `bayesnsi.diagnose.close_the_loop` find what it
+# 3. starts from the linear model and lets `bayesnsi.loop.close_the_loop` find what it
 #    lacks, then compares before and after.
 #
 # **Tiny-data switch.** `BAYESNSI_NOTEBOOK_SMALL=1` estimates from the first two multisine
@@ -54,7 +54,7 @@ if SMALL:
 import matplotlib.pyplot as plt
 from IPython.display import Image, display
 
-from bayesnsi.diagnose import close_the_loop
+from bayesnsi.loop import close_the_loop
 from bayesnsi.io import load_config, load_signals, load_validation
 from bayesnsi.nsi import identify
 from bayesnsi.plots import plot_effect_force, plot_reconstruction_errors

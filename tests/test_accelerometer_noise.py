@@ -18,15 +18,16 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bayesnsi.evidence.perturbation import noise_replicates
+from bayesnsi.checks.adequacy import model_checks
 from bayesnsi.exceptions import ConfigError
 from bayesnsi.io import load_config, load_signals
 from bayesnsi.models import CandidateModel, Term
 from bayesnsi.noise import AccelerationNoise, acceleration_noise_of, noise_model, white_noise_std
 from bayesnsi.nsi import identify
 from bayesnsi.options import NSIOptions
-from bayesnsi.run.adequacy import model_checks, widen_inadequate
 from bayesnsi.simulate import band_limited_gaussian, chain_system, simulate_response
+from bayesnsi.uncertainty import widen_inadequate
+from bayesnsi.uncertainty.replicates import noise_replicates
 
 FS, BAND = 100.0, (1.0, 45.0)
 MCK = chain_system([1.0, 1.5], [800.0, 1000.0], [2.0, 2.0])
@@ -131,14 +132,14 @@ def test_adequacy_of_the_true_model_on_integrated_accelerations_is_near_one(tmp_
     assert old[TRUE.name].to_dict()["noise_source"] == "differences"
     # kept whole, the record ends moving: the residual in the last and first 4 s is the integration's edge
     # error (trimmed by default: nothing to say)
-    from bayesnsi.run.adequacy import adequacy_warnings
+    from bayesnsi.checks.adequacy import adequacy_findings
 
     assert checks[TRUE.name].edge_ratio is None and old[TRUE.name].edge_ratio is None
     whole, _ = _record(tmp_path, extra=", trim_edges = false")
     kept = model_checks([SimpleNamespace(name=TRUE.name, result=identify(whole, TRUE, NSI), intervals=None)], whole)
     assert kept[TRUE.name].edge_ratio > 2.0
-    assert any("trim_edges = true" in w for w in adequacy_warnings(kept, TRUE.name))
-    assert not any("trim_edges" in w for w in adequacy_warnings(checks, TRUE.name))
+    assert any("trim_edges = true" in w for w in adequacy_findings(kept, TRUE.name))
+    assert not any("trim_edges" in w for w in adequacy_findings(checks, TRUE.name))
 
 
 def test_noise_replicate_intervals_of_integrated_accelerations_are_not_zero_wide(tmp_path):
@@ -157,13 +158,13 @@ def test_noise_replicate_intervals_of_integrated_accelerations_are_not_zero_wide
 
 
 def test_widening_is_back_for_accelerations_integrated_with_their_noise_kept(tmp_path):
-    from bayesnsi.evidence import Intervals, ParameterInterval
+    from bayesnsi.uncertainty import Intervals, ParameterInterval
 
     signals, _ = _record(tmp_path)
     coefficient = ParameterInterval(name="x1**3@1", estimate=10.0, sd=0.5, posterior_sd=0.1, segment_sd=0.49,
                                     ci50=(9.5, 10.1), ci95=(8.8, 10.8), bias=0.2)
     intervals = Intervals(method="noise", coefficients=(coefficient,), n_segments=16)
-    from bayesnsi.run.adequacy import ModelCheck
+    from bayesnsi.checks.adequacy import ModelCheck
 
     check = ModelCheck(name="wrong", order=4, residual_rms=(3.0,), noise_std=(1.0,), noise_ratio=3.0, adequate=False,
                        quality_index=0.1, quality_ok=True)
@@ -247,10 +248,10 @@ def test_no_whiteness_test_on_integrated_accelerations_whose_noise_is_coloured(t
     is not white either, so the Ljung-Box test rejected every candidate and `select` told the user an
     effect was missing from all of them. It is left out there; the model check against the integrated
     noise (true 1.0-1.3x, wrong more) is the adequacy check. Reference: the simulated truth (x1³)."""
+    from bayesnsi.checks.validation import residual_whiteness, whiteness_applies
     from bayesnsi.cli.select import _adequacy_text
     from bayesnsi.options import EvidenceOptions
     from bayesnsi.selection import select
-    from bayesnsi.validation import residual_whiteness, whiteness_applies
 
     signals, _ = _record(tmp_path)
     true_model = identify(signals, TRUE, NSI)

@@ -12,10 +12,10 @@ import warnings
 import numpy as np
 import pytest
 
+from bayesnsi.checks.adequacy import ModelCheck, adequacy_findings
 from bayesnsi.exceptions import AdequacyWarning
 from bayesnsi.models import CandidateModel
 from bayesnsi.options import EvidenceOptions
-from bayesnsi.run.adequacy import ModelCheck, adequacy_warnings
 from bayesnsi.selection import select
 from bayesnsi.simulate import simulate_case
 
@@ -31,18 +31,18 @@ def _check(name, ratio=1.0, quality=0.01, order=4, nrmse=None):
 
 def test_nothing_to_say_about_a_good_selection():
     checks = {"a": _check("a", nrmse=0.10), "b": _check("b", ratio=2.0, nrmse=0.105)}
-    assert adequacy_warnings(checks, "a") == ()
+    assert adequacy_findings(checks, "a") == ()
 
 
 def test_each_warning_is_raised_by_its_own_failure():
-    quality = adequacy_warnings({"a": _check("a", quality=0.8)}, "a")
+    quality = adequacy_findings({"a": _check("a", quality=0.8)}, "a")
     assert len(quality) == 1 and "quality index" in quality[0]
-    worse = adequacy_warnings({"a": _check("a", nrmse=0.2), "b": _check("b", nrmse=0.1)}, "a")
+    worse = adequacy_findings({"a": _check("a", nrmse=0.2), "b": _check("b", nrmse=0.1)}, "a")
     assert len(worse) == 1 and "validates worse than 'b'" in worse[0]
-    assert adequacy_warnings({"a": _check("a", nrmse=0.105), "b": _check("b", nrmse=0.1)}, "a") == ()  # within 10 %
-    nothing = adequacy_warnings({"a": _check("a", ratio=1.6), "b": _check("b", ratio=2.5)}, "a")
+    assert adequacy_findings({"a": _check("a", nrmse=0.105), "b": _check("b", nrmse=0.1)}, "a") == ()  # within 10 %
+    nothing = adequacy_findings({"a": _check("a", ratio=1.6), "b": _check("b", ratio=2.5)}, "a")
     assert len(nothing) == 1 and "no candidate is adequate" in nothing[0] and "'a': 1.60x" in nothing[0]
-    orders = adequacy_warnings({"a": _check("a", order=10), "b": _check("b", order=12)}, "a")
+    orders = adequacy_findings({"a": _check("a", order=10), "b": _check("b", order=12)}, "a")
     assert len(orders) == 1 and "different orders" in orders[0] and "a: 10, b: 12" in orders[0]
 
 
@@ -145,10 +145,10 @@ def test_gvt_with_no_fitting_candidate_is_reported_inadequate():
     some candidate leaves a residual near the period-to-period noise (measured 1.09x and 1.22x); with
     only a wrong-location and a wrong-type element none does (2.4x, 67x) and the selection says so.
     Reference: the noise is the scatter between the record's periods (independent of any model)."""
+    from bayesnsi.checks.adequacy import model_checks
     from bayesnsi.nsi import periodic_integration
     from bayesnsi.options import NSIOptions
     from bayesnsi.run import run_candidates
-    from bayesnsi.run.adequacy import model_checks
     from bayesnsi.signals import Signals
     from bayesnsi.simulate import GVT_BAND_HZ, GVT_SENSORS, GVT_SHAKER, gvt_records
 
@@ -168,7 +168,7 @@ def test_gvt_with_no_fitting_candidate_is_reported_inadequate():
         outcomes = run_candidates(signals, candidates, nsi, None)
     checks = model_checks(outcomes, signals)
     assert checks["linear"].adequate and not checks["damping 7-8"].adequate and not checks["joint 2-7"].adequate
-    assert not any("no candidate is adequate" in w for w in adequacy_warnings(checks, "linear"))
+    assert not any("no candidate is adequate" in w for w in adequacy_findings(checks, "linear"))
     wrong = {name: checks[name] for name in ("joint 2-7", "damping 7-8")}
-    warned = adequacy_warnings(wrong, "joint 2-7")
+    warned = adequacy_findings(wrong, "joint 2-7")
     assert any("no candidate is adequate" in w for w in warned)

@@ -21,7 +21,7 @@ import pytest
 from .test_architecture import PACKAGE, ROOT, _in, _sources, _tree
 
 PUBLIC_MODULES = (
-    "bayesnsi", "bayesnsi.nsi", "bayesnsi.evidence", "bayesnsi.diagnose", "bayesnsi.models",
+    "bayesnsi", "bayesnsi.nsi", "bayesnsi.evidence", "bayesnsi.loop", "bayesnsi.models",
     "bayesnsi.simulate", "bayesnsi.io", "bayesnsi.run", "bayesnsi.plots", "bayesnsi.options",
     "bayesnsi.selection", "bayesnsi.tables",
 )

@@ -32,7 +32,7 @@ CORE_ALLOWED = {
     "nsi": ("models", "noise"),
     "simulate": ("models",),
     "evidence": ("nsi", "models", "noise"),
-    "diagnose": ("evidence", "nsi", "models", "noise"),
+    "loop": ("evidence", "nsi", "models", "noise"),
     "validation": ("nsi", "models", "noise"),  # adequacy checks of identified models, used by selection
 }
 # Third-party packages allowed in the numpy/scipy-only layers (the standard library always is).

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from bayesnsi import CandidateModel
-from bayesnsi.diagnose import close_the_loop, refine_gap, score_effects
 from bayesnsi.exceptions import ConfigError
+from bayesnsi.loop import close_the_loop, refine_gap, score_effects
 from bayesnsi.models import default_gaps, effect_dictionary
 from bayesnsi.models.dictionary import Effect, clearance_effect
 from bayesnsi.nsi import identify
@@ -251,7 +251,7 @@ def test_loop_is_identical_with_two_workers():
 @pytest.mark.parametrize("name", ["quadratic-damping", "coulomb-dof2", "clearance", "cubic-pair"])
 def test_screen_ranks_the_missing_effect_among_the_best_three(name):
     # truth: the effect left out of the declared candidate by the simulation
-    from bayesnsi.diagnose.screen import screen_effects
+    from bayesnsi.loop.screen import screen_effects
 
     case = undeclared_case(name, seed=0, noise_percent=2.0)
     with warnings.catch_warnings():
@@ -270,8 +270,8 @@ def test_screen_ranks_the_missing_effect_among_the_best_three(name):
 
 
 def test_screen_refuses_a_record_too_short_for_its_groups():
-    from bayesnsi.diagnose.screen import screen_effects
     from bayesnsi.exceptions import BayesNSIError
+    from bayesnsi.loop.screen import screen_effects
 
     case = undeclared_case("quadratic-damping", seed=0, noise_percent=2.0)
     short = case.signals.segment(0, 30)
@@ -321,7 +321,7 @@ def test_halves_too_short_for_the_block_rows_use_fewer_and_the_effect_can_be_add
     # 500 samples, is too short for them (k = 1 force + 1 term + 2 outputs: 2*60*5 - 1 = 599 > 500).
     # Before: both halves NaN, the effect rejected, so the loop could never add anything. Now the
     # halves use the most block rows 500 samples allow, (500 + 1) // (2 * 5) = 50, and say so.
-    from bayesnsi.diagnose.guards import TOO_SHORT
+    from bayesnsi.loop.guards import TOO_SHORT
 
     case = undeclared_case("quadratic-damping", seed=0, noise_percent=1.0)
     short = case.signals.segment(0, 1000)
@@ -338,7 +338,7 @@ def test_halves_too_short_for_the_block_rows_use_fewer_and_the_effect_can_be_add
 
 
 def test_halves_too_short_even_for_two_block_rows_are_reported_as_such():
-    from bayesnsi.diagnose.guards import half_block_rows, half_coefficients
+    from bayesnsi.loop.guards import half_block_rows, half_coefficients
 
     assert half_block_rows(500, 60, 4) == 50 and half_block_rows(5000, 60, 4) == 60
     case = undeclared_case("quadratic-damping", seed=0, noise_percent=1.0, duration=5.0)
@@ -348,7 +348,7 @@ def test_halves_too_short_even_for_two_block_rows_are_reported_as_such():
 
 
 def test_loop_options_choose_the_effect_types_of_the_dictionary():
-    from bayesnsi.diagnose import loop_effects
+    from bayesnsi.loop import loop_effects
 
     case = undeclared_case("clearance", seed=0, noise_percent=1.0, duration=5.0)
     # 2 DOFs and the pair 1-2: 7 types x 3 locations + 3 gaps x 2 DOFs + 2 tanh widths x 3 locations
@@ -397,7 +397,7 @@ def test_diagnose_command_writes_effects_and_their_scores(tmp_path):
 def test_posterior_intervals_are_moved_onto_the_nsi_estimates():
     from types import SimpleNamespace
 
-    from bayesnsi.diagnose.guards import about_estimates
+    from bayesnsi.loop.guards import about_estimates
 
     rng = np.random.default_rng(0)
     draws = rng.normal([2.0, -1.0], [0.01, 0.02], size=(8, 500, 2))  # (chain, draw, q): centred away from NSI

@@ -97,7 +97,7 @@ def test_the_answer_quotes_the_final_model_values_and_its_grid():
     # trial: the answer quoted the step's λ = 0.458 while the final model, re-identified on the 4x grid, held 0.367
     from types import SimpleNamespace
 
-    from bayesnsi.cli._loop_report import _final_values
+    from bayesnsi.report.loop import _final_values
 
     payload = {"final_coefficients": [{"term": "x4**3@4", "value": 5.07e6}, {"term": "sign(v7)@7", "value": 0.3961}]}
     refined = SimpleNamespace(settings={"final_nsi": {"upsample": 4}})

@@ -3,7 +3,7 @@
 Reference: the simulated quadratic-damping case (true coefficient in the config's [meta]); the
 loop from the declared (linear) model adds v|v| at DOF 1. The final coefficient's interval
 must include the linear part's uncertainty (wider than the posterior given the linear part),
-and results.json / the report must carry the values of :func:`bayesnsi.diagnose.final_intervals`.
+and results.json / the report must carry the values of :func:`bayesnsi.loop.final_intervals`.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ FAST = '[evidence]\nn_steps = 200\nn_burn = 50\nlikelihood = "white"\ncompare = 
 
 def _pair(ci):
     """The report's text of an interval, checked against the values it words (to 5 % of the width)."""
-    from bayesnsi.cli._report_intervals import format_interval
+    from bayesnsi.report.intervals import format_interval
 
     text = format_interval(ci)
     lo, hi = (float(v) for v in text.strip("[]").split(", "))
@@ -66,7 +66,7 @@ def test_final_interval_covers_the_true_coefficient(loop_run):
 def test_final_model_adequacy_is_reported_beside_the_starting_models(loop_run):
     # the declared linear model lacks v|v| (its residual is well above the noise it passes on); the final model
     # holds the truth: near 1, and the answer says both (the sentence the report's answer appends)
-    from bayesnsi.cli._loop_report import _adequacy_after
+    from bayesnsi.report.loop import _adequacy_after
 
     _, results, _ = loop_run
     after = results["final_model_check"]
@@ -80,8 +80,8 @@ def test_final_model_adequacy_is_reported_beside_the_starting_models(loop_run):
 
 def test_loop_report_table_shows_the_final_intervals(loop_run):
     """The loop section's table of final coefficients (report.html) words results.json's values."""
-    from bayesnsi.cli._report_intervals import final_coefficients_frame
-    from bayesnsi.io.report import Report
+    from bayesnsi.report.document import Report
+    from bayesnsi.report.intervals import final_coefficients_frame
 
     _, results, _ = loop_run
     report = Report("t")
@@ -97,7 +97,7 @@ def test_final_intervals_replicate_with_the_final_models_upsampled_settings(monk
     the settings the reported final coefficients were identified with, not the loop's data-rate ones."""
     from types import SimpleNamespace
 
-    from bayesnsi.diagnose import final as final_module
+    from bayesnsi.loop import final as final_module
     from bayesnsi.options import NSIOptions
 
     seen = {}
@@ -123,8 +123,8 @@ def test_loop_report_notes_a_final_model_with_a_sign_term():
     """The loop report tells when the final model's noise intervals carry a discontinuous term."""
     from types import SimpleNamespace
 
-    from bayesnsi.cli._loop_report import _discontinuity
     from bayesnsi.models.terms import Term
+    from bayesnsi.report.loop import _discontinuity
 
     coulomb = SimpleNamespace(final=SimpleNamespace(terms=(Term("v1*abs(v1)", 1), Term("sign(v2)", 2))))
     smooth = SimpleNamespace(final=SimpleNamespace(terms=(Term("v1*abs(v1)", 1),)))
@@ -137,15 +137,15 @@ def test_loop_report_notes_a_final_model_with_a_sign_term():
 def test_an_inadequate_final_model_gets_select_s_widened_intervals():
     """Trial with velocity sensors: ``select`` widened the model's intervals 43.7x for its model error, the
     loop's final intervals of the same model were not widened (44x narrower); ``bayesnsi diagnose`` now
-    widens them with :func:`bayesnsi.run.final_adequacy.widen_final`. Reference: the quadratic-damping
+    widens them with :func:`bayesnsi.uncertainty.widening.widen_final`. Reference: the quadratic-damping
     case, whose linear model misses v|v| (residual several times the noise) and whose loop adds it."""
     import warnings
     from types import SimpleNamespace
 
-    from bayesnsi.diagnose import close_the_loop, final_intervals
+    from bayesnsi.loop import close_the_loop, final_intervals
     from bayesnsi.options import EvidenceOptions, LoopOptions
-    from bayesnsi.run.final_adequacy import widen_final
     from bayesnsi.simulate import undeclared_case
+    from bayesnsi.uncertainty.widening import widen_final
 
     case = undeclared_case("quadratic-damping", seed=0)
     evidence = EvidenceOptions(n_steps=200, n_burn=50, likelihood="white", compare=())

@@ -191,7 +191,7 @@ def test_random_odd_record_reports_power_at_unexcited_lines():
 
 def test_the_loop_closes_on_the_frequency_route(record):
     """diagnose works unchanged: from the linear model it adds the cubic spring at DOF 1 and stops."""
-    from bayesnsi.diagnose import close_the_loop
+    from bayesnsi.loop import close_the_loop
     from bayesnsi.models import CandidateModel
     from bayesnsi.options import EvidenceOptions, LoopOptions
 

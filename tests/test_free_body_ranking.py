@@ -133,7 +133,7 @@ def test_free_body_is_scored_on_the_profiled_force_residual_whatever_the_residua
 def test_noise_intervals_accept_a_model_without_modes():
     """A free body has no oscillatory mode: the replicates' moments of zero parameters are empty, not an error
     (every EMPS candidate failed with 'cannot reshape array of size 0 into shape (0)')."""
-    from bayesnsi.evidence.perturbation import replicate_moments
+    from bayesnsi.uncertainty.replicates import replicate_moments
 
     sd, bias, count = replicate_moments(np.zeros(0), np.zeros((16, 0)))
     assert sd.shape == bias.shape == count.shape == (0,)

@@ -149,7 +149,7 @@ def test_full_disk_exits_74_in_one_line_and_leaves_no_partial_file(tmp_path, mon
 
 def test_results_json_is_written_last(tmp_path, monkeypatch, capsys):
     """A failure while writing the report leaves no results.json (needs the lead's reordering)."""
-    from bayesnsi.io.report import Report
+    from bayesnsi.report.document import Report
 
     config = _experiment(tmp_path)
     out = tmp_path / "out"

@@ -15,9 +15,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bayesnsi.evidence import candidate_intervals
-from bayesnsi.evidence import intervals as intervals_module
 from bayesnsi.options import EvidenceOptions
+from bayesnsi.uncertainty import candidate_intervals
+from bayesnsi.uncertainty import intervals as intervals_module
 
 NSI_VALUE, POSTERIOR_MEAN, POSTERIOR_SD = 21.0, 19.35, 0.2
 N, WINDOW = 10_000, 7_000

@@ -12,14 +12,15 @@ import warnings
 import numpy as np
 import pytest
 
-from bayesnsi.evidence import candidate_evidence, candidate_intervals, segment_estimates
-from bayesnsi.evidence.intervals import _scatter_sd
+from bayesnsi.evidence import candidate_evidence
 from bayesnsi.exceptions import IntervalWarning, SpuriousPoleWarning
 from bayesnsi.io._outcome import outcome_from_plain, outcome_to_plain
 from bayesnsi.nsi import identify
 from bayesnsi.options import EvidenceOptions
 from bayesnsi.run import run_candidates
 from bayesnsi.simulate import simulate_case, simulate_cases
+from bayesnsi.uncertainty import candidate_intervals, segment_estimates
+from bayesnsi.uncertainty.intervals import _scatter_sd
 
 FAST = EvidenceOptions(n_steps=200, n_burn=50, likelihood="white", compare=())
 SEG = FAST.replace(interval="segments")

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bayesnsi.diagnose.localise import location_distortion, screen_effects_periodic
 from bayesnsi.exceptions import BayesNSIError
+from bayesnsi.loop.localise import location_distortion, screen_effects_periodic
 from bayesnsi.models import CandidateModel, Term, effect_dictionary
 from bayesnsi.signals import Signals
 from bayesnsi.simulate import add_output_noise, chain_system, multisine, simulate_response

@@ -3,7 +3,7 @@
 Trial with new data (a beam swept 10-400 Hz, accelerometers): the loop rejected the true cubic spring as
 "unstable across record halves: 5.4e7 vs -1.2e10" - the second half of a sweep never drives the first
 mode, so the halves are two different experiments and their coefficients need not agree. The check
-is now skipped when the halves' forces excite different bands (:func:`bayesnsi.diagnose.guards.half_overlap`).
+is now skipped when the halves' forces excite different bands (:func:`bayesnsi.loop.guards.half_overlap`).
 Reference: the two-DOF chain with a cubic spring k3 = 5e5 at DOF 1 (the simulated truth), swept 1-30 Hz.
 """
 
@@ -14,8 +14,8 @@ import warnings
 import numpy as np
 import pytest
 
-from bayesnsi.diagnose import close_the_loop
-from bayesnsi.diagnose.guards import MIN_HALF_OVERLAP, half_overlap
+from bayesnsi.loop import close_the_loop
+from bayesnsi.loop.guards import MIN_HALF_OVERLAP, half_overlap
 from bayesnsi.models import CandidateModel, Term
 from bayesnsi.options import LoopOptions, NSIOptions
 from bayesnsi.signals import Signals

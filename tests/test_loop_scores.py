@@ -3,7 +3,7 @@
 
 Data: the two-DOF chain of :func:`bayesnsi.simulate.undeclared_case` with quadratic damping at DOF 1
 missing from the declared (linear) model. Reference for the screen ranks: an independent call of
-:func:`bayesnsi.diagnose.screen.screen_effects` on the same data, band and dictionary.
+:func:`bayesnsi.loop.screen.screen_effects` on the same data, band and dictionary.
 """
 
 from __future__ import annotations
@@ -15,10 +15,10 @@ import pytest
 
 from bayesnsi import LoopOptions
 from bayesnsi.cli import main
-from bayesnsi.diagnose import close_the_loop, loop_effects
-from bayesnsi.diagnose.screen import screen_effects
-from bayesnsi.diagnose.search import SCREEN_BAND
 from bayesnsi.exceptions import ConfigError
+from bayesnsi.loop import close_the_loop, loop_effects
+from bayesnsi.loop.screen import screen_effects
+from bayesnsi.loop.search import SCREEN_BAND
 from bayesnsi.simulate import undeclared_case
 
 TRUE_TERM = "v1*abs(v1)@1"

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from bayesnsi._measured import to_measured
+from bayesnsi.checks.validation import VALIDATION_INIT_SAMPLES, measured_errors, validate
 from bayesnsi.exceptions import AdequacyWarning
 from bayesnsi.models import Term
 from bayesnsi.nsi import identify
 from bayesnsi.signals import Signals
 from bayesnsi.simulate import add_output_noise, chain_system, multisine, simulate_response
-from bayesnsi.validation import VALIDATION_INIT_SAMPLES, measured_errors, validate
 
 FS, P, K3, TRANSIENT = 100.0, 1000, 1e5, 4
 MCK = chain_system([1.0, 1.5], [800.0, 1000.0], [2.0, 2.0])  # issue 17 two-DOF chain
@@ -164,8 +164,8 @@ def result_options(result):
 
 def test_loop_step_errors_are_in_the_measured_quantity(accel_case):
     """A loop step's open- and closed-loop NRMSE on acceleration data: in accelerations, labelled so."""
-    from bayesnsi.diagnose.guards import _closed_loop_nrmse
-    from bayesnsi.diagnose.state import measured_nrmse
+    from bayesnsi.loop.guards import _closed_loop_nrmse
+    from bayesnsi.loop.state import measured_nrmse
 
     signals, _, result, _ = accel_case
     rec = result.reconstruct(signals)

@@ -17,14 +17,14 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bayesnsi.evidence import candidate_intervals
-from bayesnsi.evidence import intervals as intervals_module
-from bayesnsi.evidence.intervals import _bias_corrected
-from bayesnsi.evidence.perturbation import replicate_moments
 from bayesnsi.exceptions import IntervalWarning, SpuriousPoleWarning
 from bayesnsi.nsi import identify
 from bayesnsi.options import EvidenceOptions
 from bayesnsi.simulate import simulate_cases
+from bayesnsi.uncertainty import candidate_intervals
+from bayesnsi.uncertainty import intervals as intervals_module
+from bayesnsi.uncertainty.intervals import _bias_corrected
+from bayesnsi.uncertainty.replicates import replicate_moments
 
 SLOPE, N_POINTS, SIGMA_X, SIGMA_Y, N_REPLICATES = 1.0, 200, 0.3, 0.3, 16
 

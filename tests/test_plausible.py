@@ -50,7 +50,7 @@ def test_the_most_probable_sound_candidate_is_named_beside_the_selected_one():
 
 
 def test_the_answer_says_the_selected_model_fails_and_names_the_plausible_one():
-    from bayesnsi.cli._report_choices import plausible_text
+    from bayesnsi.report.choices import plausible_text
 
     failing = _check(quality_ok=False, energy_input=(("sign(v3)@3", -8.9e-5),))
     selection = _selection({"Coulomb": failing, "cubic": _check(quality_ok=False), "linear": _check()})
@@ -65,7 +65,7 @@ def test_the_answer_says_the_selected_model_fails_and_names_the_plausible_one():
 def test_an_inadequate_plausible_model_is_named_as_such():
     # trial (10-DOF chain, 1e6 samples): the true model failed the quality index (before the robust band mean)
     # and "linear", 76.6x the noise it passes on, was named as the plausible model without a word on its fit
-    from bayesnsi.cli._report_choices import inadequacy_note, plausible_text
+    from bayesnsi.report.choices import inadequacy_note, plausible_text
 
     linear = SimpleNamespace(quality_ok=True, energy_input=(), unsupported=(), adequate=False, noise_ratio=76.6)
     selection = _selection({"Coulomb": _check(quality_ok=False), "linear": linear})

@@ -89,7 +89,7 @@ def test_free_body_evidence_scores_the_force_and_prefers_friction(carriage):
 
 
 def test_force_screen_ranks_coulomb_first_on_a_free_body(carriage):
-    from bayesnsi.diagnose.screen_force import screen_effects_force
+    from bayesnsi.loop.screen_force import screen_effects_force
     from bayesnsi.models import CandidateModel, default_gaps, effect_dictionary
 
     effects = effect_dictionary([1], gaps={(1,): default_gaps(float(carriage.displacement.std()))})
@@ -101,7 +101,7 @@ def test_force_screen_ranks_coulomb_first_on_a_free_body(carriage):
 
 
 def test_loop_on_a_free_body_adds_coulomb_and_nothing_else(carriage):
-    from bayesnsi.diagnose import close_the_loop
+    from bayesnsi.loop import close_the_loop
     from bayesnsi.models import CandidateModel
     from bayesnsi.options import LoopOptions
 
@@ -120,8 +120,8 @@ def test_loop_on_a_free_body_adds_coulomb_and_nothing_else(carriage):
 
 
 def test_loop_whose_scores_all_fail_stops_with_the_reason(carriage, monkeypatch):
-    from bayesnsi.diagnose import close_the_loop, scoring
     from bayesnsi.exceptions import InputDataError, LoopError
+    from bayesnsi.loop import close_the_loop, scoring
     from bayesnsi.models import CandidateModel
     from bayesnsi.options import LoopOptions
 
@@ -142,8 +142,8 @@ def test_loop_whose_scores_all_fail_stops_with_the_reason(carriage, monkeypatch)
 
 
 def test_loop_with_a_start_evidence_that_is_not_finite_says_so(carriage, monkeypatch):
-    from bayesnsi.diagnose import close_the_loop, search
     from bayesnsi.exceptions import LoopError
+    from bayesnsi.loop import close_the_loop, search
     from bayesnsi.models import CandidateModel
 
     monkeypatch.setattr(search, "laplace_score", lambda *args: (float("nan"), float("nan")))
@@ -169,7 +169,7 @@ def test_asymmetric_friction_types_act_in_one_direction_and_are_not_default():
 
 
 def test_validation_of_a_free_body_is_its_force_prediction(carriage):
-    from bayesnsi.validation import validate
+    from bayesnsi.checks.validation import validate
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

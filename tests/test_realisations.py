@@ -11,8 +11,6 @@ import warnings
 import numpy as np
 import pytest
 
-from bayesnsi.evidence.intervals import segment_estimates
-from bayesnsi.evidence.perturbation import noise_replicates
 from bayesnsi.exceptions import BayesNSIError, ConfigError, InputDataError, PeriodicityWarning
 from bayesnsi.models import Term
 from bayesnsi.noise import period_scatter_std
@@ -21,6 +19,8 @@ from bayesnsi.nsi.steady import period_problems
 from bayesnsi.options import NSIOptions
 from bayesnsi.signals import Signals, join_realisations
 from bayesnsi.simulate import chain_system, multisine, multisine_lines, simulate_response
+from bayesnsi.uncertainty.intervals import segment_estimates
+from bayesnsi.uncertainty.replicates import noise_replicates
 
 FS, P, KEEP, TRANSIENT, R = 100.0, 500, 3, 3, 4
 BAND = (1.0, 20.0)

@@ -15,7 +15,6 @@ import matplotlib.pyplot as plt
 from bayesnsi import NSIOptions, identify, simulate_case
 from bayesnsi.evidence import ranking_table
 from bayesnsi.evidence.decision import decision_table
-from bayesnsi.io.report import FIGURE_DPI, figure_png
 from bayesnsi.io.units import ChannelUnits, data_units, term_unit
 from bayesnsi.nsi import stabilization
 from bayesnsi.plots import (
@@ -31,6 +30,7 @@ from bayesnsi.plots import (
     plot_stabilization,
     plot_traces,
 )
+from bayesnsi.report.document import FIGURE_DPI, figure_png
 
 from .test_plots import _posterior, _Step
 
@@ -137,7 +137,7 @@ def test_restoring_force_axes_carry_units(case):
 
 
 def test_restoring_force_view_of_a_loop_step_carries_units():
-    from bayesnsi.diagnose.forces import ResidualForce
+    from bayesnsi.loop.forces import ResidualForce
 
     rng = np.random.default_rng(0)
     x, v = rng.normal(size=(2, 300))
@@ -262,8 +262,8 @@ def test_overlays_show_the_channels_where_the_terms_act():
     # trial of a 12-DOF chain (outputs at DOFs 1, 3, 4, 6, 8, 9, 11, 12): the overlays showed x1 and x3, not x9
     from types import SimpleNamespace
 
-    from bayesnsi.cli._report_choices import overlay_channels
     from bayesnsi.models import Term
+    from bayesnsi.report.choices import overlay_channels
 
     signals = SimpleNamespace(output_dofs=(1, 3, 4, 6, 8, 9, 11, 12))
     clearance, pair = Term("x9**3", 9), Term("(x3-x4)**3", [3, 4])
@@ -287,8 +287,8 @@ def test_the_loop_overlay_shows_where_the_added_effect_acts():
     # the overlay took the second output when the effect sat at the first (review of the overlay change)
     from types import SimpleNamespace
 
-    from bayesnsi.cli._loop_report import added_channel
     from bayesnsi.models import Term
+    from bayesnsi.report.loop import added_channel
 
     signals = SimpleNamespace(output_dofs=(1, 3, 9))
     assert added_channel(signals, [SimpleNamespace(term=Term("x1**3", 1))]) == 0

@@ -7,7 +7,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-from bayesnsi.cli._report import held_figures
+from bayesnsi.report import held_figures
 
 
 def test_many_open_report_figures_raise_no_warning_and_the_setting_is_restored():

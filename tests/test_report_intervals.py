@@ -1,5 +1,5 @@
 """The report shows the honest intervals (issue 15): coefficients and modes with the intervals of
-:func:`bayesnsi.evidence.candidate_intervals`, the posterior-only interval beside them, labelled.
+:func:`bayesnsi.uncertainty.candidate_intervals`, the posterior-only interval beside them, labelled.
 
 Reference values: the outcome's own ``intervals`` and its evidence's ``ci95`` (the report only
 words them), formatted as the report does (4 significant digits).
@@ -8,9 +8,9 @@ words them), formatted as the report does (4 significant digits).
 import numpy as np
 import pytest
 
-from bayesnsi.cli._report_intervals import coefficient_intervals_frame, interval_sections, mode_intervals_frame
-from bayesnsi.io.report import Report
 from bayesnsi.options import EvidenceOptions
+from bayesnsi.report.document import Report
+from bayesnsi.report.intervals import coefficient_intervals_frame, interval_sections, mode_intervals_frame
 from bayesnsi.run import run_candidates
 from bayesnsi.simulate import simulate_case
 
@@ -27,7 +27,7 @@ def outcome():
 
 def _pair(ci):
     """The report's text of an interval, checked against the values it words (to 5 % of the width)."""
-    from bayesnsi.cli._report_intervals import format_interval
+    from bayesnsi.report.intervals import format_interval
 
     text = format_interval(ci)
     lo, hi = (float(v) for v in text.strip("[]").split(", "))
@@ -90,8 +90,8 @@ def test_report_says_when_a_term_is_discontinuous(outcome):
     """A candidate with sign() gets the note on its bias estimate; the smooth two-DOF candidate does not."""
     from types import SimpleNamespace
 
-    from bayesnsi.cli._report_intervals import interval_text
     from bayesnsi.models.terms import Term
+    from bayesnsi.report.intervals import interval_text
 
     coulomb = SimpleNamespace(name="coulomb", intervals=outcome.intervals,
                               result=SimpleNamespace(terms=(Term("v1*abs(v1)", 1), Term("sign(v2)", 2))))

@@ -9,9 +9,9 @@ import pytest
 matplotlib.use("Agg")
 
 from bayesnsi.cli import main
-from bayesnsi.cli._report_periodic import HEADING, periodic_section
-from bayesnsi.io.report import Report
 from bayesnsi.models import Term
+from bayesnsi.report.document import Report
+from bayesnsi.report.periodic import HEADING, periodic_section
 from bayesnsi.signals import Signals
 from bayesnsi.simulate import add_output_noise, chain_system, multisine, simulate_response
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from bayesnsi import NSIOptions, Signals, identify
 from bayesnsi.models import CandidateModel, Term
-from bayesnsi.nsi.physics import OUTLIER_SCALES, band_coefficients, consistent_lines, excluded_lines_messages
+from bayesnsi.nsi.physics import OUTLIER_SCALES, band_coefficients, consistent_lines, excluded_lines_findings
 from bayesnsi.simulate import band_limited_gaussian, chain_system, simulate_response
 
 TERM = Term("x4**3", 4)
@@ -72,9 +72,11 @@ def test_cubic_spring_of_a_ten_dof_chain_with_the_default_band():
     assert result.modes[-1].frequency_hz > 50.0 and k3.band_hz[1] == result.modes[-1].frequency_hz
     assert 0.0 < k3.excluded_fraction < 0.3  # the run-away lines at the top of the band
     assert abs(k3.value / 5e6 - 1) < 0.10 and k3.imag_ratio < 0.3  # the plain mean read 1.4e6, |Im|/|Re| 3.1
-    messages = excluded_lines_messages([type("Outcome", (), {"name": "true", "result": result})()], "true")
-    assert len(messages) == 1 and "x4**3@4" in messages[0] and f"{OUTLIER_SCALES:g} robust sds" in messages[0]
-    assert excluded_lines_messages([type("Outcome", (), {"name": "true", "result": result})()], "other") == ()
+    messages = excluded_lines_findings([type("Outcome", (), {"name": "true", "result": result})()], "true")
+    assert len(messages) == 1 and messages[0].kind == "band.excluded_lines" and messages[0].subject == "true"
+    assert "x4**3@4" in messages[0].message and f"{OUTLIER_SCALES:g} robust sds" in messages[0].message
+    assert messages[0].values["excluded_fraction"] == k3.excluded_fraction
+    assert excluded_lines_findings([type("Outcome", (), {"name": "true", "result": result})()], "other") == ()
 
 
 def test_a_few_stray_lines_are_left_out_without_a_message():
@@ -85,5 +87,5 @@ def test_a_few_stray_lines_are_left_out_without_a_message():
     (c,) = band_coefficients(np.full((512, 1), 5e6 + 0j), [TERM], (1.0, 55.0))
     few = SimpleNamespace(name="m", result=SimpleNamespace(coefficients=(replace(c, excluded_fraction=0.01),)))
     many = SimpleNamespace(name="m", result=SimpleNamespace(coefficients=(replace(c, excluded_fraction=0.05),)))
-    assert excluded_lines_messages([few], "m") == ()
-    assert "runs away on 5.0 % of the averaging band 1-55 Hz" in excluded_lines_messages([many], "m")[0]
+    assert excluded_lines_findings([few], "m") == ()
+    assert "runs away on 5.0 % of the averaging band 1-55 Hz" in excluded_lines_findings([many], "m")[0].message

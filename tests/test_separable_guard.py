@@ -13,12 +13,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bayesnsi.diagnose.separable import shared_fraction
-from bayesnsi.evidence.intervals import Intervals, ParameterInterval
+from bayesnsi.checks.adequacy import ModelCheck, adequacy_findings, unsupported_terms
 from bayesnsi.exceptions import SpuriousPoleWarning
+from bayesnsi.loop.separable import shared_fraction
 from bayesnsi.models import Term
-from bayesnsi.run.adequacy import ModelCheck, _unsupported, adequacy_warnings
 from bayesnsi.simulate.undeclared import undeclared_case
+from bayesnsi.uncertainty.intervals import Intervals, ParameterInterval
 
 ROOT = Path(__file__).resolve().parents[1]
 EMPS = ROOT.parent / "shared" / "data" / "emps" / "DATA_EMPS.mat"
@@ -77,22 +77,22 @@ def test_select_warns_about_a_term_whose_interval_includes_zero():
 
     intervals = Intervals(method="segments", coefficients=(interval("sign(v1)@1", 18.4, 20.3),
                                                           interval("v1**3@1", -2.0, 5.0)))
-    assert _unsupported(intervals) == (("v1**3@1", -2.0, 5.0),)
-    assert _unsupported(None) == ()
+    assert unsupported_terms(intervals) == (("v1**3@1", -2.0, 5.0),)
+    assert unsupported_terms(None) == ()
     check = ModelCheck(name="a", order=2, residual_rms=(1.0,), noise_std=(1.0,), noise_ratio=1.0, adequate=True,
-                       quality_index=0.01, quality_ok=True, unsupported=_unsupported(intervals))
-    messages = adequacy_warnings({"a": check}, "a")
+                       quality_index=0.01, quality_ok=True, unsupported=unsupported_terms(intervals))
+    messages = adequacy_findings({"a": check}, "a")
     assert messages == ("term v1**3@1 is not supported by the data: its 95 % interval [-2, 5] includes 0",)
-    assert adequacy_warnings({"a": check, "b": check}, "b") != ()  # the selected model's terms only
-    assert adequacy_warnings({"a": check, "b": ModelCheck(**{**check.__dict__, "unsupported": ()})}, "b") == ()
+    assert adequacy_findings({"a": check, "b": check}, "b") != ()  # the selected model's terms only
+    assert adequacy_findings({"a": check, "b": ModelCheck(**{**check.__dict__, "unsupported": ()})}, "b") == ()
 
 
 @pytest.mark.skipif(not EMPS.exists(), reason="EMPS data not available")
 def test_the_loop_rejects_v_abs_v_after_coulomb_friction_on_emps_as_not_separable():
-    from bayesnsi.diagnose.guards import check_effect
-    from bayesnsi.diagnose.results import EffectScore
-    from bayesnsi.diagnose.state import Baseline, LoopContext
     from bayesnsi.io import load_config, load_signals
+    from bayesnsi.loop.guards import check_effect
+    from bayesnsi.loop.results import EffectScore
+    from bayesnsi.loop.state import Baseline, LoopContext
     from bayesnsi.models.dictionary import Effect
     from bayesnsi.nsi import identify
 

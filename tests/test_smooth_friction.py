@@ -3,9 +3,10 @@
 import numpy as np
 import pytest
 
-from bayesnsi.diagnose import loop_effects
-from bayesnsi.diagnose.guards import NEGATIVE_DISSIPATION, dissipative_shape, injects_energy
+from bayesnsi.checks.dissipation import dissipative_shape, injects_energy
 from bayesnsi.exceptions import ConfigError
+from bayesnsi.loop import loop_effects
+from bayesnsi.loop.guards import NEGATIVE_DISSIPATION
 from bayesnsi.models import (
     SMOOTH_FRICTION,
     Effect,
@@ -65,7 +66,7 @@ def test_dissipative_shape_is_odd_pure_velocity_with_nonnegative_power(expr, at,
 
 def test_negative_quadratic_damping_is_never_accepted():
     """On the quadratic-damping case (true λ = +20) the added v1|v1| has λ > 0; no λ < 0 passes."""
-    from bayesnsi.diagnose import close_the_loop
+    from bayesnsi.loop import close_the_loop
     from bayesnsi.options import LoopOptions
 
     case = undeclared_case("quadratic-damping", seed=0)
@@ -79,7 +80,7 @@ def test_an_effect_rejected_for_negative_dissipation_does_not_use_up_a_try(monke
     """With n_tries = 1, the best effect relabelled as feeding energy in: the next one is still checked."""
     from dataclasses import replace
 
-    from bayesnsi.diagnose import close_the_loop, guards, search
+    from bayesnsi.loop import close_the_loop, guards, search
     from bayesnsi.options import LoopOptions
 
     calls = []

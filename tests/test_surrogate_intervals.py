@@ -17,12 +17,12 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bayesnsi.evidence import surrogate
-from bayesnsi.evidence.surrogate import model_replicates, surrogate_forces, surrogate_problem
 from bayesnsi.noise import NoiseDraw
 from bayesnsi.nsi import identify
 from bayesnsi.nsi.closed_loop import closed_loop_response
 from bayesnsi.options import EvidenceOptions, NSIOptions
+from bayesnsi.uncertainty import surrogate
+from bayesnsi.uncertainty.surrogate import model_replicates, surrogate_forces, surrogate_problem
 
 TERMS = [("v1*abs(v1)", 1), ("sign(v2)", 2)]
 
@@ -140,7 +140,8 @@ def test_coulomb_friction_is_a_sign_of_velocities_alone():
 
 
 def test_auto_uses_model_replicates_for_coulomb_friction_only(coulomb):
-    from bayesnsi.evidence import candidate_evidence, candidate_intervals
+    from bayesnsi.evidence import candidate_evidence
+    from bayesnsi.uncertainty import candidate_intervals
 
     signals, result = coulomb
     options = EvidenceOptions(n_steps=100, n_burn=20, likelihood="white", compare=(), n_replicates=3)
@@ -160,8 +161,8 @@ def test_auto_uses_model_replicates_for_coulomb_friction_only(coulomb):
 
 
 def test_the_loop_report_says_how_a_velocity_switch_s_final_intervals_were_drawn():
-    from bayesnsi.cli._loop_report import _discontinuity
     from bayesnsi.models.terms import Term
+    from bayesnsi.report.loop import _discontinuity
 
     coulomb = SimpleNamespace(final=SimpleNamespace(terms=(Term("v1*abs(v1)", 1), Term("sign(v2)", 2))))
     text = _discontinuity({"final_intervals": {"method": "surrogate", "n_segments": 16}}, coulomb)
@@ -169,8 +170,8 @@ def test_the_loop_report_says_how_a_velocity_switch_s_final_intervals_were_drawn
 
 
 def test_the_select_report_names_the_candidates_with_model_replicates():
-    from bayesnsi.cli._report_intervals import interval_text
-    from bayesnsi.evidence.intervals import Intervals
+    from bayesnsi.report.intervals import interval_text
+    from bayesnsi.uncertainty.intervals import Intervals
 
     def outcome(name, method):
         return SimpleNamespace(name=name, result=None, intervals=Intervals(method=method, coefficients=(),
@@ -183,8 +184,9 @@ def test_the_select_report_names_the_candidates_with_model_replicates():
 
 
 def test_a_model_that_diverges_on_the_surrogates_falls_back_to_noise_replicates(coulomb, monkeypatch):
-    from bayesnsi.evidence import candidate_evidence, candidate_intervals
+    from bayesnsi.evidence import candidate_evidence
     from bayesnsi.exceptions import UnstableModelError
+    from bayesnsi.uncertainty import candidate_intervals
 
     def diverges(result, signals, forces):
         raise UnstableModelError("closed-loop simulation diverged by sample 63")

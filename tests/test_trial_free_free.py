@@ -226,17 +226,17 @@ def test_carriage_with_a_wrong_velocity_term_is_identified_as_a_free_body():
 
 def test_selection_says_when_a_derived_velocity_is_mostly_noise():
     """0.1 mm position noise at 500 Hz: v2's difference noise is 0.34 of its std (sign(v2) read on noise)."""
+    from bayesnsi.checks.velocity_noise import velocity_noise_findings
     from bayesnsi.models import CandidateModel
-    from bayesnsi.run.velocity_noise import velocity_noise_messages
 
     coulomb = CandidateModel.from_terms("Coulomb at 2", [("sign(v2)", 2)])
     noisy = _two_mass_record(duration=10.0, noise=1e-4)
-    (message,) = velocity_noise_messages(noisy, [coulomb])
+    (message,) = velocity_noise_findings(noisy, [coulomb])
     assert "v2" in message and "sign(v2)" in message and "measure the velocity" in message
-    assert velocity_noise_messages(_two_mass_record(duration=10.0, noise=1e-6), [coulomb]) == []
+    assert velocity_noise_findings(_two_mass_record(duration=10.0, noise=1e-6), [coulomb]) == []
     measured = Signals(force=noisy.force, displacement=noisy.displacement, velocity=noisy.velocities(), fs=FS,
                        input_dofs=(1,), output_dofs=(1, 2))
-    assert velocity_noise_messages(measured, [coulomb]) == []
+    assert velocity_noise_findings(measured, [coulomb]) == []
 
 
 def _carriage_candidates():
@@ -265,7 +265,7 @@ def test_select_scores_every_candidate_of_a_free_body_on_the_force():
 def test_loop_from_a_grounded_looking_start_switches_to_the_free_body_view():
     """From linear (no rigid-body pole) sign(v1) identifies as a free body: the loop compared its
     force log Z with the start's displacement log Z (log BF -2.6e5) and added nothing (seed 2)."""
-    from bayesnsi.diagnose import close_the_loop
+    from bayesnsi.loop import close_the_loop
     from bayesnsi.options import LoopOptions
 
     carriage = _carriage_record()
@@ -281,8 +281,8 @@ def test_loop_summary_names_a_free_bodys_validation_error_as_force_prediction():
     """A free body is validated by the force it predicts, not by a closed-loop simulation."""
     from types import SimpleNamespace
 
-    from bayesnsi.cli._loop_report import loop_summary
     from bayesnsi.models import Term
+    from bayesnsi.report.loop import loop_summary
 
     payload = {
         "validation_before": [{"name": "second record", "nrmse": 0.411, "quantity": "force"}],
@@ -298,7 +298,7 @@ def test_loop_summary_names_a_free_bodys_validation_error_as_force_prediction():
 def test_residual_force_of_a_free_body_has_the_size_of_the_effect():
     """The restoring-force view mapped the residual through the free FRF, whose rigid-body 1/ω²
     set the Tikhonov load: the 1.5 N friction showed as 0.0014 N (std) in the report."""
-    from bayesnsi.diagnose.forces import residual_force
+    from bayesnsi.loop.forces import residual_force
 
     rig = _two_mass_record()
     with warnings.catch_warnings():
@@ -340,8 +340,8 @@ def test_rigid_body_pole_of_a_carriage_is_reported_on_a_long_record():
 def test_loop_step_of_a_free_body_with_several_dofs_has_short_horizon_errors():
     """Open-loop simulation of the free-free rig drifts; the step documents 1 s windows instead
     (they were computed for one-DOF free bodies only: NaN here)."""
-    from bayesnsi.diagnose.guards import documented
-    from bayesnsi.diagnose.results import LoopStep
+    from bayesnsi.loop.guards import documented
+    from bayesnsi.loop.results import LoopStep
     from bayesnsi.models import effect_dictionary
 
     rig = _two_mass_record(duration=20.0)

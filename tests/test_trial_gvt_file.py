@@ -14,13 +14,13 @@ import sys
 
 import numpy as np
 
-from bayesnsi.evidence.perturbation import noise_replicates
 from bayesnsi.models import Term
 from bayesnsi.noise import white_noise_std
 from bayesnsi.nsi import identify, periodic_integration
 from bayesnsi.options import NSIOptions
 from bayesnsi.signals import Signals
 from bayesnsi.simulate import chain_system, multisine, simulate_response
+from bayesnsi.uncertainty.replicates import noise_replicates
 
 FS, P, N_PERIODS, TRANSIENT = 100.0, 1000, 8, 4
 BAND = (1.0, 20.0)
@@ -172,8 +172,8 @@ def _loop_payload(n_tries: int = 3) -> dict:
 def test_nothing_added_names_the_unexamined_effect_that_passes():
     from types import SimpleNamespace
 
-    from bayesnsi.cli._loop_report import loop_summary
     from bayesnsi.cli._loop_unexamined import unexamined_note
+    from bayesnsi.report.loop import loop_summary
 
     note = unexamined_note(_loop_payload())
     assert "(x7-x8)**3@7-8 (log Bayes factor 3.6e+04, |Im|/|Re| 0.2)" in note

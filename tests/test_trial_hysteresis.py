@@ -13,8 +13,8 @@ import numpy as np
 
 matplotlib.use("Agg")
 
-from bayesnsi.cli._report_periodic import HEADING, periodic_section
-from bayesnsi.io.report import Report
+from bayesnsi.report.document import Report
+from bayesnsi.report.periodic import HEADING, periodic_section
 from bayesnsi.signals import Signals
 
 FS, P = 200.0, 512
@@ -55,7 +55,7 @@ def test_distortion_level_of_a_full_multisine_is_stated_as_not_measurable_not_na
 
 
 def test_distortion_level_names_the_kind_of_unexcited_lines_it_measured():
-    from bayesnsi.cli._report_periodic import distortion_text
+    from bayesnsi.report.periodic import distortion_text
 
     text = distortion_text({"odd": np.array([np.nan]), "even": np.array([1.04])}, 4, 1, 100)
     assert "nan" not in text.lower() and "1.04 times its noise level at the unexcited even lines" in text
@@ -86,7 +86,7 @@ def test_selected_model_feeding_energy_in_is_warned():
     # The trial's selected 'cubic + Coulomb' held sign(v1)@1 = -5.83 N (time route) and the frequency
     # route's Coulomb -14.4 N: a friction with a negative coefficient does positive work on every
     # motion, which the loop refuses ("negative dissipation") but select reported silently.
-    from bayesnsi.run.adequacy import adequacy_warnings, model_checks
+    from bayesnsi.checks.adequacy import adequacy_findings, model_checks
 
     outcomes = [
         _fake_outcome("cubic + Coulomb", [("x1**3", 7.6e9), ("sign(v1)", -5.83)], 6.5),
@@ -97,25 +97,25 @@ def test_selected_model_feeding_energy_in_is_warned():
     assert checks["cubic + Coulomb"].energy_input == (("sign(v1)@1", -5.83),)
     assert checks["quadratic damping"].energy_input == () and checks["stiffening only"].energy_input == ()
     assert checks["cubic + Coulomb"].to_dict()["negative_dissipation"] == [{"term": "sign(v1)@1", "coefficient": -5.83}]
-    warned = adequacy_warnings(checks, "cubic + Coulomb")
+    warned = adequacy_findings(checks, "cubic + Coulomb")
     assert any("sign(v1)@1 = -5.83" in w and "negative dissipation" in w for w in warned)
-    assert not any("negative dissipation" in w for w in adequacy_warnings(checks, "quadratic damping"))
+    assert not any("negative dissipation" in w for w in adequacy_findings(checks, "quadratic damping"))
 
 
 def test_intervals_of_an_inadequate_selected_model_are_qualified():
     # The trial's time and frequency routes gave x1**3 = 7.37e9 [7.35e9, 7.47e9] and 4.43e9 [4.02e9, 4.80e9]
     # on the same record: intervals that hold the sensor noise only cannot hold a model-form error of 40 %.
-    from bayesnsi.run.adequacy import adequacy_warnings, model_checks
+    from bayesnsi.checks.adequacy import adequacy_findings, model_checks
 
     record = _periodic_noise_record()
     none_fit = model_checks([_fake_outcome("a", [("x1**3", 1.0)], 6.0), _fake_outcome("b", [], 8.0)], record)
-    nothing = [w for w in adequacy_warnings(none_fit, "a") if "no candidate is adequate" in w]
+    nothing = [w for w in adequacy_findings(none_fit, "a") if "no candidate is adequate" in w]
     assert len(nothing) == 1 and "intervals carry the sensor noise only" in nothing[0]  # none to widen here
     one_fits = model_checks([_fake_outcome("a", [("x1**3", 1.0)], 6.0), _fake_outcome("b", [], 1.0)], record)
     assert one_fits["b"].adequate and not one_fits["a"].adequate
-    said = adequacy_warnings(one_fits, "a")
+    said = adequacy_findings(one_fits, "a")
     assert any("'a' is not adequate" in w and "sensor noise only" in w for w in said), said
-    assert adequacy_warnings(one_fits, "b") == ()
+    assert adequacy_findings(one_fits, "b") == ()
 
 
 def test_diagnose_answer_says_why_nothing_was_added_and_that_the_model_left_is_inadequate():
@@ -123,7 +123,7 @@ def test_diagnose_answer_says_why_nothing_was_added_and_that_the_model_left_is_i
     # and the answer said only "nothing added", while the linear model's residual was 8.50x the noise.
     from types import SimpleNamespace
 
-    from bayesnsi.cli._loop_report import nothing_added_note
+    from bayesnsi.report.loop import nothing_added_note
 
     steps = [SimpleNamespace(reason=f"quality index |Im|/|Re| = {r:.2f} >= 0.3", imag_ratio=r) for r in (0.99, 23.24)]
     payload = {"candidates": [{"name": "linear", "model_check": {"adequate": False, "noise_ratio": 8.4994}},
@@ -164,8 +164,8 @@ def test_diagnose_prints_what_it_added_and_the_validation_error_before_and_after
     # Before, `bayesnsi diagnose` printed each rejection and the files it wrote, never the outcome.
     from types import SimpleNamespace
 
-    from bayesnsi.cli._loop_report import loop_summary
     from bayesnsi.models import Term
+    from bayesnsi.report.loop import loop_summary
 
     payload = {
         "validation_before": [{"name": "second realisation", "nrmse": 0.25712}],
@@ -225,13 +225,13 @@ def test_report_answer_qualifies_the_probability_when_no_candidate_is_adequate(t
 def test_a_selected_model_whose_validation_failed_is_not_said_to_be_inf_percent_worse():
     # Trial, frequency route with residual = "reconstruction": the selected 'cubic + Coulomb' had no periodic
     # steady state on the validation record and the warning read "closed-loop NRMSE inf against 0.184 (+inf %)".
-    from bayesnsi.run.adequacy import ModelCheck, adequacy_warnings
+    from bayesnsi.checks.adequacy import ModelCheck, adequacy_findings
 
     def check(name, nrmse):
         return ModelCheck(name=name, order=2, residual_rms=(6.0,), noise_std=(1.0,), noise_ratio=6.0, adequate=False,
                           quality_index=0.1, quality_ok=True, validation_nrmse=nrmse)
 
-    said = adequacy_warnings({"cubic + Coulomb": check("cubic + Coulomb", float("inf")),
+    said = adequacy_findings({"cubic + Coulomb": check("cubic + Coulomb", float("inf")),
                               "cubic": check("cubic", 0.1836)}, "cubic + Coulomb")
     failed = [w for w in said if "could not be validated" in w]
     assert len(failed) == 1 and "closed-loop simulation failed" in failed[0]
@@ -244,8 +244,8 @@ def test_a_look_ahead_row_of_the_loop_table_names_the_rejected_term_it_was_tried
     # (clearance, x|x|) with NRMSE before 0.215 - the x1**3 model's - without saying they were tried with it.
     from types import SimpleNamespace
 
-    from bayesnsi.cli._loop_report import tried_with
     from bayesnsi.models import Term
+    from bayesnsi.report.loop import tried_with
 
     cubic, xabs = Term("x1**3", 1), Term("x1*abs(x1)", 1)
     first = SimpleNamespace(accepted=False, term=cubic, candidate=SimpleNamespace(terms=(cubic,)))

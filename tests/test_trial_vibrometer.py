@@ -13,12 +13,12 @@ import re
 import numpy as np
 import pytest
 
+from bayesnsi.checks.validation import LEVEL_MISMATCH, level_findings
 from bayesnsi.exceptions import NotIdentifiableError
 from bayesnsi.models import Term
 from bayesnsi.nsi.physics import identification_routes
 from bayesnsi.nsi.steady import period_problems
 from bayesnsi.signals import Signals
-from bayesnsi.validation import LEVEL_MISMATCH, level_messages
 
 
 def test_no_driving_point_asks_for_one():
@@ -45,12 +45,12 @@ def _record(scale_response: float = 1.0, scale_force: float = 1.0, seed: int = 0
 
 def test_validation_in_other_units_is_named():
     estimation = _record()
-    assert level_messages(estimation, [("same level", _record(seed=1))]) == []
+    assert level_findings(estimation, [("same level", _record(seed=1))]) == []
     # twice the force, twice the response (a linear structure): the same units
-    assert level_messages(estimation, [("louder", _record(2.0, 2.0, seed=2))]) == []
-    (message,) = level_messages(estimation, [("val", _record(1000.0, seed=3))])
+    assert level_findings(estimation, [("louder", _record(2.0, 2.0, seed=2))]) == []
+    (message,) = level_findings(estimation, [("val", _record(1000.0, seed=3))])
     assert "'val'" in message and "'v1' 996x" in message and "units row" in message
-    assert level_messages(estimation, [("nearly", _record(0.8 * LEVEL_MISMATCH, seed=4))]) == []
+    assert level_findings(estimation, [("nearly", _record(0.8 * LEVEL_MISMATCH, seed=4))]) == []
 
 
 def test_wrong_period_names_the_forces_period():
@@ -84,16 +84,16 @@ def _periodic(force_noise: float, seed: int = 0) -> Signals:
 
 
 def test_force_noise_that_reaches_the_responses_is_named():
-    from bayesnsi.run.force_noise import force_noise_messages
+    from bayesnsi.checks.force_noise import force_noise_findings
 
-    assert force_noise_messages(_periodic(0.0)) == []
-    (message,) = force_noise_messages(_periodic(0.005))
+    assert force_noise_findings(_periodic(0.0)) == []
+    (message,) = force_noise_findings(_periodic(0.005))
     assert re.search(r"scatters between periods by 0\.(49|5|51) % of its level", message)
     assert "take the force as exact" in message
     aperiodic = _periodic(0.005)
     from dataclasses import replace
 
-    assert force_noise_messages(replace(aperiodic, period=None)) == []  # no periods: nothing to separate it by
+    assert force_noise_findings(replace(aperiodic, period=None)) == []  # no periods: nothing to separate it by
 
 
 def test_final_model_check_carries_its_validation_error():
@@ -101,10 +101,10 @@ def test_final_model_check_carries_its_validation_error():
     # closed-loop validation NRMSE: widen_final now takes the final model's validation errors
     import warnings
 
+    from bayesnsi.checks.validation import validate
     from bayesnsi.nsi import identify
-    from bayesnsi.run.final_adequacy import widen_final
     from bayesnsi.simulate import simulate_case
-    from bayesnsi.validation import validate
+    from bayesnsi.uncertainty.widening import widen_final
 
     case = simulate_case("two-dof", seed=0, duration=60.0)
     held = simulate_case("two-dof", seed=1, duration=20.0)
@@ -142,7 +142,7 @@ def test_periodic_noise_draws_carry_the_forces_scatter():
 def test_periodic_screen_reads_the_periods_lines_only():
     # averaging each column over its periods before the DFT is keeping the full record's bins at multiples of the
     # number of periods: the other bins hold only the noise that effects built from noisy outputs fit
-    from bayesnsi.diagnose.screen import _group_spectra, _periods
+    from bayesnsi.loop.screen import _group_spectra, _periods
 
     rng = np.random.default_rng(3)
     period, m = 64, 5

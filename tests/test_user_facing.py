@@ -89,7 +89,7 @@ def test_lazy_top_level_names_are_the_real_objects():
         bayesnsi.nope  # noqa: B018
 
 
-PUBLIC = ("bayesnsi", "bayesnsi.nsi", "bayesnsi.evidence", "bayesnsi.diagnose", "bayesnsi.models", "bayesnsi.simulate",
+PUBLIC = ("bayesnsi", "bayesnsi.nsi", "bayesnsi.evidence", "bayesnsi.loop", "bayesnsi.models", "bayesnsi.simulate",
           "bayesnsi.io", "bayesnsi.run", "bayesnsi.plots", "bayesnsi.options", "bayesnsi.selection")
 
 

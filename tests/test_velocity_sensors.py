@@ -18,6 +18,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from bayesnsi.checks.adequacy import model_checks
 from bayesnsi.exceptions import ConfigError, InputDataError
 from bayesnsi.io import load_config, load_signals
 from bayesnsi.io.units import data_units
@@ -26,7 +27,6 @@ from bayesnsi.noise import AccelerationNoise, acceleration_noise_of, noise_model
 from bayesnsi.nsi import identify, periodic_integration
 from bayesnsi.options import NSIOptions
 from bayesnsi.preprocess import band_filter, integrate_velocity
-from bayesnsi.run.adequacy import model_checks
 from bayesnsi.simulate import band_limited_gaussian, chain_system, simulate_response
 
 FS, BAND = 100.0, (1.0, 45.0)
@@ -106,7 +106,7 @@ def test_velocities_alone_are_integrated_once_with_their_noise_kept(tmp_path):
     ratio = error.std(axis=0) / noise.std(len(signals.displacement))[0]
     assert np.all((ratio > 0.7) & (ratio < 1.4)), ratio
     assert data_units(config).displacement == "m" and data_units(config).velocity == "m/s"
-    from bayesnsi.cli._report_choices import measured_text  # the report's data section says how x was obtained
+    from bayesnsi.report.choices import measured_text  # the report's data section says how x was obtained
 
     assert "integrated once from the measured velocities on load, frequency method, band [1, 45] Hz" in (
         measured_text(config))

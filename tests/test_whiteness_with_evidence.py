@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from bayesnsi import simulate_case
+from bayesnsi.checks.validation import residual_whiteness
 from bayesnsi.options import EvidenceOptions
 from bayesnsi.run import run_candidates
-from bayesnsi.validation import residual_whiteness
 
 FAST = dict(n_steps=200, n_burn=50, likelihood="white", compare=())
 

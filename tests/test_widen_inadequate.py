@@ -14,8 +14,8 @@ from types import SimpleNamespace
 
 import pytest
 
-from bayesnsi.evidence import Intervals, ParameterInterval, widen
-from bayesnsi.run.adequacy import ModelCheck, widen_inadequate
+from bayesnsi.checks.adequacy import ModelCheck
+from bayesnsi.uncertainty import Intervals, ParameterInterval, widen, widen_inadequate
 
 
 def _intervals() -> Intervals:
@@ -62,9 +62,9 @@ def test_only_inadequate_candidates_are_widened_and_zero_is_checked_again():
     assert new_checks["wrong"].unsupported == (("x1**3@1", low, high),)
     assert new_checks["fits"].unsupported == ()
     assert new_checks["wrong"].to_dict()["interval_widening"] == pytest.approx(12.0)
-    from bayesnsi.run.adequacy import adequacy_warnings
+    from bayesnsi.checks.adequacy import adequacy_findings
 
-    said = adequacy_warnings(new_checks, "wrong")
+    said = adequacy_findings(new_checks, "wrong")
     assert any("'wrong' is not adequate" in w and "its intervals are widened 12.00x for its model error" in w
                for w in said), said
 
@@ -73,12 +73,12 @@ def test_a_free_body_is_not_widened_by_its_force_residual_over_the_force_noise()
     # EMPS (workflows/emps.py): the force-prediction residual is 70x the noise of the force channel,
     # which is not what drives it; widened, Coulomb friction read [-29, 67] N for an estimate within
     # 3 % of the published 20.4 N.
-    from bayesnsi.run.adequacy import adequacy_warnings
+    from bayesnsi.checks.adequacy import adequacy_findings
 
     checks = {"Coulomb": _check("Coulomb", 70.0, quantity="force")}
     widened, _ = widen_inadequate([_Outcome("Coulomb", _intervals())], checks)
     assert widened[0].intervals == _intervals()
-    said = adequacy_warnings(checks, "Coulomb")
+    said = adequacy_findings(checks, "Coulomb")
     assert any("intervals carry the sensor noise only" in w for w in said), said
     assert not any("widened" in w for w in said)
 

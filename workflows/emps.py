@@ -9,7 +9,7 @@ Reads ``workflows/emps/emps.toml`` (the data at ``../shared/data/emps`` relative
 
 1. ``select`` with the linear / Coulomb / Coulomb + offset / Coulomb + v|v| / cubic candidates of the config (default
    settings): the ranking by evidence;
-2. the loop from the linear model (:func:`bayesnsi.diagnose.close_the_loop`, default settings):
+2. the loop from the linear model (:func:`bayesnsi.loop.close_the_loop`, default settings):
    the effects added, in order;
 3. the measures of issue 14: mass, viscous damping (from the identified FRF) and Coulomb force of the
    final model against the published IDIM-LS values, the force offset the final model needs (fitted
@@ -33,7 +33,6 @@ from pathlib import Path
 
 import numpy as np
 
-from bayesnsi.diagnose import close_the_loop
 from bayesnsi.exceptions import ConfigError
 from bayesnsi.io import (
     atomic_write_json,
@@ -45,6 +44,7 @@ from bayesnsi.io import (
     to_jsonable,
     versions,
 )
+from bayesnsi.loop import close_the_loop
 from bayesnsi.models import Term
 from bayesnsi.nsi import force_prediction, identify
 from bayesnsi.nsi.inverse import edge_samples, filtered_kinematics, inverse_force

@@ -5,7 +5,7 @@ Usage::
     .venv/bin/python workflows/silverbox.py --out out/silverbox-loops
 
 For each starting model ("linear", "cubic" of ``workflows/silverbox/silverbox.toml``) it runs
-:func:`bayesnsi.diagnose.close_the_loop` on the estimation data (official split
+:func:`bayesnsi.loop.close_the_loop` on the estimation data (official split
 [40650, 105712)), then reports for the model before and after the loop: the effects added, the
 open-loop NRMSE and RMS error [mV] on the estimation data, and the closed-loop simulation RMS error
 [mV] and NRMSE on the benchmark's three test sets (the first 50 samples fix the initial state;
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bayesnsi.diagnose import close_the_loop
+from bayesnsi.checks.validation import validate
 from bayesnsi.io import (
     atomic_write_json,
     atomic_write_text,
@@ -34,8 +34,8 @@ from bayesnsi.io import (
     to_jsonable,
     versions,
 )
+from bayesnsi.loop import close_the_loop
 from bayesnsi.nsi import identify
-from bayesnsi.validation import validate
 
 CONFIG = Path(__file__).parent / "silverbox" / "silverbox.toml"
 STARTS = ("linear", "cubic")

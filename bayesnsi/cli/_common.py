@@ -18,6 +18,7 @@ __all__ = [
     "progress_bar",
     "refuse_if_nothing_identified",
     "start_run",
+    "write_outputs",
 ]
 
 
@@ -117,12 +118,12 @@ def start_run(args):
     config : ExperimentConfig
     out : Path
     signals : Signals
-
-    Loading may warn about the data (an integration band starting in the noise, a period the force does not
-    repeat); those warnings are shown as raised and kept in ``args.data_warnings`` for the report and
-    results.json.
+    data_findings : tuple of Finding
+        What loading the data found (an integration band starting in the noise, a period the force
+        does not repeat): shown as warnings when raised, and kept for the report and results.json.
     """
     from ..exceptions import BayesNSIWarning
+    from ..findings import finding_from_warning
     from ..io import load_config, load_signals, prepare_output_dir
     from ..io.results import output_folder
     from ._warnings import periodic_hint
@@ -138,12 +139,54 @@ def start_run(args):
         signals = load_signals(config)
     for found in caught:  # shown as before
         warnings.warn_explicit(found.message, found.category, found.filename, found.lineno)
-    args.data_warnings = tuple(str(w.message) for w in caught if issubclass(w.category, BayesNSIWarning))
+    data_findings = tuple(finding_from_warning(w) for w in caught if issubclass(w.category, BayesNSIWarning))
     hint = periodic_hint(config, signals)
     if hint:  # shown with --quiet too, as warnings are
         print(hint, file=sys.stderr)
     progress(f"{len(config.candidates)} candidates, {signals.n_samples} samples at {signals.fs:g} Hz", args.quiet)
-    return config, out, signals
+    return config, out, signals, data_findings
+
+
+def write_outputs(args, out, payload, evidences, outcomes, build_report):
+    """Write a run's files: the posteriors, the report (unless ``--no-figures``), then results.json.
+
+    results.json comes last, so that a folder holding it is complete (a rerun resumes otherwise).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    out : Path
+    payload : dict
+        results.json (:func:`bayesnsi.io.selection_payload` or :func:`bayesnsi.io.loop_record.diagnosis_payload`);
+        ``posterior_files`` is added.
+    evidences : mapping of str to EvidenceResult
+        The posteriors to write (``DIR/posterior/<name>.nc``), by model name.
+    outcomes : sequence of CandidateOutcome
+        The candidates (their intervals go into the posterior files).
+    build_report : callable
+        ``build_report() -> Report``.
+
+    Returns
+    -------
+    Path
+        The results.json written.
+    """
+    from ..io import RESULTS_FILENAME, atomic_write_json
+
+    if evidences:
+        from ..io.posterior import write_posteriors
+
+        intervals = {o.name: o.intervals for o in outcomes if o.intervals is not None}
+        payload["posterior_files"] = write_posteriors(out, evidences, intervals)
+    if not args.no_figures:
+        from ..report import held_figures
+
+        with held_figures():
+            report = build_report()
+            progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
+    path = atomic_write_json(out / RESULTS_FILENAME, payload)
+    progress(f"wrote {path}", args.quiet)
+    return path
 
 
 def progress(message: str, quiet: bool) -> None:
@@ -183,6 +226,7 @@ def execution(args, out, config):
     """
     from ..io.cache import CACHE_DIRNAME, ResultCache
     from ..options import ExecutionOptions
+    from ..report.terminal import outcome_line
 
     quiet, total = args.quiet, len(config.candidates)
     options = ExecutionOptions(
@@ -197,7 +241,7 @@ def execution(args, out, config):
 
         def report(k, outcome):
             done.append(k)
-            progress(f"[{len(done)}/{total}] {_outcome_text(outcome, config.evidence.likelihood)}", quiet)
+            progress(f"[{len(done)}/{total}] {outcome_line(outcome, config.evidence.likelihood)}", quiet)
             bar.update()
 
         yield options.replace(progress=report)
@@ -207,21 +251,6 @@ def _backend_text(options) -> str:
     if options.scheduler is not None:
         return f"Dask scheduler {options.scheduler}"
     return f"{options.jobs} local worker processes" if options.jobs > 1 else "serially"
-
-
-def _outcome_text(outcome, likelihood) -> str:
-    """One line per finished candidate (a failure says why on that line; results.json keeps the full text)."""
-    origin = "cached" if outcome.cached else f"{outcome.seconds:.1f} s"
-    error = " ".join(str(outcome.error).split())  # a multi-line message on one line
-    if outcome.result is None:
-        return f"{outcome.name}: failed - {error} ({origin})"
-    text = f"{outcome.name}: order {outcome.result.order}, NRMSE {outcome.nrmse:.4f}"
-    if outcome.evidences:
-        primary = outcome.evidences[likelihood]
-        text += f", log Z ({primary.likelihood}) = {primary.log_evidence:.2f} ± {primary.log_evidence_se:.2f}"
-    elif outcome.error is not None:
-        text += f", evidence failed - {error}"
-    return f"{text} ({origin})"
 
 
 def refuse_if_nothing_identified(outcomes, results_path) -> None:

@@ -46,7 +46,7 @@ def run(args) -> int:
     select.run(
         Namespace(
             config=str(csv.with_suffix(".toml")), out=str(out), force=True, quiet=args.quiet, no_figures=False, jobs=1,
-            resources=getattr(args, "resources", None),
+            scheduler=None, no_cache=False, resources=getattr(args, "resources", None),
         )
     )
     progress(f"demo finished in {time.perf_counter() - start:.1f} s; open {Path(out) / 'report.html'}", args.quiet)

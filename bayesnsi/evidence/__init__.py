@@ -20,7 +20,6 @@ from .bridge import BridgeEstimate, bridge_sampling
 from .candidate import RESIDUALS, candidate_affine, candidate_evidence, candidate_priors
 from .convergence import ConvergenceReport, convergence_report, posterior_summary, warn_if_unconverged
 from .decision import decision_table, evidence_strength
-from .intervals import INTERVAL_METHODS, Intervals, ParameterInterval, candidate_intervals, segment_estimates, widen
 from .likelihood import (
     SufficientStatistics,
     log_likelihood_ar,
@@ -71,13 +70,6 @@ __all__ = [
     "plain_ranking",
     "ranking_table",
     "compare_evidence",
-    # intervals
-    "INTERVAL_METHODS",
-    "Intervals",
-    "ParameterInterval",
-    "candidate_intervals",
-    "segment_estimates",
-    "widen",
     "decision_table",
     "evidence_strength",
     # convergence

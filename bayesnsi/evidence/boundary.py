@@ -1,6 +1,6 @@
 """Laplace evidence in the coefficients alone, for residuals whose AR(1) coefficient sits at its prior bound.
 
-The loop of :mod:`bayesnsi.diagnose` scores each model by the Laplace approximation over all
+The loop of :mod:`bayesnsi.loop` scores each model by the Laplace approximation over all
 parameters ``(λ, log σ, ρ)`` (:func:`bayesnsi.evidence.laplace_log_evidence`). When a model's
 residual is close to a random walk its AR(1) coefficient's mode lies beyond the prior's bound
 (0.9999) and that approximation is NaN (the mode is outside the support). It happened on a

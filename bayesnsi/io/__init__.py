@@ -4,7 +4,8 @@
 - :mod:`~bayesnsi.io.measurements`: measurements (CSV, MATLAB .mat, HDF5, UFF58) ->
   :class:`~bayesnsi.signals.Signals`; Signals -> CSV.
 - :mod:`~bayesnsi.io.results`: atomic writes, JSON conversion, versions, output folders.
-- :mod:`~bayesnsi.io.schema`: results.json records from the library's result objects.
+- :mod:`~bayesnsi.io.schema`, :mod:`~bayesnsi.io.loop_record`: results.json records from the library's
+  typed results (:class:`~bayesnsi.selection.Selection`, :class:`~bayesnsi.diagnosis.Diagnosis`).
 """
 
 from ._formats import UFF_DIRECTIONS, uff_channel_key
@@ -16,6 +17,7 @@ from .config import (
     dump_config,
     load_config,
 )
+from .loop_record import diagnosis_payload, step_record
 from .measurements import (
     FORMATS,
     FS_TOLERANCE,
@@ -40,7 +42,7 @@ from .results import (
     to_jsonable,
     versions,
 )
-from .schema import candidate_record, identification_payload, selection_payload, term_record
+from .schema import candidate_record, identification_payload, intervals_record, selection_payload, term_record
 
 __all__ = [
     "DataSpec",
@@ -72,7 +74,10 @@ __all__ = [
     "versions",
     "prepare_output_dir",
     "candidate_record",
+    "diagnosis_payload",
     "identification_payload",
+    "intervals_record",
+    "step_record",
     "selection_payload",
     "term_record",
 ]

@@ -16,12 +16,15 @@ from typing import Any
 
 import numpy as np
 
-from ..evidence import BridgeEstimate, ConvergenceReport, EvidenceResult, Intervals, ParameterInterval, PosteriorSamples
+from ..checks.validation import Whiteness
+from ..evidence import BridgeEstimate, ConvergenceReport, EvidenceResult, PosteriorSamples
 from ..exceptions import BayesNSIError
+from ..findings import Finding, finding_from_dict
 from ..models import CandidateModel, Term
-from ..nsi import CoefficientEstimate, Mode, NSIResult, StateSpaceModel
+from ..nsi import CoefficientEstimate, IdentificationFit, Mode, NSIResult, StateSpaceModel
+from ..options import NSIOptions
 from ..run.batch import FAILED_STAGES, CandidateOutcome
-from ..validation import Whiteness
+from ..uncertainty import Intervals, ParameterInterval
 from ._store import EntryError, decode_value, encode_value
 
 __all__ = ["outcome_from_plain", "outcome_to_plain", "schema_fields"]
@@ -120,6 +123,48 @@ class _Named:
         if not pairs or not all(isinstance(p[0], str) for p in plain):
             raise EntryError(f"{where}: expected a list of [name, value] pairs")
         return {k: self.item.decode(v, arrays, f"{where}[{k[:30]!r}]") for k, v in plain}
+
+
+class _Finding:
+    """A :class:`Finding`: its JSON record (:meth:`Finding.to_dict`), checked when read."""
+
+    def encode(self, value: Finding, arrays: dict) -> Any:
+        if not isinstance(value, Finding):
+            raise TypeError(f"expected Finding, got {type(value).__name__}")
+        return value.to_dict()
+
+    def decode(self, plain: Any, arrays: Mapping, where: str) -> Finding:
+        if not (isinstance(plain, dict) and {"kind", "message"} <= set(plain) <= set(_FINDING_KEYS)
+                and all(isinstance(plain.get(k, ""), str) for k in ("kind", "message", "subject", "severity"))
+                and isinstance(plain.get("values", {}), dict)):
+            raise EntryError(f"{where}: a finding needs a kind, a message and at most {_FINDING_KEYS}")
+        try:
+            return finding_from_dict(plain)
+        except (TypeError, ValueError) as err:
+            raise EntryError(f"{where}: invalid finding ({err})") from None
+
+
+_FINDING_KEYS = ("kind", "subject", "severity", "values", "message")
+
+
+class _OptionsKind:
+    """An options dataclass (:mod:`bayesnsi.options`): its plain record, validated again when read."""
+
+    def __init__(self, cls: type):
+        self.cls = cls
+
+    def encode(self, value: Any, arrays: dict) -> Any:
+        if not isinstance(value, self.cls):
+            raise TypeError(f"expected {self.cls.__name__}, got {type(value).__name__}")
+        return value.to_dict()
+
+    def decode(self, plain: Any, arrays: Mapping, where: str) -> Any:
+        if not isinstance(plain, dict):
+            raise EntryError(f"{where}: expected a table of {self.cls.__name__}")
+        try:
+            return self.cls.from_mapping(plain)
+        except BayesNSIError as err:
+            raise EntryError(f"{where}: invalid {self.cls.__name__} ({err})") from None
 
 
 class _Term:
@@ -227,6 +272,7 @@ STR = _Typed(str)
 OPTIONAL_STR = _Typed(str, none=True)
 COMPLEX = _Typed(complex, np.complexfloating)
 FLOATS, INTS, STRS = _Sequence(FLOAT), _Sequence(INT), _Sequence(STR)
+FINDINGS = _Sequence(_Finding())
 TERM = _Term()
 
 CANDIDATE = _Struct(CandidateModel, {
@@ -251,7 +297,13 @@ NSI_RESULT = _Struct(NSIResult, {
         "term": TERM, "value": FLOAT, "imag_ratio": FLOAT, "band_hz": FLOATS, "spread": FLOAT,
         "excluded_fraction": FLOAT,
     })),
-    "settings": _Typed(dict),
+    "options": _OptionsKind(NSIOptions),
+    "fit": _Struct(IdentificationFit, {
+        "n_samples": INT, "fs": FLOAT, "reflected_poles_hz": FLOATS, "virtual_mode_mirrored_hz": FLOATS,
+        "fit_band_hz": _Typed(tuple, none=True), "period": INT, "n_periods": INT, "n_realisations": INT,
+        "n_lines": INT, "n_band_lines": INT, "line_misfit": OPTIONAL_FLOAT, "band_misfit": OPTIONAL_FLOAT,
+        "unexcited_ratio": _Typed(tuple, none=True),
+    }),
     "rigid_body_poles": _Array("complex128", 1),
 }, none=True, check=_check_nsi)
 
@@ -302,8 +354,8 @@ _PARAMETER_INTERVALS = _Sequence(_Struct(ParameterInterval, {
 
 INTERVALS = _Struct(Intervals, {
     "method": STR, "coefficients": _PARAMETER_INTERVALS, "frequencies": _PARAMETER_INTERVALS,
-    "damping_ratios": _PARAMETER_INTERVALS, "n_segments": INT, "segment_samples": INT, "notes": STRS,
-}, none=True, fixed={"widening": 1.0})  # widened for inadequacy by select after the cache (run.adequacy)
+    "damping_ratios": _PARAMETER_INTERVALS, "n_segments": INT, "segment_samples": INT, "findings": FINDINGS,
+}, none=True, fixed={"widening": 1.0})  # widened for inadequacy by select after the cache (uncertainty.widening)
 
 OUTCOME = _Struct(CandidateOutcome, {
     "candidate": CANDIDATE,
@@ -314,7 +366,7 @@ OUTCOME = _Struct(CandidateOutcome, {
     "error": OPTIONAL_STR,
     "failed_stage": _Choice(FAILED_STAGES),
     "traceback": OPTIONAL_STR,
-    "warnings": STRS,
+    "findings": FINDINGS,
     "intervals": INTERVALS,
     "whiteness": _Struct(Whiteness, {
         "residual": STR, "max_lag": INT, "statistic": FLOATS, "p_value": FLOATS, "fraction_outside": FLOATS,

@@ -49,32 +49,32 @@ def posterior_filename(name: str, taken=()) -> str:
     return filename
 
 
-def write_posteriors(folder, evidences, likelihood: str) -> dict[str, str]:
-    """Write each candidate's posterior under ``likelihood`` to ``folder/posterior/<candidate>.nc``.
+def write_posteriors(folder, evidences, intervals=None) -> dict[str, str]:
+    """Write each model's posterior to ``folder/posterior/<name>.nc``.
 
     Parameters
     ----------
     folder : str or path-like
         The output folder.
-    evidences : mapping of str to mapping of str to EvidenceResult
-        ``Selection.evidences``: candidate -> likelihood -> evidence.
-    likelihood : str
-        Which likelihood's draws to write (the one that selects).
+    evidences : mapping of str to EvidenceResult
+        Model name -> its evidence under the primary likelihood.
+    intervals : mapping of str to Intervals, optional
+        Model name -> its honest intervals.
 
     Returns
     -------
     dict of str to str
-        Candidate name -> file path relative to ``folder`` (candidates without an evidence are left out).
+        Model name -> file path relative to ``folder``.
     """
     target = Path(folder) / POSTERIOR_DIRNAME
     written: dict[str, str] = {}
-    for name, by_likelihood in evidences.items():
-        evidence = (by_likelihood or {}).get(likelihood)
+    for name, evidence in evidences.items():
         if evidence is None:
             continue
         target.mkdir(exist_ok=True)
         filename = posterior_filename(name, {Path(p).name for p in written.values()})
         tree = evidence.posterior.to_datatree()
+        likelihood = evidence.likelihood
         tree.attrs.update(
             candidate=name, likelihood=likelihood, log_evidence=float(evidence.log_evidence),
             log_evidence_se=float(evidence.log_evidence_se), written_by=_written_by(),

@@ -1,4 +1,4 @@
-"""results.json records (docs/method.md §9): plain dicts built from the library's result objects.
+"""results.json records (docs/method.md §9): plain dicts built from the library's typed result objects.
 
 Field names listed in docs/method.md §9 are stable; further fields are additions. Every record of a run is
 assembled here, from a :class:`bayesnsi.selection.Selection` or a list of
@@ -13,7 +13,7 @@ from typing import Any
 from ..models import Term
 from .results import to_jsonable, versions
 
-__all__ = ["term_record", "candidate_record", "identification_payload", "selection_payload"]
+__all__ = ["term_record", "candidate_record", "identification_payload", "intervals_record", "selection_payload"]
 
 
 def term_record(term: Term) -> dict[str, Any]:
@@ -68,7 +68,7 @@ def candidate_record(outcome, row=None, likelihood: str | None = None) -> dict[s
         record["nrmse_per_channel"] = list(outcome.nrmse_per_channel)
     if row is not None:
         record.update(_evidence(outcome, row, likelihood))
-    record.update(warnings=list(outcome.warnings), seconds=outcome.seconds, cached=outcome.cached)
+    record.update(findings=[f.to_dict() for f in outcome.findings], seconds=outcome.seconds, cached=outcome.cached)
     return record
 
 
@@ -94,11 +94,10 @@ def _identification(result) -> dict[str, Any]:
         "band_hz": list(result.band_hz),
         "singular_values": [float(s) for s in result.singular_values[: 2 * result.order + 10]],
         # frequency route: fitted lines, noise-weighted misfit on them (≈ 1: down to the noise), reflected poles
-        "periodic": {k: result.settings[k] for k in ("domain", "fit_band_hz", "n_lines", "n_periods", "period",
-                                                     "n_realisations", "line_misfit", "unexcited_ratio",
-                                                     "reflected_poles_hz")
-                 if k in result.settings}
-        or None,
+        "periodic": None if result.options.domain != "frequency" else {
+            k: result.settings[k] for k in ("domain", "fit_band_hz", "n_lines", "n_periods", "period",
+                                            "n_realisations", "line_misfit", "unexcited_ratio", "reflected_poles_hz")},
+        "settings": result.settings,
     }
 
 
@@ -122,6 +121,7 @@ def _evidence(outcome, row, likelihood) -> dict[str, Any]:
         rhat_max=primary.rhat_max,
         ess_min=primary.ess_min,
         likelihood=likelihood,
+        sampler=primary.settings.get("sampler"),
         evidence_by_likelihood={
             name: {
                 "log_evidence": e.log_evidence,
@@ -138,16 +138,39 @@ def _evidence(outcome, row, likelihood) -> dict[str, Any]:
 
 def _intervals(outcome, primary) -> dict[str, Any]:
     """Coefficients and modes with their intervals: ``ci95``/``ci50`` the honest ones
-    (:attr:`CandidateOutcome.intervals`), ``ci95_posterior`` the posterior's given the linear part."""
-    identified = _identification(outcome.result)
-    intervals = outcome.intervals
+    (:attr:`CandidateOutcome.intervals`; None where there are none), ``ci95_given_linear_part`` the
+    posterior's given the identified linear part."""
+    return intervals_record(_identification(outcome.result), outcome.intervals, primary)
+
+
+def intervals_record(identified: dict[str, Any], intervals, evidence) -> dict[str, Any]:
+    """Coefficient and mode records with their intervals (one meaning of ``ci95`` on every surface).
+
+    Parameters
+    ----------
+    identified : dict
+        The identification's record (``coefficients`` and ``modes``).
+    intervals : Intervals or None
+        The honest intervals (:func:`bayesnsi.uncertainty.candidate_intervals`).
+    evidence : EvidenceResult or None
+        The posterior given the identified linear part.
+
+    Returns
+    -------
+    dict
+        ``coefficients`` (``ci95``, ``ci50``, ``sd``, ``interval`` method, ``posterior_mean``, ``bias``,
+        ``ci95_given_linear_part``), ``modes`` with their intervals, and ``intervals`` (the whole record).
+    """
     coefficients = []
-    for k, (coefficient, ci) in enumerate(zip(identified["coefficients"], primary.ci95)):
-        record = {**coefficient, "ci95": [float(ci[0]), float(ci[1])], "ci95_posterior": [float(ci[0]), float(ci[1])]}
+    posterior = [] if evidence is None else list(evidence.ci95)
+    for k, coefficient in enumerate(identified["coefficients"]):
+        record = {**coefficient, "ci95": None}
+        if k < len(posterior):
+            record["ci95_given_linear_part"] = [float(posterior[k][0]), float(posterior[k][1])]
         if intervals is not None and k < len(intervals.coefficients):
             iv = intervals.coefficients[k]
             record.update(ci95=list(iv.ci95), ci50=list(iv.ci50), sd=iv.sd, interval=intervals.method,
-                          posterior_mean=iv.posterior_mean, bias=iv.bias)
+                          estimate=iv.estimate, posterior_mean=iv.posterior_mean, bias=iv.bias)
         coefficients.append(record)
     out: dict[str, Any] = {"coefficients": coefficients}
     if intervals is not None and intervals.frequencies:
@@ -161,7 +184,7 @@ def _intervals(outcome, primary) -> dict[str, Any]:
     return out
 
 
-def identification_payload(outcomes, command: str, config) -> dict[str, Any]:
+def identification_payload(outcomes, command: str, config, data_findings=()) -> dict[str, Any]:
     """results.json of a run without evidence (``bayesnsi identify``).
 
     Parameters
@@ -172,6 +195,8 @@ def identification_payload(outcomes, command: str, config) -> dict[str, Any]:
         The command that ran.
     config : ExperimentConfig
         The config it ran (its path, raw tables and settings are recorded).
+    data_findings : sequence of Finding
+        What loading the data found.
 
     Returns
     -------
@@ -183,13 +208,14 @@ def identification_payload(outcomes, command: str, config) -> dict[str, Any]:
         "config": str(config.path),
         "selected": None,
         "candidates": [candidate_record(o) for o in outcomes],
+        "data_findings": [f.to_dict() for f in data_findings],
         "settings": _settings(config, evidence=None),
         "versions": versions(),
     }
     return to_jsonable(payload)
 
 
-def selection_payload(selection, command: str, config, **extra) -> dict[str, Any]:
+def selection_payload(selection, command: str, config, data_findings=(), **extra) -> dict[str, Any]:
     """results.json of a selection (``bayesnsi select``, ``demo``, ``diagnose``).
 
     Parameters
@@ -200,6 +226,8 @@ def selection_payload(selection, command: str, config, **extra) -> dict[str, Any
         The command that ran.
     config : ExperimentConfig
         The config it ran.
+    data_findings : sequence of Finding
+        What loading the data found (``data_findings``).
     **extra
         Further top-level fields (e.g. the loop of ``diagnose``).
 
@@ -209,7 +237,8 @@ def selection_payload(selection, command: str, config, **extra) -> dict[str, Any
         JSON-ready: ``selected`` (marginal evidence), ``selected_gaussian`` (plain likelihood),
         ``plausible`` (the most probable candidate that passes the physical checks,
         :attr:`Selection.plausible <bayesnsi.selection.Selection.plausible>`), ``candidates`` with
-        evidence and validation, ``ranking``, ``settings``, ``versions``.
+        evidence and validation, ``ranking``, ``comparison`` (:meth:`Selection.comparison`), ``findings``,
+        ``data_findings``, ``settings``, ``versions``.
     """
     likelihood = selection.likelihood
     records = []
@@ -222,7 +251,7 @@ def selection_payload(selection, command: str, config, **extra) -> dict[str, Any
             record["adequacy"] = selection.adequacy[outcome.name].to_dict()
         if outcome.name in selection.checks:
             record["model_check"] = selection.checks[outcome.name].to_dict()
-        if outcome.name in getattr(selection, "open_loop", {}):
+        if outcome.name in selection.open_loop:
             record["open_loop"] = selection.open_loop[outcome.name].to_dict()
         records.append(record)
     selected = selection.selected
@@ -231,12 +260,15 @@ def selection_payload(selection, command: str, config, **extra) -> dict[str, Any
         "config": str(config.path),
         "selected": selected,
         "selected_gaussian": selection.selected_gaussian,
-        "plausible": getattr(selection, "plausible", None),
+        "plausible": selection.plausible,
         "likelihood": likelihood,
         "candidates": records,
         "validation": [e.to_dict() for e in selection.validation.get(selected, ())] if selected else [],
         "ranking": [] if selection.table is None else selection.table.reset_index().to_dict(orient="records"),
-        "warnings": list(selection.warnings),
+        "comparison": [] if selection.table is None else selection.comparison().reset_index().to_dict(
+            orient="records"),
+        "findings": [f.to_dict() for f in selection.findings],
+        "data_findings": [f.to_dict() for f in data_findings],
         "settings": _settings(config, selection.evidence),
         "versions": versions(),
         **extra,

@@ -24,7 +24,7 @@ from .reconstruct import (
     nrmse,
     reconstruct,
 )
-from .result import HankelCorrelations, NSIResult
+from .result import HankelCorrelations, IdentificationFit, NSIResult
 from .statespace import StateSpaceModel
 
 __all__ = [
@@ -39,6 +39,7 @@ __all__ = [
     "short_horizon_nrmse",
     "hankel_correlations",
     "HankelCorrelations",
+    "IdentificationFit",
     "NSIResult",
     "extended_input",
     "select_order",

@@ -26,7 +26,7 @@ from . import _fnsi
 from .order import auto_order
 from .periodic import best_linear_approximation
 from .physics import CoefficientEstimate, band_coefficients, coefficient_spectrum, default_band, split_poles
-from .result import NSIResult
+from .result import IdentificationFit, NSIResult
 from .statespace import StateSpaceModel
 
 _BAND_POINTS = 512
@@ -121,27 +121,20 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
     _WARM[_warm_key(signals, cand.terms, options)] = (Ac.copy(), C.copy())  # copies: the model may share them
     while len(_WARM) > _WARM_SIZE:
         _WARM.pop(next(iter(_WARM)))
-    settings = dict(
-        domain="frequency",
-        block_rows=block_rows,
-        order=order,
-        band_hz=list(band),
-        fit_band_hz=list(fit_band),
-        velocity_method=options.velocity_method,
-        zero_feedthrough=options.zero_feedthrough,
-        input_hold="sample",
-        upsample=upsample,
-        period=int(signals.period or 0),
-        n_periods=int(data.n_periods),
+    resolved = options.replace(
+        block_rows=block_rows, order=order, band_hz=band, input_hold="sample", upsample=upsample, virtual_stiffness=0.0,
+    )
+    unexcited = _unexcited_ratio(signals)
+    fit = IdentificationFit(
+        n_samples=int(signals.n_samples), fs=signals.fs,
+        reflected_poles_hz=tuple(float(abs(p.imag) / (2 * np.pi)) for p in reflected),
+        fit_band_hz=fit_band, period=int(signals.period or 0), n_periods=int(data.n_periods),
         n_realisations=int(data.n_realisations),  # their lines stacked: each count below is per realisation
         n_lines=int(len(excited.lines) // data.n_realisations),
         n_band_lines=int(len(data.lines) // data.n_realisations),
-        reflected_poles_hz=[float(abs(p.imag) / (2 * np.pi)) for p in reflected],
         line_misfit=float(np.sqrt(np.mean(np.abs(residual if data.excited is None else residual[data.excited]) ** 2))),
         band_misfit=float(np.sqrt(np.mean(np.abs(residual) ** 2))),  # the unexcited band lines included
-        unexcited_ratio=_unexcited_ratio(signals),
-        n_samples=int(signals.n_samples),
-        fs=signals.fs,
+        unexcited_ratio=None if unexcited is None else tuple((k, tuple(v)) for k, v in unexcited.items()),
     )
     return NSIResult(
         candidate=cand,
@@ -155,7 +148,8 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
         modes=tuple(modes),
         spurious_poles=spurious,
         coefficients=_coefficients(Ac, Bc, C, Dc, signals, cand.terms, band, data),
-        settings=settings,
+        options=resolved,
+        fit=fit,
     )
 
 

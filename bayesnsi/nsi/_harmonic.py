@@ -50,7 +50,7 @@ def applies(result, signals: Signals) -> bool:
     """
     period = signals.period
     return (
-        result.settings.get("domain") == "frequency"
+        result.options.domain == "frequency"
         and period is not None
         and signals.n_samples % period == 0
         and not result.virtual_stiffness
@@ -63,7 +63,7 @@ def periodic_closed_loop(result, signals: Signals) -> np.ndarray:
     Parameters
     ----------
     result : NSIResult
-        Identified by the frequency route (``settings["fit_band_hz"]`` are the fitted lines).
+        Identified by the frequency route (``fit.fit_band_hz`` are the fitted lines).
     signals : Signals
         Whole periods of a periodic record (``period`` set); with several ``realisations`` each is
         solved on its own and the results follow each other.
@@ -81,7 +81,7 @@ def periodic_closed_loop(result, signals: Signals) -> np.ndarray:
     if getattr(signals, "realisations", 1) > 1:  # each realisation has its own steady state (new phases)
         return np.concatenate([periodic_closed_loop(result, one) for one in signals.realisation_records()])
     period = int(signals.period or 0)
-    fit = result.settings.get("fit_band_hz") or result.band_hz
+    fit = result.fit.fit_band_hz or result.band_hz
     freqs = np.fft.rfftfreq(period, 1.0 / signals.fs)
     lines = np.flatnonzero((freqs >= fit[0]) & (freqs <= fit[1]) & (freqs > 0))
     force = period_dft(signals.force, period).mean(axis=0)
@@ -214,7 +214,7 @@ def periodic_affine(result, signals: Signals) -> tuple[np.ndarray, np.ndarray, n
         parts = [periodic_affine(result, one) for one in signals.realisation_records()]
         return tuple(np.concatenate(arrays) for arrays in zip(*parts))  # type: ignore[return-value]
     period = int(signals.period or 0)
-    fit = result.settings.get("fit_band_hz") or result.band_hz
+    fit = result.fit.fit_band_hz or result.band_hz
     freqs = np.fft.rfftfreq(period, 1.0 / signals.fs)
     lines = np.flatnonzero((freqs >= fit[0]) & (freqs <= fit[1]) & (freqs > 0))
     force = period_dft(signals.force, period)  # (p, k, m)

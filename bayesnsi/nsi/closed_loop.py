@@ -1,7 +1,7 @@
 """Closed-loop simulation of an identified candidate: the nonlinear inputs fed back from its own response.
 
 Used by the closed-loop reconstruction (:func:`bayesnsi.nsi.reconstruct.reconstruct`, docs/method.md §5)
-and by the model replicates of :mod:`bayesnsi.evidence.surrogate` (docs/method.md §11), which drive
+and by the model replicates of :mod:`bayesnsi.uncertainty.surrogate` (docs/method.md §11), which drive
 many records at once and with the interval-mean inputs the identification assumed.
 """
 

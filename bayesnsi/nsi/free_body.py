@@ -272,7 +272,7 @@ def physical_parameters(result) -> tuple[PhysicalParameters, ...]:
     band = tuple(result.band_hz)
     freqs = np.linspace(band[0], band[1], 256)
     omega = 2 * np.pi * freqs
-    stiffness = float(result.settings.get("virtual_stiffness", 0.0) or 0.0)
+    stiffness = result.virtual_stiffness
     h = free_frf(result.model.frf(freqs), stiffness, result.input_dofs, result.output_dofs)[:, 0, 0]
     with np.errstate(divide="ignore", invalid="ignore"):
         dynamic = 1.0 / h

@@ -36,7 +36,7 @@ from .physics import (
     identification_routes,
     split_poles,
 )
-from .result import HankelCorrelations, NSIResult, correlation_key
+from .result import HankelCorrelations, IdentificationFit, NSIResult, correlation_key
 from .statespace import StateSpaceModel
 
 __all__ = ["hankel_correlations", "identify"]
@@ -103,7 +103,7 @@ def identify(
         ``NSIOptions()``; each field is described there, measurements behind the choices in
         ``docs/measurements.md``). ``domain="frequency"`` identifies a periodic record
         (``signals.period`` set) on its excited lines instead (FNSI, :mod:`._frequency`): the
-        same result object, with ``settings["domain"] == "frequency"``; only that route takes a
+        same result object, with ``options.domain == "frequency"``; only that route takes a
         record of several ``signals.realisations`` (their lines stacked into one estimate).
     correlations : HankelCorrelations, optional
         Lagged products of a candidate whose terms this one's start with
@@ -264,24 +264,15 @@ def identify(
         )
     band = tuple(float(b) for b in (options.band_hz or default_band(band_modes, signals.fs)))
     weighting = band_weighting(options.band_mean, u, noise_std, measured)
-    settings = dict(
-        block_rows=int(block_rows),
-        order=order,
-        band_hz=list(band),
-        band_mean="plain" if weighting is None else "information",
-        velocity_method=velocity_method,
-        route=options.route,
-        bd_method=options.bd_method,
-        zero_feedthrough=options.zero_feedthrough,
-        input_hold=input_hold,
-        upsample=upsample,
-        refine_poles=None if options.refine_poles is None else [float(b) for b in options.refine_poles],
-        c_method=options.c_method,
-        n_samples=int(len(u)) // upsample,
-        fs=data_fs,
-        virtual_stiffness=stiffness,
-        reflected_poles_hz=[float(abs(np.angle(z)) / (2 * np.pi * signals.dt)) for z in reflected],
-        virtual_mode_mirrored_hz=[float(abs(np.angle(z)) / (2 * np.pi * signals.dt)) for z in virtual_mode],
+    resolved = options.replace(
+        block_rows=int(block_rows), order=order, band_hz=band,
+        band_mean="plain" if weighting is None else "information", velocity_method=velocity_method,
+        input_hold=input_hold, upsample=upsample, virtual_stiffness=stiffness,
+    )
+    fit = IdentificationFit(
+        n_samples=int(len(u)) // upsample, fs=data_fs,
+        reflected_poles_hz=tuple(float(abs(np.angle(z)) / (2 * np.pi * signals.dt)) for z in reflected),
+        virtual_mode_mirrored_hz=tuple(float(abs(np.angle(z)) / (2 * np.pi * signals.dt)) for z in virtual_mode),
     )
     return NSIResult(
         candidate=cand,
@@ -295,7 +286,8 @@ def identify(
         modes=tuple(modes),
         spurious_poles=spurious,
         coefficients=_coefficients(model, signals, cand.terms, band, weighting),
-        settings=settings,
+        options=resolved,
+        fit=fit,
         rigid_body_poles=rigid,
     )
 

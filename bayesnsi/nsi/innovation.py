@@ -122,7 +122,7 @@ def innovation_form(result, signals: Signals, noise_std=None, force_noise_std=No
         raise InputDataError(
             f"noise_std needs {y.shape[1]} values and force_noise_std {m}, got shapes {noise.shape} and {force.shape}"
         )
-    jac, _ = input_noise(signals, result.terms, noise, result.settings.get("velocity_method", "fourth"))
+    jac, _ = input_noise(signals, result.terms, noise, result.options.velocity_method)
     R = np.diag(np.maximum(noise, 1e-12 * np.abs(y).max(axis=0)) ** 2)
     b_f, d_f, var_f = model.B[:, :m], model.D[:, :m], np.diag(force**2)
     extra = (b_f @ var_f @ b_f.T, b_f @ var_f @ d_f.T, d_f @ var_f @ d_f.T)

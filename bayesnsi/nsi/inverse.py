@@ -355,8 +355,8 @@ def short_horizon_nrmse(result, signals: Signals, horizon: int, n_init: int | No
         raise NotIdentifiableError(f"short-horizon simulation needs a horizon of at least 4 samples, got {horizon}")
     factor = result.upsample
     work = working_signals(signals, factor)
-    u = extended_input(work, result.terms, result.settings.get("velocity_method", "fourth"),
-                       result.settings.get("input_hold", "auto"))
+    u = extended_input(work, result.terms, result.options.velocity_method,
+                       result.options.input_hold)
     y = np.asarray(work.displacement)
     model = result.free_model
     init = max(2, int(n_init if n_init is not None else horizon // 4)) * factor

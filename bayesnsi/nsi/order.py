@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 
 from ..exceptions import BlockRowsError, OrderError, OrderWarning
+from ..findings import Finding, emit
 from ..noise import column_std, row_var
 from ..signals import Signals
 from . import _hankel, _subspace
@@ -14,7 +13,7 @@ from .feedback import as_candidate, extended_input
 from .physics import split_poles
 
 __all__ = [
-    "auto_order", "check_block_rows", "oblique_decomposition", "order_messages", "order_note", "scaled_stack",
+    "auto_order", "check_block_rows", "oblique_decomposition", "order_findings", "order_note", "scaled_stack",
     "select_order", "stabilization",
 ]
 
@@ -64,7 +63,8 @@ def auto_order(singular_values: np.ndarray, max_order: int) -> int:
     order = select_order(singular_values, max_order)
     note = order_note(singular_values, order, max_order)
     if note is not None:
-        warnings.warn(note, OrderWarning, stacklevel=3)
+        emit([Finding("order.auto", note, values={"order": int(order), "max_order": int(max_order)})], OrderWarning,
+             stacklevel=3)
     return order
 
 
@@ -72,7 +72,7 @@ LATER_GAP = 0.5
 """A gap after a higher order at least this fraction of the chosen one's makes :func:`order_note` speak."""
 
 ORDER_NOTE_START = 'order "auto" took'
-"""How every :func:`order_note` begins (to find it among a candidate's recorded warnings)."""
+"""How every :func:`order_note` begins."""
 
 
 def order_note(singular_values: np.ndarray, order: int, max_order: int, even: bool = True) -> str | None:
@@ -120,21 +120,21 @@ def order_note(singular_values: np.ndarray, order: int, max_order: int, even: bo
     )
 
 
-def order_messages(outcomes) -> tuple[str, ...]:
-    """The :func:`order_note` of each candidate that recorded one, named, for the command line.
+def order_findings(outcomes) -> tuple[Finding, ...]:
+    """The :func:`order_note` of each candidate that recorded one, with the candidate as its subject.
 
     Parameters
     ----------
     outcomes : sequence of CandidateOutcome
-        With ``name`` and ``warnings`` (the messages recorded while it was identified).
+        With ``name`` and ``findings`` (those recorded while it was identified).
 
     Returns
     -------
-    tuple of str
-        ``"'<name>': <note>"``, a line per candidate and note.
+    tuple of Finding
+        Kind ``"order.auto"``, message ``"'<name>': <note>"``, one per candidate and note.
     """
-    return tuple(f"{o.name!r}: {w}" for o in outcomes for w in dict.fromkeys(getattr(o, "warnings", None) or ())
-                 if str(w).startswith(ORDER_NOTE_START))
+    return tuple(Finding("order.auto", f"{o.name!r}: {f.message}", o.name, "warning", f.values)
+                 for o in outcomes for f in dict.fromkeys(o.findings) if f.kind == "order.auto")
 
 
 def check_block_rows(n_samples: int, block_rows: int, n_channels: int) -> None:

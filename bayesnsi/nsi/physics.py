@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import NotIdentifiableError
+from ..findings import Finding
 from ..models import Term
 from .statespace import modal_parameters_from_poles
 
@@ -19,7 +20,7 @@ __all__ = [
     "band_coefficients",
     "consistent_lines",
     "EXCLUDED_NOTE_FRACTION",
-    "excluded_lines_messages",
+    "excluded_lines_findings",
     "split_poles",
     "default_band",
 ]
@@ -321,12 +322,12 @@ def band_coefficients(spectrum: np.ndarray, terms, band, weights=None) -> tuple[
 
 
 EXCLUDED_NOTE_FRACTION = 0.02
-"""Fraction of a band's lines left out from which :func:`excluded_lines_messages` says so (the simulated
+"""Fraction of a band's lines left out from which :func:`excluded_lines_findings` says so (the simulated
 GVT's joint at 1 N left out 0.2-1 % of its lines; results.json carries every ``excluded_fraction``)."""
 
 
-def excluded_lines_messages(outcomes, selected: str | None) -> tuple[str, ...]:
-    """For the selected candidate, a message per coefficient whose band mean left out at least
+def excluded_lines_findings(outcomes, selected: str | None) -> tuple[Finding, ...]:
+    """For the selected candidate, a finding per coefficient whose band mean left out at least
     :data:`EXCLUDED_NOTE_FRACTION` of its lines (:func:`band_coefficients`).
 
     Parameters
@@ -338,17 +339,18 @@ def excluded_lines_messages(outcomes, selected: str | None) -> tuple[str, ...]:
 
     Returns
     -------
-    tuple of str
-        Empty when the selected model's λ_i(ω) are consistent over the whole band.
+    tuple of Finding
+        Kind ``"band.excluded_lines"``; empty when the selected model's λ_i(ω) are consistent over
+        the whole band.
     """
     out = []
     for outcome in outcomes:
-        result = getattr(outcome, "result", None)
+        result = outcome.result
         if outcome.name != selected or result is None:
             continue
         for c in result.coefficients:
             if c.excluded_fraction >= EXCLUDED_NOTE_FRACTION:
-                out.append(
+                message = (
                     f"the selected model {selected!r}: λ(ω) of {c.term.name} runs away on "
                     f"{100 * c.excluded_fraction:.1f} % of the averaging band {c.band_hz[0]:.4g}-{c.band_hz[1]:.4g} Hz "
                     f"(more than {OUTLIER_SCALES:g} robust sds from its median, typically near a zero of the transfer "
@@ -356,4 +358,7 @@ def excluded_lines_messages(outcomes, selected: str | None) -> tuple[str, ...]:
                     "those lines are left out of its value and quality index - see its λ(ω) figure, or give "
                     "[nsi] band_hz to choose the band"
                 )
+                values = {"term": c.term.name, "excluded_fraction": float(c.excluded_fraction),
+                          "band_low_hz": float(c.band_hz[0]), "band_high_hz": float(c.band_hz[1])}
+                out.append(Finding("band.excluded_lines", message, str(selected), "warning", values))
     return tuple(out)

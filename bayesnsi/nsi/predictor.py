@@ -89,7 +89,7 @@ def predictor_reconstruction(result, signals: Signals, noise_std=None) -> Affine
         noise, velocity_noise = measured_noise_std(signals)
     else:
         noise = np.asarray(noise_std, dtype=float)
-    jac, _ = input_noise(signals, result.terms, noise, result.settings.get("velocity_method", "fourth"),
+    jac, _ = input_noise(signals, result.terms, noise, result.options.velocity_method,
                          velocity_std=velocity_noise)
     measurement = np.diag(np.maximum(noise, 1e-12 * np.abs(y).max(axis=0)) ** 2)
     try:

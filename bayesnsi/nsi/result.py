@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
+from typing import Any
 
 import numpy as np
 
 from ..models import CandidateModel, Term
+from ..options import NSIOptions
 from ..signals import Signals
 from . import _hankel
 from .feedback import extended_input, working_signals
@@ -14,7 +16,50 @@ from .free_body import PhysicalParameters, free_frf, free_model, physical_parame
 from .physics import CoefficientEstimate, Mode, coefficient_spectrum
 from .statespace import StateSpaceModel
 
-__all__ = ["HankelCorrelations", "NSIResult", "correlation_key"]
+__all__ = ["HankelCorrelations", "IdentificationFit", "NSIResult", "correlation_key"]
+
+
+@dataclass(frozen=True)
+class IdentificationFit:
+    """What an identification measured on its data besides the model (docs/method.md §3, §11).
+
+    Attributes
+    ----------
+    n_samples : int
+        Samples of the record (at the data's rate).
+    fs : float
+        Sampling frequency of the data [Hz].
+    reflected_poles_hz : tuple of float
+        Unstable poles outside the band the data inform, mirrored into the stable region.
+    virtual_mode_mirrored_hz : tuple of float
+        A free body's virtual-spring mode mirrored into the unit circle (time route).
+    fit_band_hz : (float, float) or None
+        Frequency route: the lines fitted (None on the time route).
+    period, n_periods, n_realisations : int
+        Frequency route: samples per period, periods averaged, realisations stacked (0 on the time route).
+    n_lines, n_band_lines : int
+        Frequency route: excited lines fitted per realisation, and all band lines fitted.
+    line_misfit, band_misfit : float or None
+        Frequency route: noise-weighted rms misfit on the excited lines (about 1: down to the noise)
+        and on every band line.
+    unexcited_ratio : tuple of (str, tuple of float), or None
+        Frequency route: output power over its noise at the unexcited ``("odd", ...)`` and
+        ``("even", ...)`` lines per output (None with several forces or without such lines).
+    """
+
+    n_samples: int
+    fs: float
+    reflected_poles_hz: tuple[float, ...] = ()
+    virtual_mode_mirrored_hz: tuple[float, ...] = ()
+    fit_band_hz: tuple[float, float] | None = None
+    period: int = 0
+    n_periods: int = 0
+    n_realisations: int = 0
+    n_lines: int = 0
+    n_band_lines: int = 0
+    line_misfit: float | None = None
+    band_misfit: float | None = None
+    unexcited_ratio: tuple[tuple[str, tuple[float, ...]], ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -39,10 +84,13 @@ class NSIResult:
     spurious_poles : ndarray of complex
         Continuous-time poles discarded as non-physical.
     coefficients : tuple of CoefficientEstimate
-    settings : dict
-        Everything needed to reproduce the identification.
+    options : NSIOptions
+        The settings it ran with, every ``"auto"`` resolved (order, band, band mean, input hold,
+        virtual stiffness): everything needed to reproduce the identification.
+    fit : IdentificationFit
+        What the route measured on the data (reflected poles; lines and misfits of the frequency route).
     rigid_body_poles : ndarray of complex
-        Rigid-body poles (s ≈ 0) of a free body, reported as such (``settings["virtual_stiffness"]``
+        Rigid-body poles (s ≈ 0) of a free body, reported as such (``options.virtual_stiffness``
         then holds the known spring the identification used, see :mod:`bayesnsi.nsi.free_body`).
 
     See Also
@@ -62,7 +110,8 @@ class NSIResult:
     modes: tuple[Mode, ...]
     spurious_poles: np.ndarray
     coefficients: tuple[CoefficientEstimate, ...]
-    settings: dict = field(default_factory=dict)
+    options: NSIOptions = field(default_factory=NSIOptions)
+    fit: IdentificationFit = field(default_factory=lambda: IdentificationFit(n_samples=0, fs=0.0))
     rigid_body_poles: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=complex))
 
     @property
@@ -81,9 +130,29 @@ class NSIResult:
         return min((m.frequency_hz for m in self.modes), default=0.0)
 
     @property
+    def settings(self) -> dict[str, Any]:
+        """The options and the fit as one JSON-ready record (results.json ``settings`` of a candidate).
+
+        Returns
+        -------
+        dict
+        """
+        record = {**self.options.to_dict(), "n_samples": self.fit.n_samples, "fs": self.fit.fs}
+        for item in fields(self.fit):
+            value = getattr(self.fit, item.name)
+            if item.name in ("n_samples", "fs") or (self.options.domain != "frequency" and item.name not in (
+                    "reflected_poles_hz", "virtual_mode_mirrored_hz")):
+                continue
+            if item.name == "unexcited_ratio":
+                value = None if value is None else {k: list(v) for k, v in value}
+            record[item.name] = list(value) if isinstance(value, tuple) else value
+        return record
+
+    @property
     def virtual_stiffness(self) -> float:
         """Known spring [N/m] on the input during identification (0: none; free bodies)."""
-        return float(self.settings.get("virtual_stiffness", 0.0) or 0.0)
+        stiffness = self.options.virtual_stiffness
+        return 0.0 if isinstance(stiffness, str) else float(stiffness)
 
     @property
     def free_model(self) -> StateSpaceModel:
@@ -217,7 +286,7 @@ class NSIResult:
     @property
     def upsample(self) -> int:
         """Factor between the identification grid and the data's sampling (1: the same)."""
-        return int(self.settings.get("upsample", 1))
+        return int(self.options.upsample)
 
     def working_signals(self, signals: Signals) -> Signals:
         """The signals on the identification grid (band-limited interpolation when upsampled).
@@ -253,8 +322,8 @@ class NSIResult:
         return extended_input(
             signals if on_grid else self.working_signals(signals),
             self.terms,
-            self.settings.get("velocity_method", "fourth"),
-            self.settings.get("input_hold", "auto"),
+            self.options.velocity_method,
+            self.options.input_hold,
         )
 
     def reconstruct(self, signals: Signals, closed_loop: bool = False, n_init: int | None = None):

@@ -208,7 +208,7 @@ def plot_coefficient_spectrum(result, freqs_hz=None, axes=None, units=None):
         raise ValueError("a linear candidate has no nonlinear coefficients to plot")
     if freqs_hz is None:
         lo, hi = result.band_hz
-        freqs_hz = np.linspace(0.5 * lo, min(1.3 * hi, 0.5 * result.settings.get("fs", 2 * hi)), 400)
+        freqs_hz = np.linspace(0.5 * lo, min(1.3 * hi, 0.5 * (result.fit.fs or 2 * hi)), 400)
     spectrum = result.coefficient_spectrum(freqs_hz)
     if axes is None:
         fig, axes = plt.subplots(q, 1, figsize=(6.0, 2.6 * q), squeeze=False, layout="constrained")

@@ -123,12 +123,12 @@ def plot_band_ratios(check, channel_names, limit: float, ax=None):
     Parameters
     ----------
     check : ModelCheck
-        :func:`bayesnsi.run.adequacy.model_checks` of the model (``band_edges_hz``, ``band_ratios``).
+        :func:`bayesnsi.checks.adequacy.model_checks` of the model (``band_edges_hz``, ``band_ratios``).
     channel_names : sequence of str
         Name of each output channel.
     limit : float
         The ratio above which the model misses something in a band
-        (:data:`bayesnsi.run.residual_bands.MAX_BAND_RATIO`), drawn as a dashed line.
+        (:data:`bayesnsi.checks.residual_bands.MAX_BAND_RATIO`), drawn as a dashed line.
     ax : matplotlib.axes.Axes, optional
         Axes to draw on; a new figure when None.
 

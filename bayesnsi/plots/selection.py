@@ -224,8 +224,8 @@ def _figure_kwargs(width: float, height: float) -> dict:
 def plot_effect_force(step, signals, max_points: int = 4000, units=None):
     """Restoring-force view of an added effect at its location, before and after (docs/method.md §7).
 
-    With the step's :class:`~bayesnsi.diagnose.forces.ResidualForce` (accepted steps of
-    :func:`bayesnsi.diagnose.close_the_loop`): top row, the residual of the model without the
+    With the step's :class:`~bayesnsi.loop.forces.ResidualForce` (accepted steps of
+    :func:`bayesnsi.loop.close_the_loop`): top row, the residual of the model without the
     effect as a force at the location; bottom row, the residual after (blue), the effect's force
     λ·n through the same filter (black) and their sum, the component-plus-residual (red),
     against the displacement and the velocity at the location. Without it, λ·n(x, v) alone

@@ -32,6 +32,7 @@ import numpy as np
 from .._dispatch import dispatch
 from .._measured import measured_error
 from ..exceptions import BayesNSIError, ConfigError, IntervalWarning
+from ..findings import Finding, emit, finding_from_warning
 from ..models import CandidateModel
 from ..nsi import identify
 from ..options import EvidenceOptions, ExecutionOptions, NSIOptions
@@ -63,16 +64,17 @@ class CandidateOutcome:
         ``"identification"``, ``"evidence"`` or ``"internal"`` (a bug), None when it succeeded.
     traceback : str or None
         Traceback of an internal error.
-    warnings : tuple of str
-        Messages of the warnings raised while the candidate ran.
+    findings : tuple of Finding
+        What the identification, evidence and intervals found while the candidate ran (every warning
+        they raised, :func:`bayesnsi.findings.finding_from_warning`).
     intervals : Intervals or None
         50 % and 95 % intervals of the coefficients and modes under the primary likelihood
-        (:func:`bayesnsi.evidence.candidate_intervals`, ``EvidenceOptions.interval``); None without
+        (:func:`bayesnsi.uncertainty.candidate_intervals`, ``EvidenceOptions.interval``); None without
         evidence.
     whiteness : Whiteness or None
         Ljung-Box test of the residual the evidence scored (innovations or open loop,
-        :func:`bayesnsi.validation.whiteness_test`), computed with it; None where the test does not
-        apply (:func:`bayesnsi.validation.whiteness_applies`), without evidence, for a free body
+        :func:`bayesnsi.checks.validation.whiteness_test`), computed with it; None where the test does not
+        apply (:func:`bayesnsi.checks.validation.whiteness_applies`), without evidence, for a free body
         (scored on its force) or a ``"force"`` residual.
     seconds : float
         Wall time of the computation (of the original run for a cached outcome).
@@ -88,7 +90,7 @@ class CandidateOutcome:
     error: str | None = None
     failed_stage: str | None = None
     traceback: str | None = None
-    warnings: tuple[str, ...] = ()
+    findings: tuple[Finding, ...] = ()
     intervals: Any = None
     whiteness: Any = None
     seconds: float = 0.0
@@ -170,7 +172,7 @@ def candidate_task(
                 found.pop(partial, None)
     return CandidateOutcome(
         **found,
-        warnings=tuple(str(w.message) for w in caught),
+        findings=tuple(finding_from_warning(w) for w in caught),
         seconds=time.perf_counter() - start,
     )
 
@@ -179,11 +181,11 @@ def _whiteness(result, signals, affine, residual: str):
     """Ljung-Box test of the evidence's residual, or None where ``select`` would test another one or none.
 
     ``select`` tests the displacement residual named by ``[evidence] residual``
-    (:func:`bayesnsi.validation.residual_whiteness`): the evidence's own residual is that one except for a free
+    (:func:`bayesnsi.checks.validation.residual_whiteness`): the evidence's own residual is that one except for a free
     body (its force) or the ``"force"`` residual, and the test does not apply to integrated responses.
     """
+    from ..checks.validation import whiteness_applies, whiteness_test
     from ..nsi import is_free_body
-    from ..validation import whiteness_applies, whiteness_test
 
     if residual not in ("innovations", "reconstruction") or is_free_body(result) or not whiteness_applies(signals):
         return None
@@ -196,17 +198,14 @@ def _intervals_or_warning(result, signals, evidences, evidence: EvidenceOptions,
     The evidence that succeeded is kept: a failure of the intervals (e.g. record windows too short for
     the block rows) is not a failure of the candidate.
     """
-    from ..evidence import candidate_intervals
+    from ..uncertainty import candidate_intervals
 
     try:
         return candidate_intervals(result, signals, evidences[evidence.likelihood], evidence, nsi)
     except (BayesNSIError, np.linalg.LinAlgError) as err:
-        warnings.warn(
-            f"intervals not computed ({type(err).__name__}: {err}); the evidence is kept - see"
-            " [evidence] interval / n_segments",
-            IntervalWarning,
-            stacklevel=2,
-        )
+        message = (f"intervals not computed ({type(err).__name__}: {err}); the evidence is kept - see"
+                   " [evidence] interval / n_segments")
+        emit([Finding("interval.failed", message, result.candidate.name)], IntervalWarning, stacklevel=2)
         return None
 
 

@@ -3,7 +3,7 @@
 Each case simulates a chain of docs/method.md §8 (the two- or three-DOF chain, RK4 on a band-limited
 force, docs/method.md §10) with a set of true nonlinear terms, and *declares* only some of them: the
 declared candidate is what a config would state, the missing effects are what
-:func:`bayesnsi.diagnose.close_the_loop` should find (type, location, coefficient). Negative
+:func:`bayesnsi.loop.close_the_loop` should find (type, location, coefficient). Negative
 controls declare the whole truth.
 
 ==============================  =========  ==============================  ==================================

@@ -1,0 +1,287 @@
+"""Scoring the effects of a dictionary against a model: Laplace evidence, screen, clearance gaps.
+
+Every effect ``e`` is added to the current candidate, the enlarged model is identified by NSI
+(sharing the current model's Hankel products, :func:`bayesnsi.nsi.hankel_correlations`) and scored
+by its Laplace log-evidence (a free, accurate approximation of the marginal evidence, docs/method.md §6).
+With the screen on, only the best ``LoopOptions.screen`` effects of the frequency-domain screen
+(:func:`bayesnsi.loop.screen.screen_effects`) are identified; clearances among the best have
+their gap refined off the grid (:func:`refine_gap`).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import replace
+
+import numpy as np
+
+from .._dispatch import dispatch
+from ..evidence import candidate_affine, candidate_priors, laplace_log_evidence, sufficient_statistics
+from ..evidence.boundary import collapsed_laplace_log_evidence
+from ..exceptions import BayesNSIError, BayesNSIWarning
+from ..models import Effect
+from ..models.dictionary import clearance_effect
+from ..nsi import force_affine, hankel_correlations, identify, is_free_body, nrmse
+from ..options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions, parse_likelihood
+from .localise import screen_effects_periodic
+from .results import EffectScore
+from .screen import screen_effects
+from .screen_force import screen_effects_force
+from .state import LoopContext
+
+__all__ = ["laplace_score", "rank_effects", "refine_gap", "score_effects"]
+
+
+def laplace_score(result, signals, evidence: EvidenceOptions) -> tuple[float, float]:
+    """Laplace log-evidence of ``result`` and, from the same affine model, its open-loop NRMSE.
+
+    Parameters
+    ----------
+    result : NSIResult
+    signals : Signals
+    evidence : EvidenceOptions
+        Residual, likelihood and priors of the evidence.
+
+    Returns
+    -------
+    (float, float)
+        The log-evidence (primary likelihood; where the Laplace approximation over every parameter
+        is not finite, e.g. an AR(1) mode beyond the prior bound, the one in the coefficients alone
+        with the noise parameters integrated out, :mod:`bayesnsi.evidence.boundary`) and the NRMSE,
+        NaN unless the evidence scores the open-loop reconstruction residual (then the affine model
+        at the NSI estimate is that reconstruction, docs/method.md §5); for a free body the NRMSE of
+        the force it predicts from the measured motion at the NSI estimate
+        (:func:`bayesnsi.nsi.force_affine`).
+    """
+    affine = candidate_affine(result, signals, evidence.residual)
+    priors = candidate_priors(result, signals, affine, evidence)
+    stats = sufficient_statistics(affine, ar_order=parse_likelihood(evidence.likelihood)[0])
+    score = laplace_log_evidence(stats, priors, evidence.likelihood)
+    if not np.isfinite(score):  # e.g. an AR(1) mode beyond the prior bound: a drifting residual
+        score = collapsed_laplace_log_evidence(stats, priors, evidence.likelihood)
+    if is_free_body(result):  # the error of the model's own force prediction (IDIM view)
+        affine = force_affine(result, signals)
+    elif evidence.residual != "reconstruction":
+        return score, np.nan
+    return score, nrmse(affine.measured, affine.predict(affine.estimate))[1]
+
+
+def shared_correlations(signals, candidate, nsi: NSIOptions):
+    """Hankel products of ``candidate`` that every ``candidate + effect`` shares (None if unusable)."""
+    try:
+        return hankel_correlations(signals, candidate, nsi)
+    except (BayesNSIError, np.linalg.LinAlgError):
+        return None
+
+
+def score_one(signals, candidate, effect: Effect, nsi: NSIOptions, evidence: EvidenceOptions, correlations=None):
+    """``candidate + effect`` identified and scored (:class:`EffectScore`, −inf when it fails).
+
+    ``correlations``: :func:`shared_correlations` of ``candidate`` (saves most of the Hankel
+    products; the result is the same).
+    """
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", BayesNSIWarning)
+            result = identify(signals, candidate.with_term(effect.term), nsi, correlations=correlations)
+            score, error = laplace_score(result, signals, evidence)
+    except (BayesNSIError, np.linalg.LinAlgError) as err:
+        return EffectScore(effect, -math.inf, error=f"{type(err).__name__}: {err}")
+    if not np.isfinite(score):
+        return EffectScore(effect, -math.inf, float(error), result, error=f"Laplace log-evidence is {score}")
+    return EffectScore(effect, float(score), float(error), result)
+
+
+def _score_task(context, effect):
+    """:func:`score_one` for :func:`bayesnsi._dispatch.dispatch` (context: data, model, settings, products)."""
+    return score_one(*context[:2], effect, *context[2:])
+
+
+def new_effects(candidate, effects, exclude=()) -> list[Effect]:
+    """The effects not in ``candidate`` whose (base type, location) is not in ``exclude``."""
+    present = {t.name for t in candidate.terms}
+    exclude = set(exclude)
+    return [e for e in effects if e.term.name not in present and (e.base, e.location) not in exclude]
+
+
+def _loop_evidence(evidence: EvidenceOptions | None) -> EvidenceOptions:
+    return evidence or EvidenceOptions(residual=LoopOptions().residual, compare=())
+
+
+def score_effects(
+    signals, candidate, effects, nsi: NSIOptions | None = None, evidence: EvidenceOptions | None = None, *,
+    exclude=(), execution: ExecutionOptions | None = None, correlations=None,
+) -> list[EffectScore]:
+    """Identify ``candidate + effect`` for every effect and score it by Laplace log-evidence.
+
+    Parameters
+    ----------
+    signals : Signals
+        Estimation data.
+    candidate : CandidateModel
+        The model the effects are added to.
+    effects : sequence of Effect
+        Effects to score (those already in ``candidate`` are skipped).
+    nsi : NSIOptions, optional
+    evidence : EvidenceOptions, optional
+        Default: the loop's residual (``LoopOptions().residual``), no compared likelihoods.
+    exclude : iterable of (str, tuple of int)
+        ``(base type, location)`` pairs to skip (effects the loop already added: a second
+        clearance at the same location, whatever its gap, only absorbs the first one's misfit).
+    execution : ExecutionOptions, optional
+        ``jobs`` local worker processes or a Dask ``scheduler``; the scores do not depend on them.
+    correlations : HankelCorrelations, optional
+        :func:`bayesnsi.nsi.hankel_correlations` of ``candidate`` with these NSI settings, when
+        already computed (computed here otherwise).
+
+    Returns
+    -------
+    list of EffectScore
+        Best first (ties in dictionary order).
+    """
+    nsi, evidence, execution = nsi or NSIOptions(), _loop_evidence(evidence), execution or ExecutionOptions()
+    tasks = [(e,) for e in new_effects(candidate, effects, exclude)]
+    scored: list[EffectScore] = [EffectScore(e, -math.inf) for (e,) in tasks]
+    if correlations is None:
+        correlations = shared_correlations(signals, candidate, nsi)
+    context = (signals, candidate, nsi, evidence, correlations)
+    jobs, scheduler = execution.jobs, execution.scheduler
+    for index, value in dispatch(_score_task, tasks, context=context, jobs=jobs, scheduler=scheduler):
+        scored[index] = value
+    scored.sort(key=lambda item: item.log_evidence, reverse=True)
+    return scored
+
+
+def refine_gap(
+    signals, candidate, entry: EffectScore, effects, nsi: NSIOptions | None = None,
+    evidence: EvidenceOptions | None = None, *, points: int = 9, correlations=None,
+) -> EffectScore:
+    """Refine the gap of a clearance effect between its neighbours on the dictionary's grid.
+
+    docs/method.md §7 offers clearances "on a grid of g"; the coefficient of a clearance spring is only
+    meaningful with the right gap (a gap 10 % too large inflates the stiffness by far more), so
+    the gap of a promising clearance is refined by two rounds of a ``points``-point grid search
+    of the Laplace log-evidence: first between the neighbouring grid gaps at the same location
+    (down to half the smallest, up to 1.5 times the largest), then within one spacing of the best.
+
+    Parameters
+    ----------
+    signals, candidate, nsi, evidence
+        As in :func:`score_effects`.
+    entry : EffectScore
+        A scored clearance (any other effect is returned as it is).
+    effects : sequence of Effect
+        The dictionary whose clearance gaps at ``entry``'s location form the grid.
+    points : int
+        Gaps tried per round.
+    correlations : HankelCorrelations, optional
+        As in :func:`score_effects`.
+
+    Returns
+    -------
+    EffectScore
+        The best entry found (``entry`` itself when nothing beats it).
+    """
+    gap, at = entry.effect.gap, entry.effect.location
+    if gap is None:
+        return entry
+    nsi, evidence = nsi or NSIOptions(), _loop_evidence(evidence)
+    grid = sorted({e.gap for e in effects if e.gap is not None and e.location == at})
+    lower = max((g for g in grid if g < gap), default=0.5 * gap)
+    upper = min((g for g in grid if g > gap), default=1.5 * gap)
+    best = entry
+    if correlations is None:
+        correlations = shared_correlations(signals, candidate, nsi)
+    for _ in range(2):
+        for g in np.linspace(lower, upper, points):
+            if g <= 0:
+                continue
+            trial = score_one(signals, candidate, clearance_effect(at, float(g)), nsi, evidence, correlations)
+            if trial.log_evidence > best.log_evidence:
+                best = trial
+        centre, step = best.effect.gap, (upper - lower) / (points - 1)
+        lower, upper = max(centre - step, 0.5 * step), centre + step
+    return best
+
+
+def _screened(context: LoopContext, candidate, effects, exclude):
+    """Split ``effects`` into the best ``screen`` by the screen (module notes) and the rest.
+
+    Effects already in the model or excluded are dropped first. Returns ``(kept effects, scores
+    of the rest, screen)``; the rest carry a NaN score (screened out, not re-identified), in screen
+    order; ``screen`` maps each kept effect's term name to its ``(rank, score, view)``.
+    """
+    count = context.options.screen
+    effects = new_effects(candidate, effects, exclude)
+    try:
+        if context.nsi.virtual_stiffness not in ("auto", 0.0, 0):  # a free body: screen in the force view
+            view, ranked = "force", screen_effects_force(context.signals, candidate, effects)
+        elif context.nsi.domain == "frequency" and context.signals.period and context.signals.force.shape[1] == 1:
+            view, ranked = "periodic", screen_effects_periodic(  # where the data show the distortion first
+                context.signals, candidate, effects, max_frequency_hz=context.screen_hz,
+                velocity_method=context.nsi.velocity_method,
+            )
+        else:
+            view, ranked = "frequency", screen_effects(
+                context.signals, candidate, effects, max_frequency_hz=context.screen_hz,
+                velocity_method=context.nsi.velocity_method,
+            )
+    except BayesNSIError:
+        return effects, [], {}  # too short a record to screen: score them all
+    screen = {e.term.name: (rank, float(score), view) for rank, (e, score) in enumerate(ranked, start=1)}
+    rest = [
+        EffectScore(e, math.nan, screen_rank=rank, screen_score=float(score), screen_view=view)
+        for rank, (e, score) in enumerate(ranked[count:], start=count + 1)
+    ]
+    if len(effects) <= count:  # all re-identified, in dictionary order as without a screen
+        return effects, [], screen
+    return [e for e, _ in ranked[:count]], rest, screen
+
+
+def _with_screen(entry: EffectScore, screen: dict, name: str | None = None) -> EffectScore:
+    """``entry`` with the screen rank, score and view of ``name`` (default its own term's)."""
+    found = screen.get(entry.term.name if name is None else name)
+    if found is None:
+        return entry
+    return replace(entry, screen_rank=found[0], screen_score=found[1], screen_view=found[2])
+
+
+def rank_effects(context: LoopContext, candidate, exclude=(), effects=None, screen: bool = True) -> list[EffectScore]:
+    """Scores of the effects against ``candidate``, with the gaps of the clearances among the best refined.
+
+    Parameters
+    ----------
+    context : LoopContext
+    candidate : CandidateModel
+    exclude : iterable of (str, tuple of int)
+        As in :func:`score_effects`.
+    effects : sequence of Effect, optional
+        Default: the loop's dictionary. Also the grid of the clearance gaps.
+    screen : bool
+        Apply the frequency-domain screen when the loop has one (``context.screen_hz``).
+
+    Returns
+    -------
+    list of EffectScore
+        Best first; the screened-out effects follow with a NaN score.
+    """
+    effects = context.effects if effects is None else effects
+    kept, rest, ranks = effects, [], {}
+    if screen and context.screen_hz is not None:
+        kept, rest, ranks = _screened(context, candidate, effects, exclude)
+    correlations = shared_correlations(context.signals, candidate, context.nsi)
+    scored = score_effects(
+        context.signals, candidate, kept, context.nsi, context.evidence, exclude=exclude,
+        execution=context.execution, correlations=correlations,
+    )
+    scored = [_with_screen(entry, ranks) for entry in scored]
+    n_tries = context.options.n_tries
+    head = [  # a refined clearance keeps the screen rank of the grid gap it was refined from
+        _with_screen(refine_gap(context.signals, candidate, entry, effects, context.nsi, context.evidence,
+                                correlations=correlations), ranks, entry.term.name)
+        if np.isfinite(entry.log_evidence) and entry.effect.gap is not None
+        else entry
+        for entry in scored[:n_tries]
+    ]
+    return sorted(head + scored[n_tries:], key=lambda item: item.log_evidence, reverse=True) + rest

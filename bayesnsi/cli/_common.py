@@ -147,7 +147,7 @@ def start_run(args):
     return config, out, signals, data_findings
 
 
-def write_outputs(args, out, payload, evidences, outcomes, build_report):
+def write_outputs(args, out, config, payload, posteriors, build_report):
     """Write a run's files: the posteriors, the report (unless ``--no-figures``), then results.json.
 
     results.json comes last, so that a folder holding it is complete (a rerun resumes otherwise).
@@ -156,13 +156,13 @@ def write_outputs(args, out, payload, evidences, outcomes, build_report):
     ----------
     args : argparse.Namespace
     out : Path
+    config : ExperimentConfig
+        For the units of the data.
     payload : dict
-        results.json (:func:`bayesnsi.io.selection_payload` or :func:`bayesnsi.io.loop_record.diagnosis_payload`);
+        results.json (:func:`bayesnsi.io.selection_payload` or :func:`bayesnsi.io.diagnosis_payload`);
         ``posterior_files`` is added.
-    evidences : mapping of str to EvidenceResult
-        The posteriors to write (``DIR/posterior/<name>.nc``), by model name.
-    outcomes : sequence of CandidateOutcome
-        The candidates (their intervals go into the posterior files).
+    posteriors : mapping of str to (EvidenceResult, Intervals or None)
+        The posterior files to write (``DIR/posterior/<name>.nc``), by model name.
     build_report : callable
         ``build_report() -> Report``.
 
@@ -173,11 +173,13 @@ def write_outputs(args, out, payload, evidences, outcomes, build_report):
     """
     from ..io import RESULTS_FILENAME, atomic_write_json
 
-    if evidences:
+    if posteriors:
         from ..io.posterior import write_posteriors
+        from ..report import report_units
 
-        intervals = {o.name: o.intervals for o in outcomes if o.intervals is not None}
-        payload["posterior_files"] = write_posteriors(out, evidences, intervals)
+        evidences = {name: evidence for name, (evidence, _) in posteriors.items()}
+        intervals = {name: found for name, (_, found) in posteriors.items() if found is not None}
+        payload["posterior_files"] = write_posteriors(out, evidences, intervals, report_units(config))
     if not args.no_figures:
         from ..report import held_figures
 

@@ -8,7 +8,7 @@ import warnings
 from ..exceptions import AdequacyWarning
 from ..options import LoopOptions
 from ._common import add_option_flags, add_run_arguments, option_overrides, progress, start_run, write_outputs
-from .select import print_findings, run_selection
+from .select import posterior_files, print_findings, run_selection
 
 __all__ = ["add_parser", "run"]
 
@@ -60,10 +60,10 @@ def run(args) -> int:
     for step in diagnosis.loop.steps:
         progress(step_line(step), args.quiet)
     payload = diagnosis_payload(diagnosis, "diagnose", config, data_findings)
-    evidences = {name: by[selection.likelihood] for name, by in selection.evidences.items()}
+    posteriors = posterior_files(selection)
     if diagnosis.final.evidence is not None and diagnosis.added:  # the model the loop ends with
-        evidences[diagnosis.final.name] = diagnosis.final.evidence
-    write_outputs(args, out, payload, evidences, selection.outcomes,
+        posteriors[diagnosis.final.name] = (diagnosis.final.evidence, diagnosis.final.intervals)
+    write_outputs(args, out, config, payload, posteriors,
                   lambda: diagnosis_report(diagnosis, config, f"bayesnsi diagnose - {config.path.name}",
                                                           data_findings=data_findings))
     for line in diagnosis_lines(diagnosis):

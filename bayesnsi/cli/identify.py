@@ -37,7 +37,7 @@ def run(args) -> int:
     for finding in (*view, *order_findings(outcomes)):  # order "auto" that may have missed modes, as select says
         print(f"{finding.severity}: {' '.join(finding.message.split())}", file=sys.stderr)
     payload = identification_payload(outcomes, "identify", config, data_findings)
-    path = write_outputs(args, out, payload, {}, outcomes,
+    path = write_outputs(args, out, config, payload, {},
                          lambda: identification_report(
                              outcomes, config, signals, f"bayesnsi identify - {config.path.name}",
                              data_findings=data_findings))

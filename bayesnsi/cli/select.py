@@ -8,7 +8,7 @@ import warnings
 from ..exceptions import AdequacyWarning
 from ._common import add_run_arguments, execution, progress, refuse_if_nothing_identified, start_run, write_outputs
 
-__all__ = ["add_parser", "print_findings", "run", "run_selection"]
+__all__ = ["add_parser", "posterior_files", "print_findings", "run", "run_selection"]
 
 
 def add_parser(sub) -> None:
@@ -33,8 +33,7 @@ def run(args) -> int:
     config, out, signals, data_findings = start_run(args)
     selection = run_selection(config, signals, args, out)
     payload = selection_payload(selection, "select", config, data_findings)
-    evidences = {name: by[selection.likelihood] for name, by in selection.evidences.items()}
-    path = write_outputs(args, out, payload, evidences, selection.outcomes,
+    path = write_outputs(args, out, config, payload, posterior_files(selection),
                          lambda: selection_report(
                              selection, config, f"bayesnsi select - {config.path.name}",
                              data_findings=data_findings))
@@ -43,6 +42,21 @@ def run(args) -> int:
         progress(line, args.quiet)
     print_findings(selection)
     return 0
+
+
+def posterior_files(selection) -> dict:
+    """The posterior files of a selection's candidates: name -> (evidence under the primary likelihood, intervals).
+
+    Parameters
+    ----------
+    selection : Selection
+
+    Returns
+    -------
+    dict
+    """
+    return {o.name: (o.evidences[selection.likelihood], o.intervals) for o in selection.outcomes
+            if o.evidences is not None and selection.likelihood in o.evidences}
 
 
 def print_findings(selection) -> None:

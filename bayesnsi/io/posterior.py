@@ -1,11 +1,20 @@
-"""The coefficient posteriors of a selection as netCDF files: ``DIR/posterior/<candidate>.nc``.
+"""The posteriors of a run as netCDF files: ``DIR/posterior/<model>.nc`` (layout: docs/posterior-files.md).
 
-Each file is the arviz ``DataTree`` of :meth:`bayesnsi.evidence.PosteriorSamples.to_datatree`
-(groups ``posterior``: ``coefficient`` (chain, draw, term), ``sigma``, ``rho``; ``sample_stats``:
-``lp``), written by xarray with the h5netcdf engine (netCDF4/HDF5 with groups). Read one back
-with :func:`read_posterior` or, in any notebook, ``xarray.open_datatree(path, engine="h5netcdf")``;
-arviz functions take the tree as it is (e.g. ``arviz_stats.summary(tree)``,
-``arviz_plots.plot_dist(tree)``).
+Each file is an arviz ``DataTree`` written by xarray with the h5netcdf engine (netCDF4/HDF5 with
+groups), built by :func:`posterior_tree`:
+
+* ``posterior``: ``coefficient`` (chain, draw, term) - draws that carry the honest intervals of
+  results.json (:func:`bayesnsi.uncertainty.draws.interval_draws`: the linear part's uncertainty
+  included), so ``arviz_stats.summary(tree, ci_prob=0.95)`` gives them; ``frequency`` and
+  ``damping_ratio`` (chain, draw, mode) the same for the modes (their draws independent across modes);
+* ``posterior_given_linear_part``: the sampler's draws, ``coefficient``, ``sigma`` (chain, draw,
+  channel) and, for AR likelihoods, ``rho``: the posterior that takes the identified linear part as
+  exact (too narrow as an uncertainty of the coefficients);
+* ``sample_stats``: ``lp`` of the sampler's draws.
+
+Variables carry ``units`` and ``description`` attributes; the tree's attributes name the model, the
+likelihood, the log evidence and its Monte-Carlo error, the sampler and the interval method. Read one
+back with :func:`read_posterior` or ``xarray.open_datatree(path, engine="h5netcdf")``.
 """
 
 from __future__ import annotations
@@ -16,7 +25,8 @@ from pathlib import Path
 
 from ..exceptions import InputDataError
 
-__all__ = ["POSTERIOR_DIRNAME", "NETCDF_ENGINE", "posterior_filename", "read_posterior", "write_posteriors"]
+__all__ = ["POSTERIOR_DIRNAME", "NETCDF_ENGINE", "posterior_filename", "posterior_tree", "read_posterior",
+           "write_posteriors"]
 
 POSTERIOR_DIRNAME = "posterior"
 """Folder, inside the output folder, of the posterior files."""
@@ -49,7 +59,76 @@ def posterior_filename(name: str, taken=()) -> str:
     return filename
 
 
-def write_posteriors(folder, evidences, intervals=None) -> dict[str, str]:
+def posterior_tree(name: str, evidence, intervals=None, units=None):
+    """The ``DataTree`` of one model's posterior file (module notes).
+
+    Parameters
+    ----------
+    name : str
+        The model's name.
+    evidence : EvidenceResult
+        Its evidence (the sampler's draws).
+    intervals : Intervals, optional
+        Its honest intervals; without them ``posterior`` holds the sampler's draws (and says so).
+    units : ChannelUnits, optional
+        Units of the data, for the variables' ``units`` attributes.
+
+    Returns
+    -------
+    xarray.DataTree
+    """
+    import numpy as np
+    import xarray as xr
+
+    from ..uncertainty.draws import interval_draws
+    from .units import ChannelUnits, term_unit
+
+    units = units or ChannelUnits()
+    given = evidence.posterior.to_datatree()
+    sampled = given["posterior"].to_dataset()
+    term_units = [term_unit(t.rsplit("@", 1)[0], units) for t in evidence.coefficient_names]
+    honest = intervals is not None and intervals.method != "posterior"
+    posterior = {}
+    if "coefficient" in sampled:
+        values = sampled["coefficient"].values
+        if honest and len(intervals.coefficients) == values.shape[-1]:
+            values = interval_draws(intervals.coefficients, values)
+        posterior["coefficient"] = xr.DataArray(values, dims=("chain", "draw", "term"), attrs={
+            "units": term_units, "description": "coefficient λ of each term" + (
+                f"; draws with the honest intervals ({intervals.method} + posterior: the linear part's uncertainty "
+                "included)" if honest else "; the posterior given the identified linear part")})
+    if honest and intervals.frequencies:
+        chains, draws = sampled.sizes["chain"], sampled.sizes["draw"]
+        normal = np.random.default_rng(0).standard_normal((chains, draws, len(intervals.frequencies)))
+        posterior["frequency"] = xr.DataArray(interval_draws(intervals.frequencies, normal),
+                                              dims=("chain", "draw", "mode"), attrs={
+                "units": "Hz", "description": "natural frequency of each mode (honest interval; modes independent)"})
+        posterior["damping_ratio"] = xr.DataArray(interval_draws(intervals.damping_ratios, normal),
+                                                  dims=("chain", "draw", "mode"), attrs={
+                "units": "1", "description": "damping ratio of each mode (honest interval; modes independent)"})
+    coords = {"chain": sampled["chain"].values, "draw": sampled["draw"].values}
+    if "term" in sampled.coords:
+        coords["term"] = sampled["term"].values
+    if "frequency" in posterior:
+        coords["mode"] = np.arange(1, len(intervals.frequencies) + 1)
+    groups = {"posterior": xr.Dataset(posterior, coords=coords),
+              "posterior_given_linear_part": sampled, "sample_stats": given["sample_stats"].to_dataset()}
+    if "coefficient" in sampled:
+        sampled["coefficient"].attrs.update(units=term_units, description="coefficient λ given the linear part")
+    sampled["sigma"].attrs.update(units=units.displacement or "data units",
+                                  description="noise std of each output channel")
+    if "rho" in sampled:
+        sampled["rho"].attrs.update(units="1", description="AR coefficient of each output channel's residual")
+    tree = xr.DataTree.from_dict(groups)
+    tree.attrs.update(
+        model=name, likelihood=evidence.likelihood, log_evidence=float(evidence.log_evidence),
+        log_evidence_se=float(evidence.log_evidence_se), interval=intervals.method if intervals is not None else "none",
+        sampler=str(evidence.settings.get("sampler", "emcee")), written_by=_written_by(),
+    )
+    return tree
+
+
+def write_posteriors(folder, evidences, intervals=None, units=None) -> dict[str, str]:
     """Write each model's posterior to ``folder/posterior/<name>.nc``.
 
     Parameters
@@ -60,6 +139,8 @@ def write_posteriors(folder, evidences, intervals=None) -> dict[str, str]:
         Model name -> its evidence under the primary likelihood.
     intervals : mapping of str to Intervals, optional
         Model name -> its honest intervals.
+    units : ChannelUnits, optional
+        Units of the data.
 
     Returns
     -------
@@ -73,12 +154,7 @@ def write_posteriors(folder, evidences, intervals=None) -> dict[str, str]:
             continue
         target.mkdir(exist_ok=True)
         filename = posterior_filename(name, {Path(p).name for p in written.values()})
-        tree = evidence.posterior.to_datatree()
-        likelihood = evidence.likelihood
-        tree.attrs.update(
-            candidate=name, likelihood=likelihood, log_evidence=float(evidence.log_evidence),
-            log_evidence_se=float(evidence.log_evidence_se), written_by=_written_by(),
-        )
+        tree = posterior_tree(name, evidence, (intervals or {}).get(name), units)
         path = target / filename
         partial = path.with_name(f".{filename}.partial")
         tree.to_netcdf(partial, engine=NETCDF_ENGINE)

@@ -165,7 +165,7 @@ _DISCONTINUOUS_NOTE = (
     "{terms} {verb} discontinuous at velocity reversals: the noise replicates re-randomise the sign changes that the "
     "data's own noise caused, so their mean shift (the bias removed from the centre) is only partly the bias; "
     "in the calibration study the 95 % intervals of such models covered the truth on 86-98 % of seeds, "
-    "86-89 % for the loop's Coulomb case (README, 'Honest intervals')"
+    "86-89 % for the loop's Coulomb case (docs/calibration.md)"
 )
 
 

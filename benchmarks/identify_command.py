@@ -4,7 +4,7 @@ The beam case (docs/method.md §8: 1e5 samples, 1 force, 8 displacements + 8 vel
 response channels) with its true candidate {x13², x13³}, under two settings:
 
 * the case's recommended settings (prediction-error B/D and C, refined in-band poles), the ones
-  `bayesnsi simulate beam` writes and the README's beam figures use;
+  `bayesnsi simulate beam` writes and the beam figures of docs/accuracy.md use;
 * plain settings (the [nsi] defaults for B/D and C, no pole refinement), where the
   identification takes 0.16-0.18 s and Python start-up, imports and reading the CSV dominate.
 

@@ -5,7 +5,7 @@ References: the surrogate force's spectrum and cross-spectrum are those of the m
 and, the independent check of the simulation grid and warm-up, the identified model's own noise-free
 records identify back to the model (coefficients and modes), since in the model's world the truth is
 the model. The coverage of the resulting intervals is a benchmark (``benchmarks/calibration_loop.py``,
-README "Honest intervals and model adequacy").
+docs/calibration.md, "The loop's final model").
 """
 
 from __future__ import annotations

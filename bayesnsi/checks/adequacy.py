@@ -10,7 +10,7 @@ identified candidate :func:`model_checks` reports
   itself plus what the model makes of it through the nonlinear inputs it computes from the noisy
   measurements. Against the sensor noise alone the true clearance and Coulomb models of the
   undeclared cases read 1.09-1.20 and 1.49-2.23 and were called inadequate; against this yardstick
-  0.84-0.91 and 0.85-1.63 (README, "Adequacy"). The sensor noise and its draws:
+  0.84-0.91 and 0.85-1.63 (docs/calibration.md, "Adequacy ratios"). The sensor noise and its draws:
   :func:`bayesnsi.noise.noise_model`; band by band: :mod:`bayesnsi.checks.residual_bands`;
 * the quality index, the largest |Im λ|/|Re λ| of its coefficients (small is good);
 * with ``[[validation]]`` segments, the mean closed-loop NRMSE over them and the mean log

@@ -67,5 +67,5 @@ def periodic_hint(config, signals) -> str | None:
     period = lag * config.data.decimate
     return (
         f"note: the force repeats every {period} samples of the file: if the test is periodic in steady state, "
-        f'[data] period = {period} and [nsi] domain = "frequency" use the repetition (README, Periodic tests)'
+        f'[data] period = {period} and [nsi] domain = "frequency" use the repetition (docs/periodic.md)'
     )

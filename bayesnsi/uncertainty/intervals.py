@@ -20,7 +20,7 @@ of the record (:data:`INTERVAL_METHODS`):
 The posterior-only intervals are the posterior's quantiles shifted by ``NSI value - posterior mean``.
 A note says when the posterior mean falls outside the 95 % interval (the evidence's estimator and
 NSI then disagree by more than their scatter, as on a free body). Measured coverage and widths are
-in ``benchmarks/calibration_intervals.py`` and the README.
+in ``benchmarks/calibration_intervals.py`` and docs/calibration.md.
 """
 
 from __future__ import annotations

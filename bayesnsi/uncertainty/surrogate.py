@@ -26,7 +26,7 @@ the scatter, which the interval then carries. Measured on the loop's Coulomb cas
 (``benchmarks/calibration_loop.py --cases coulomb-dof2``, 97 seeds on the truth): 95 % intervals
 cover α on 93 % and sign(v2) on 94 % of the seeds (noise replicates: 85 %, 88 %), 50 % intervals
 47 % and 49 %, widths 1.12 and 1.03 times the seed-to-seed scatter. A position-dependent friction
-sign(v)·g(x) keeps the noise replicates (they meet the targets on the twin; README).
+sign(v)·g(x) keeps the noise replicates (they meet the targets on the twin; docs/calibration.md).
 
 Where it does not apply (:func:`surrogate_problem`): periodic records (a multisine's phases are the
 experiment's design, and the period-to-period scatter drives the noise replicates), several

@@ -18,7 +18,7 @@ import numpy as np
 from .checks.adequacy import ModelCheck
 from .checks.residual_bands import band_findings
 from .checks.validation import SegmentError, validate
-from .exceptions import AdequacyWarning, BayesNSIError, ConfigError
+from .exceptions import AdequacyWarning, BayesNSIError, ConfigError, require
 from .findings import Finding, emit
 from .loop import LoopResult, close_the_loop, loop_effects
 from .options import ExecutionOptions, LoopOptions
@@ -158,18 +158,22 @@ def diagnose(
 
     Examples
     --------
-    >>> from bayesnsi import EvidenceOptions, LoopOptions, NSIOptions, diagnose, select
+    >>> import warnings
+    >>> from bayesnsi import EvidenceOptions, LoopOptions, diagnose, select
+    >>> from bayesnsi.exceptions import AdequacyWarning
     >>> from bayesnsi.simulate import undeclared_case
     >>> case = undeclared_case("quadratic-damping", seed=0)
     >>> fast = EvidenceOptions(n_steps=200, n_burn=50, likelihood="white", interval="posterior")
-    >>> selection = select(case.signals, [case.declared], case.nsi, fast)
+    >>> with warnings.catch_warnings():  # the declared model lacks v|v|: it is not adequate, and select says so
+    ...     warnings.simplefilter("ignore", AdequacyWarning)
+    ...     selection = select(case.signals, [case.declared], case.nsi, fast)
     >>> diagnosis = diagnose(selection, LoopOptions(max_steps=1))
     >>> [step.term.name for step in diagnosis.added]
     ['v1*abs(v1)@1']
     """
+    require(selection, Selection, "selection", "get one from bayesnsi.select(signals, candidates, ...)")
     options = LoopOptions() if options is None else options
-    if not isinstance(options, LoopOptions):
-        raise ConfigError(f"options must be a LoopOptions, got {type(options).__name__}")
+    require(options, LoopOptions, "options", "build one with LoopOptions(...) or LoopOptions.from_mapping(...)")
     signals = selection.signals
     if signals is None:
         raise ConfigError("the selection holds no data: build it with bayesnsi.select(signals, ...)")

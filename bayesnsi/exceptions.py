@@ -7,6 +7,7 @@ Each message states what was expected, what was found and what to do.
 
 __all__ = [
     "BayesNSIError",
+    "ArgumentTypeError",
     "InputDataError",
     "ShapeError",
     "ExpressionError",
@@ -32,6 +33,31 @@ __all__ = [
 
 class BayesNSIError(Exception):
     """Base class of every error that bad input or an ill-posed problem can cause."""
+
+
+class ArgumentTypeError(BayesNSIError, TypeError):
+    """An argument of a public function is not of the type it takes (the message names both)."""
+
+
+def require(value, expected: type | tuple[type, ...], name: str, hint: str = "") -> None:
+    """Raise :class:`ArgumentTypeError` unless ``value`` is an instance of ``expected``.
+
+    Parameters
+    ----------
+    value : object
+    expected : type or tuple of type
+    name : str
+        The argument's name, for the message.
+    hint : str
+        How to build a value of the right type.
+
+    Raises
+    ------
+    ArgumentTypeError
+    """
+    if not isinstance(value, expected):
+        names = " or ".join(t.__name__ for t in (expected if isinstance(expected, tuple) else (expected,)))
+        raise ArgumentTypeError(f"{name} must be a {names}, got {type(value).__name__}" + (f"; {hint}" if hint else ""))
 
 
 class InputDataError(BayesNSIError, ValueError):

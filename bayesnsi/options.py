@@ -423,3 +423,33 @@ def _plain(value):
     if value is None or isinstance(value, (bool, int, float, str)):
         return value
     return repr(value)
+
+
+def _range_text(meta: Mapping[str, Any]) -> str:
+    """The accepted values of an option, in words."""
+    if meta["kind"] == "choice":
+        text = "one of " + ", ".join(repr(c) for c in meta["choices"])
+    elif meta["kind"] in ("int", "float"):
+        low, high = meta["low"], meta["high"]
+        noun = "integer" if meta["kind"] == "int" else "number"
+        text = (f"{noun} in [{_fmt(low)}, {_fmt(high)}]" if high is not None
+                else f"{noun} >= {_fmt(low)}" if low is not None else noun)
+    else:
+        text = {"bool": "true or false", "order": 'integer >= 1 or "auto"', "band": "[low, high] in Hz",
+                "likelihood": '"white", "ar1" or "arP"', "likelihoods": "list of likelihood names",
+                "auto-number": 'number >= 0 or "auto"', "any": "any object"}.get(meta["kind"], meta["kind"])
+    return text + (", or none" if meta["none"] else "")
+
+
+def _documented(cls: type) -> type:
+    """Append a numpydoc Parameters section made from the fields' help, defaults and ranges (``help(cls)``)."""
+    lines = ["", "    Parameters", "    ----------"]
+    for item in fields(cls):
+        lines.append(f"    {item.name} : {_range_text(item.metadata)}; default {item.default!r}")
+        lines.append(f"        {item.metadata['help']}.")
+    cls.__doc__ = (cls.__doc__ or "").rstrip() + "\n" + "\n".join(lines) + "\n"
+    return cls
+
+
+for _cls in (NSIOptions, EvidenceOptions, LoopOptions, ExecutionOptions):
+    _documented(_cls)

@@ -30,8 +30,9 @@ from .checks.validation import (
     whiteness_applies,
 )
 from .checks.velocity_noise import velocity_noise_findings
-from .exceptions import AdequacyWarning, BayesNSIError
+from .exceptions import AdequacyWarning, BayesNSIError, require
 from .findings import Finding, emit
+from .models import CandidateModel
 from .nsi.order import order_findings
 from .nsi.physics import excluded_lines_findings
 from .options import EvidenceOptions, ExecutionOptions, NSIOptions
@@ -287,8 +288,14 @@ def select(
     """
     from .evidence import compare_evidence
 
+    require(signals, Signals, "signals", "build one with bayesnsi.Signals(force=..., displacement=..., fs=..., ...)")
     evidence = EvidenceOptions() if evidence is None else evidence
-    nsi = nsi or NSIOptions()
+    nsi = NSIOptions() if nsi is None else nsi
+    require(nsi, NSIOptions, "nsi", "build one with NSIOptions(...) or NSIOptions.from_mapping(...)")
+    require(evidence, EvidenceOptions, "evidence", "build one with EvidenceOptions(...)")
+    candidates = tuple(candidates)
+    for k, candidate in enumerate(candidates):
+        require(candidate, CandidateModel, f"candidates[{k}]", "build one with bayesnsi.CandidateModel(name, terms)")
     outcomes = tuple(run_candidates(signals, candidates, nsi, evidence, execution=execution))
     outcomes, view = one_view(signals, outcomes, nsi, evidence, execution)  # free bodies: one view
     rng = np.random.default_rng(np.random.SeedSequence(evidence.seed).spawn(len(outcomes) + 1)[-1])

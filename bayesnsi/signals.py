@@ -198,7 +198,7 @@ def _as_dofs(name: str, dofs, n_channels: int) -> tuple[int, ...]:
     return dofs
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class Signals:
     """Measured forces and responses, validated once (read-only arrays).
 
@@ -284,6 +284,18 @@ class Signals:
         if noise is not None and len(getattr(noise, "acceleration_std", ())) != self.displacement.shape[1]:
             raise ShapeError("acceleration_noise must give one noise std per response channel")
         set_("realisations", _check_realisations(self.realisations, self.period, len(force)))
+
+    def __repr__(self) -> str:
+        from ._repr import compact_repr
+
+        extra = {"period": self.period} if self.period is not None else {}
+        if self.realisations > 1:
+            extra["realisations"] = self.realisations
+        return compact_repr(
+            self, n_samples=self.n_samples, fs=self.fs, inputs=dict(zip(self.input_names, self.input_dofs)),
+            outputs=dict(zip(self.output_names, self.output_dofs)), measured=self.measured,
+            velocity="measured" if self.velocity is not None else "derived", **extra,
+        )
 
     @property
     def n_samples(self) -> int:

@@ -20,6 +20,7 @@ import pytest
 
 from bayesnsi.checks.adequacy import model_checks
 from bayesnsi.exceptions import ConfigError
+from bayesnsi.findings import messages
 from bayesnsi.io import load_config, load_signals
 from bayesnsi.models import CandidateModel, Term
 from bayesnsi.noise import AccelerationNoise, acceleration_noise_of, noise_model, white_noise_std
@@ -138,8 +139,8 @@ def test_adequacy_of_the_true_model_on_integrated_accelerations_is_near_one(tmp_
     whole, _ = _record(tmp_path, extra=", trim_edges = false")
     kept = model_checks([SimpleNamespace(name=TRUE.name, result=identify(whole, TRUE, NSI), intervals=None)], whole)
     assert kept[TRUE.name].edge_ratio > 2.0
-    assert any("trim_edges = true" in w for w in adequacy_findings(kept, TRUE.name))
-    assert not any("trim_edges" in w for w in adequacy_findings(checks, TRUE.name))
+    assert any("trim_edges = true" in w for w in messages(adequacy_findings(kept, TRUE.name)))
+    assert not any("trim_edges" in w for w in messages(adequacy_findings(checks, TRUE.name)))
 
 
 def test_noise_replicate_intervals_of_integrated_accelerations_are_not_zero_wide(tmp_path):
@@ -249,8 +250,8 @@ def test_no_whiteness_test_on_integrated_accelerations_whose_noise_is_coloured(t
     effect was missing from all of them. It is left out there; the model check against the integrated
     noise (true 1.0-1.3x, wrong more) is the adequacy check. Reference: the simulated truth (x1³)."""
     from bayesnsi.checks.validation import residual_whiteness, whiteness_applies
-    from bayesnsi.cli.select import _adequacy_text
     from bayesnsi.options import EvidenceOptions
+    from bayesnsi.report.terminal import selection_lines
     from bayesnsi.selection import select
 
     signals, _ = _record(tmp_path)
@@ -263,5 +264,5 @@ def test_no_whiteness_test_on_integrated_accelerations_whose_noise_is_coloured(t
         selection = select(signals, [TRUE, WRONG], NSI, fast)
     assert selection.selected == TRUE.name and selection.adequacy == {}
     assert selection.checks[TRUE.name].adequate and not selection.checks[WRONG.name].adequate
-    said = _adequacy_text(selection)
-    assert "not white" not in said and "x the noise it passes on; sensor noise from accelerometers (estimated)" in said
+    said = "\n".join(selection_lines(selection))
+    assert "not white" not in said and "x the noise it passes on (sensor noise from accelerometers (estimated))" in said

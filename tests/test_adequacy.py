@@ -14,6 +14,7 @@ import pytest
 
 from bayesnsi.checks.adequacy import ModelCheck, adequacy_findings
 from bayesnsi.exceptions import AdequacyWarning
+from bayesnsi.findings import messages
 from bayesnsi.models import CandidateModel
 from bayesnsi.options import EvidenceOptions
 from bayesnsi.selection import select
@@ -31,18 +32,19 @@ def _check(name, ratio=1.0, quality=0.01, order=4, nrmse=None):
 
 def test_nothing_to_say_about_a_good_selection():
     checks = {"a": _check("a", nrmse=0.10), "b": _check("b", ratio=2.0, nrmse=0.105)}
-    assert adequacy_findings(checks, "a") == ()
+    assert messages(adequacy_findings(checks, "a")) == ()
 
 
 def test_each_warning_is_raised_by_its_own_failure():
-    quality = adequacy_findings({"a": _check("a", quality=0.8)}, "a")
+    quality = messages(adequacy_findings({"a": _check("a", quality=0.8)}, "a"))
     assert len(quality) == 1 and "quality index" in quality[0]
-    worse = adequacy_findings({"a": _check("a", nrmse=0.2), "b": _check("b", nrmse=0.1)}, "a")
+    worse = messages(adequacy_findings({"a": _check("a", nrmse=0.2), "b": _check("b", nrmse=0.1)}, "a"))
     assert len(worse) == 1 and "validates worse than 'b'" in worse[0]
-    assert adequacy_findings({"a": _check("a", nrmse=0.105), "b": _check("b", nrmse=0.1)}, "a") == ()  # within 10 %
-    nothing = adequacy_findings({"a": _check("a", ratio=1.6), "b": _check("b", ratio=2.5)}, "a")
+    within = {"a": _check("a", nrmse=0.105), "b": _check("b", nrmse=0.1)}
+    assert messages(adequacy_findings(within, "a")) == ()  # within 10 %
+    nothing = messages(adequacy_findings({"a": _check("a", ratio=1.6), "b": _check("b", ratio=2.5)}, "a"))
     assert len(nothing) == 1 and "no candidate is adequate" in nothing[0] and "'a': 1.60x" in nothing[0]
-    orders = adequacy_findings({"a": _check("a", order=10), "b": _check("b", order=12)}, "a")
+    orders = messages(adequacy_findings({"a": _check("a", order=10), "b": _check("b", order=12)}, "a"))
     assert len(orders) == 1 and "different orders" in orders[0] and "a: 10, b: 12" in orders[0]
 
 
@@ -59,7 +61,7 @@ def test_true_model_is_adequate_and_predicts_best(two_dof):
         warnings.simplefilter("error", AdequacyWarning)  # nothing to warn about
         selection = select(case.signals, case.candidates[:2], case.recommended, FAST,
                            validation=[("seed 101", held_out.signals)])
-    assert selection.selected == "model 1" and selection.warnings == ()
+    assert selection.selected == "model 1" and selection.findings == ()
     true, coulomb = selection.checks["model 1"], selection.checks["model 2"]
     assert true.adequate and 0.8 < true.noise_ratio < 1.3
     assert not coulomb.adequate
@@ -77,7 +79,7 @@ def test_no_candidate_fits_is_reported_inadequate(two_dof):
         selection = select(case.signals, candidates, case.recommended, FAST)
     assert any("no candidate is adequate" in str(w.message) for w in raised)
     assert not any(c.adequate for c in selection.checks.values())
-    assert any("no candidate is adequate" in w for w in selection.warnings)
+    assert any("no candidate is adequate" in f.message for f in selection.findings)
 
 
 def test_results_json_lists_the_warnings(two_dof, tmp_path):
@@ -91,7 +93,7 @@ def test_results_json_lists_the_warnings(two_dof, tmp_path):
         selection = select(case.signals, candidates, case.recommended, FAST)
     config = SimpleNamespace(path=tmp_path / "c.toml", raw={}, seed=0, nsi=case.recommended)
     payload = selection_payload(selection, "select", config)
-    assert payload["warnings"] == list(selection.warnings) and payload["warnings"]
+    assert payload["findings"] == [f.to_dict() for f in selection.findings] and payload["findings"]
     assert payload["candidates"][0]["model_check"]["adequate"] is False
 
 
@@ -113,7 +115,8 @@ def test_command_line_prints_the_warnings(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "warning: no candidate is adequate" in err
     results = json.loads((tmp_path / "out" / "results.json").read_text())
-    assert any("no candidate is adequate" in w for w in results["warnings"])
+    assert any(f["kind"] == "adequacy.none_adequate" and "no candidate is adequate" in f["message"]
+               for f in results["findings"])
 
 
 def test_periodic_records_take_the_noise_from_the_period_to_period_scatter():
@@ -168,7 +171,7 @@ def test_gvt_with_no_fitting_candidate_is_reported_inadequate():
         outcomes = run_candidates(signals, candidates, nsi, None)
     checks = model_checks(outcomes, signals)
     assert checks["linear"].adequate and not checks["damping 7-8"].adequate and not checks["joint 2-7"].adequate
-    assert not any("no candidate is adequate" in w for w in adequacy_findings(checks, "linear"))
+    assert not any("no candidate is adequate" in w for w in messages(adequacy_findings(checks, "linear")))
     wrong = {name: checks[name] for name in ("joint 2-7", "damping 7-8")}
-    warned = adequacy_findings(wrong, "joint 2-7")
+    warned = messages(adequacy_findings(wrong, "joint 2-7"))
     assert any("no candidate is adequate" in w for w in warned)

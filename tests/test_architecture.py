@@ -20,11 +20,11 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "bayesnsi"
 MAX_MODULE_LINES = 450
 MAX_ENTRY_POINT_PARAMETERS = 6
-ENTRY_POINTS = ("identify", "close_the_loop", "select")
+ENTRY_POINTS = ("identify", "close_the_loop", "select", "diagnose")
 
 # Modules every layer may use (settings, errors, the signal container, shared helpers); the
 # private top-level modules (``bayesnsi._dispatch``, ``bayesnsi._fingerprint``, ...) are shared too.
-SHARED_PUBLIC = ("options", "exceptions", "signals", "preprocess")
+SHARED_PUBLIC = ("options", "exceptions", "signals", "preprocess", "findings")
 # Packages of the numerical core and the bayesnsi packages each may import besides the shared modules.
 CORE_ALLOWED = {
     "models": (),
@@ -32,8 +32,9 @@ CORE_ALLOWED = {
     "nsi": ("models", "noise"),
     "simulate": ("models",),
     "evidence": ("nsi", "models", "noise"),
-    "loop": ("evidence", "nsi", "models", "noise"),
-    "validation": ("nsi", "models", "noise"),  # adequacy checks of identified models, used by selection
+    "checks": ("evidence", "nsi", "models", "noise"),  # model checks beside the evidence
+    "uncertainty": ("checks", "evidence", "nsi", "models", "noise"),  # re-identification uncertainty, widening
+    "loop": ("checks", "evidence", "nsi", "models", "noise"),
 }
 # Third-party packages allowed in the numpy/scipy-only layers (the standard library always is).
 NUMERICAL_ONLY = ("models", "noise", "nsi", "simulate")
@@ -340,19 +341,27 @@ def test_core_does_not_import_io_or_run():
     assert not offenders, "the numerical core must not import io or run:\n" + "\n".join(offenders)
 
 
-def test_plots_are_imported_only_by_cli():
-    offenders = _layer_violations(
-        lambda s, t: _in(t, "bayesnsi.plots") and not (_in(s, "bayesnsi.cli") or _in(s, "bayesnsi.plots"))
-    )
-    assert not offenders, "only the command line draws figures:\n" + "\n".join(offenders)
+def test_plots_and_report_are_imported_only_at_the_edge():
+    # figures are drawn by the report and the command line; the report is written by the command line
+    importers = {"bayesnsi.plots": ("bayesnsi.plots", "bayesnsi.report", "bayesnsi.cli"),
+                 "bayesnsi.report": ("bayesnsi.report", "bayesnsi.cli")}
+
+    def wrong(source: str, target: str) -> bool:
+        layer = next((layer for layer in importers if _in(target, layer)), None)
+        return layer is not None and not any(_in(source, ok) for ok in importers[layer])
+
+    offenders = _layer_violations(wrong)
+    assert not offenders, "only the report and the command line draw figures:\n" + "\n".join(offenders)
 
 
 def test_run_and_io_are_imported_only_from_above():
-    # io (files) only by plots and cli: the run layer takes its cache as an injected object;
-    # run by selection, io (which rebuilds the run's outcome objects from cache entries) and cli
+    # io (files) only by plots, the report and cli: the run layer takes its cache as an injected object;
+    # run by the workflows (selection, diagnosis), io (which rebuilds the run's outcome objects from cache
+    # entries), the report and cli
     importers = {
-        "bayesnsi.io": ("bayesnsi.io", "bayesnsi.plots", "bayesnsi.cli"),
-        "bayesnsi.run": ("bayesnsi.run", "bayesnsi.selection", "bayesnsi.io", "bayesnsi.cli"),
+        "bayesnsi.io": ("bayesnsi.io", "bayesnsi.plots", "bayesnsi.report", "bayesnsi.cli"),
+        "bayesnsi.run": ("bayesnsi.run", "bayesnsi.selection", "bayesnsi.diagnosis", "bayesnsi.io", "bayesnsi.report",
+                         "bayesnsi.cli"),
     }
 
     def wrong(source: str, target: str) -> bool:

@@ -133,8 +133,8 @@ def test_the_datas_warnings_reach_the_report_and_results_json(tmp_path):
         warnings.simplefilter("ignore", category=UserWarning)  # the identification's own (e.g. spurious poles)
         warnings.simplefilter("always", category=IntegrationWarning)
         assert main(["identify", str(tmp_path / "c.toml"), "--out", str(tmp_path / "out"), "--quiet"]) == 0
-    (message,) = json.loads((tmp_path / "out" / "results.json").read_text())["data_warnings"]
-    assert "integration band's lower edge" in message
+    (message,) = json.loads((tmp_path / "out" / "results.json").read_text())["data_findings"]
+    assert "integration band's lower edge" in message["message"] and message["kind"] == "warning.IntegrationWarning"
     html = (tmp_path / "out" / "report.html").read_text()
     assert "Loading the data:" in html and "lower edge" in html
     assert "Loading the data gave 1 warning(s)" in html  # the Answer points at them

@@ -1,6 +1,6 @@
 """A failure of the intervals is not a failure of the candidate: the evidence is kept (nothing is lost)."""
 
-import bayesnsi.evidence
+import bayesnsi.uncertainty
 from bayesnsi.exceptions import BlockRowsError
 from bayesnsi.options import EvidenceOptions
 from bayesnsi.run import run_candidates
@@ -15,12 +15,12 @@ def test_failed_intervals_keep_the_evidence(monkeypatch):
     def too_short(*args, **kwargs):
         raise BlockRowsError("record windows too short for the block rows")
 
-    monkeypatch.setattr(bayesnsi.evidence, "candidate_intervals", too_short)
+    monkeypatch.setattr(bayesnsi.uncertainty, "candidate_intervals", too_short)
     (outcome,) = run_candidates(case.signals, case.candidates[:1], case.recommended, FAST)
     assert outcome.error is None and outcome.failed_stage is None
     assert outcome.evidences is not None and "white" in outcome.evidences
     assert outcome.intervals is None
-    assert any("intervals not computed" in w and "evidence is kept" in w for w in outcome.warnings)
+    assert any("intervals not computed" in f.message and "evidence is kept" in f.message for f in outcome.findings)
 
 
 def test_a_bug_in_the_intervals_still_fails_the_candidate(monkeypatch):
@@ -29,7 +29,7 @@ def test_a_bug_in_the_intervals_still_fails_the_candidate(monkeypatch):
     def bug(*args, **kwargs):
         raise KeyError("bug")
 
-    monkeypatch.setattr(bayesnsi.evidence, "candidate_intervals", bug)
+    monkeypatch.setattr(bayesnsi.uncertainty, "candidate_intervals", bug)
     (outcome,) = run_candidates(case.signals, case.candidates[:1], case.recommended, FAST)
     assert outcome.failed_stage == "internal"
     assert outcome.evidences is None

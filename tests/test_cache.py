@@ -17,6 +17,7 @@ import pytest
 
 from bayesnsi import simulate_case
 from bayesnsi.exceptions import CacheWarning, InputDataError
+from bayesnsi.findings import Finding
 from bayesnsi.io._outcome import schema_fields
 from bayesnsi.io._store import MAX_JSON_BYTES, EntryError, write_container
 from bayesnsi.io.cache import CACHE_FORMAT, ResultCache, load_entry
@@ -112,7 +113,8 @@ def test_failed_outcomes_round_trip(case, tmp_path):
     candidate = case.candidates[0]
     cache = ResultCache(tmp_path)
     for k, outcome in enumerate([
-        CandidateOutcome(candidate, error="OrderError: no order", failed_stage="identification", warnings=("w",),
+        CandidateOutcome(candidate, error="OrderError: no order", failed_stage="identification",
+                         findings=(Finding("warning.OrderWarning", "w"),),
                          seconds=0.25),
         CandidateOutcome(candidate, nrmse=float("nan"), nrmse_per_channel=(float("inf"), -0.0), seconds=1e-300,
                          error="InputDataError: é\n\u2028", failed_stage="identification"),

@@ -40,24 +40,24 @@ def test_select_writes_spec9_results_and_report(two_dof_config, tmp_path):
     # the answer first (selected model, how sure, against which candidates), the versions last
     headings = [h.split(">", 1)[1].split("<", 1)[0] for h in html.split("<h2")[1:]]
     assert headings[0] == "Answer" and headings[-1] == "Versions", headings
-    assert [h.split(" (")[0] for h in headings[:3]] == ["Answer", "Evidence and adequacy of every candidate",
-                                                        "Identified models"]
+    assert [h.split(" (")[0] for h in headings[:4]] == ["Answer", "Evidence and adequacy of every candidate",
+                                                        "Intervals of coefficients and modes", "Identified models"]
     answer = html.split("<h2")[1]
     assert "Selected: model 1, posterior probability" in answer and "log Bayes factor" in answer
     assert all(c["name"] in answer for c in results["candidates"])  # against every other candidate
     # readable headers: no raw field names of the ranking table or the arviz summary
     for raw in ("p_ar1", "log_evidence_", "p_plain", "hdi95_lb", "ess_bulk", "nrmse_before"):
         assert raw not in html, raw
-    # every table and figure: answer, ranking, adequacy, model check, modes, coefficients, NRMSE, one arviz
-    # summary per candidate, the intervals of coefficients and of modes (issue 15); Bayes factors, FRF, λ(ω)
-    # per nonlinear candidate, singular values per candidate, stabilisation, a measured-vs-model overlay per
-    # output, per candidate a pair plot + trace, and the selected model's residual band by band
+    # every table: answer, ranking, adequacy, model check, modes, coefficients, NRMSE, one arviz summary per
+    # candidate, the intervals of coefficients and of modes
     n_cand = len(results["candidates"])
     assert html.count("<table") == 7 + n_cand + 2
     assert "residual / noise, worst channel" in html  # the model check table
     assert html.count("class='scroll'") == html.count("<table")  # wide tables scroll, the page does not widen
     assert "Ljung-Box" in html and all(c["adequacy"]["p_value"] for c in results["candidates"])
-    assert html.count("<img") == 1 + 1 + n_cand + n_cand + 1 + 2 + 2 * n_cand + 1
+    # Bayes factors, band ratios, one FRF figure, λ(ω) per candidate, the first candidate's singular values and
+    # stabilisation diagram, two overlays, the posterior of each candidate
+    assert html.count("<img") == 1 + 1 + 1 + n_cand + 1 + 1 + 2 + n_cand
     assert "over the noise it passes on, per frequency band" in html
     check = results["candidates"][0]["model_check"]  # the truth: near 1 in every band (measured 1.10)
     assert check["band_ratio"] < 1.5 and len(check["band_ratios"]) == len(check["band_edges_hz"]) - 1
@@ -68,7 +68,7 @@ def test_select_writes_spec9_results_and_report(two_dof_config, tmp_path):
 
     assert set(results["posterior_files"]) == {c["name"] for c in results["candidates"]}
     tree = read_posterior(out / results["posterior_files"]["model 1"])
-    lo, hi = results["candidates"][0]["coefficients"][0]["ci95_posterior"]
+    lo, hi = results["candidates"][0]["coefficients"][0]["ci95_given_linear_part"]
     assert lo < float(tree["posterior"]["coefficient"].mean()) < hi
 
 

@@ -122,8 +122,8 @@ def test_final_model_with_friction_is_reidentified_upsampled(coulomb):
     # Measured (benchmarks/diagnose_suite.py, coulomb-dof2, 1 % noise, 5 seeds): within 3.1 %
     # after the refinement, up to 12 % at the data rate.
     case, loop = coulomb
-    assert loop.settings["final_nsi"]["upsample"] == 4
-    assert loop.settings["final_nsi"]["block_rows"] == 4 * case.nsi.block_rows
+    assert loop.final_nsi.upsample == 4
+    assert loop.final_nsi.block_rows == 4 * case.nsi.block_rows
     assert loop.final.upsample == 4
     value, _ = final_coefficient(loop, case.missing[0])
     assert value == pytest.approx(case.missing[0].coefficient, rel=0.05)

@@ -87,21 +87,29 @@ def test_diagnose_prints_the_final_coefficients_with_their_intervals(tmp_path, c
     printed = capsys.readouterr()
     final = json.loads((out / "results.json").read_text())["final_coefficients"]
     text = printed.out + printed.err
-    assert "evidence, intervals and check of the final model" in text
+    assert "closing the loop" in text and "Closing the loop from truth" in text
+    from bayesnsi.report.text import format_interval
+
     for record in final:
-        low, high = record["ci95"]
-        assert f"final {record['term']} = {record['value']:.4g}, 95 % [{low:.4g}, {high:.4g}]" in text
+        assert f"{record['term']} = {record['estimate']:.4g}, 95 % interval {format_interval(record['ci95'])}" in text
 
 
 def test_the_answer_quotes_the_final_model_values_and_its_grid():
-    # trial: the answer quoted the step's λ = 0.458 while the final model, re-identified on the 4x grid, held 0.367
+    # the answer quoted a step's λ = 0.458 while the final model, re-identified on the 4x grid, held 0.367
     from types import SimpleNamespace
 
-    from bayesnsi.report.loop import _final_values
+    from bayesnsi.models import Term
+    from bayesnsi.report.loop import added_sentence
 
-    payload = {"final_coefficients": [{"term": "x4**3@4", "value": 5.07e6}, {"term": "sign(v7)@7", "value": 0.3961}]}
-    refined = SimpleNamespace(settings={"final_nsi": {"upsample": 4}})
-    expected = "x4**3@4 = 5.07e+06, sign(v7)@7 = 0.3961 (re-identified on a 4x finer grid)"
-    assert _final_values(refined, payload) == expected
-    assert _final_values(SimpleNamespace(settings={"final_nsi": {"upsample": 1}}), payload).endswith("= 0.3961")
-    assert _final_values(refined, {}) == ""
+    coefficients = (SimpleNamespace(term=Term("x4**3", 4), value=5.07e6), SimpleNamespace(term=Term("sign(v7)", 7),
+                                                                                         value=0.3961))
+    step = SimpleNamespace(effect=SimpleNamespace(name="sign(v)", location=(7,)), log_bayes_factor=40.0)
+
+    def diagnosis(upsample):
+        loop = SimpleNamespace(final=SimpleNamespace(coefficients=coefficients),
+                               final_nsi=SimpleNamespace(upsample=upsample), nsi=SimpleNamespace(upsample=1))
+        return SimpleNamespace(loop=loop, added=(step,), start="linear")
+
+    expected = "Final model: x4**3@4 = 5.07e+06, sign(v7)@7 = 0.3961 (re-identified on a 4x finer grid)."
+    assert added_sentence(diagnosis(4)).endswith(expected)
+    assert added_sentence(diagnosis(1)).endswith("sign(v7)@7 = 0.3961.")

@@ -1,9 +1,9 @@
-"""The loop's final model carries the honest intervals of ``select`` (issue 15).
+"""The loop's final model carries the honest intervals of ``select``.
 
 Reference: the simulated quadratic-damping case (true coefficient in the config's [meta]); the
 loop from the declared (linear) model adds v|v| at DOF 1. The final coefficient's interval
 must include the linear part's uncertainty (wider than the posterior given the linear part),
-and results.json / the report must carry the values of :func:`bayesnsi.loop.final_intervals`.
+and results.json / the report must carry the values of :attr:`bayesnsi.Diagnosis.final`.
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ def test_results_json_final_coefficients_carry_honest_intervals(loop_run):
     (coefficient,) = results["final_coefficients"]
     assert coefficient["interval"] == "noise"  # the default
     lo, hi = coefficient["ci95"]
-    plo, phi = coefficient["ci95_posterior"]
+    plo, phi = coefficient["ci95_given_linear_part"]
     assert lo < coefficient["estimate"] < hi and hi - lo > phi - plo  # linear-part uncertainty widens it
     clo, chi = coefficient["ci50"]
     assert lo < clo < chi < hi
@@ -63,42 +63,64 @@ def test_final_interval_covers_the_true_coefficient(loop_run):
     assert lo < true < hi, (lo, true, hi)
 
 
-def test_final_model_adequacy_is_reported_beside_the_starting_models(loop_run):
+@pytest.fixture(scope="module")
+def diagnosis():
+    """The same loop through the library: select on the declared model, then diagnose from it."""
+    import warnings
+
+    from bayesnsi import EvidenceOptions, LoopOptions, diagnose, select
+    from bayesnsi.simulate import undeclared_case
+
+    case = undeclared_case("quadratic-damping", seed=0)
+    evidence = EvidenceOptions(n_steps=200, n_burn=50, likelihood="white", compare=())
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", category=UserWarning, module="bayesnsi")
+        selection = select(case.signals, [case.declared], case.nsi, evidence)
+        return diagnose(selection, LoopOptions(max_steps=1))
+
+
+def test_final_model_adequacy_is_reported_beside_the_starting_models(diagnosis):
     # the declared linear model lacks v|v| (its residual is well above the noise it passes on); the final model
-    # holds the truth: near 1, and the answer says both (the sentence the report's answer appends)
-    from bayesnsi.report.loop import _adequacy_after
+    # holds the truth: near 1, and the answer says both
+    from bayesnsi.report.document import Report
+    from bayesnsi.report.loop import added_sentence, diagnosis_sections
 
-    _, results, _ = loop_run
-    after = results["final_model_check"]
-    before = next(c for c in results["candidates"] if c["name"] == results["start"])["model_check"]
-    assert after["adequate"] and 0.7 < after["noise_ratio"] < 1.3 < before["noise_ratio"]
-    assert after["band_ratio"] < 2.0 and len(after["passed_on_std"]) == len(after["noise_std"])
-    sentence = _adequacy_after(results, results["start"])
-    assert sentence == (f" Its open-loop residual is {after['noise_ratio']:.2f}x the noise it passes on "
-                        f"({results['start']}: {before['noise_ratio']:.2f}x).")
+    after = diagnosis.final.check
+    before = diagnosis.selection.checks[diagnosis.start]
+    assert after.adequate and 0.7 < after.noise_ratio < 1.3 < before.noise_ratio
+    assert after.band_ratio < 2.0 and len(after.passed_on_std) == len(after.noise_std)
+    report = Report("t", figures=False)
+    diagnosis_sections(report, diagnosis, None)
+    html = report.to_html()
+    assert added_sentence(diagnosis) in html
+    assert (f"Adequate: its open-loop residual is {after.noise_ratio:.2f}x the noise it passes on "
+            f"({diagnosis.start}: {before.noise_ratio:.2f}x).") in html
+    assert "class='lead'" in html  # green: the final model is adequate
 
 
-def test_loop_report_table_shows_the_final_intervals(loop_run):
-    """The loop section's table of final coefficients (report.html) words results.json's values."""
+def test_loop_report_table_shows_the_final_intervals(diagnosis):
+    """The loop section's table of final coefficients words the final model's intervals."""
     from bayesnsi.report.document import Report
     from bayesnsi.report.intervals import final_coefficients_frame
 
-    _, results, _ = loop_run
     report = Report("t")
-    report.section("loop", 10).append(final_coefficients_frame(results["final_coefficients"]))
+    report.section("loop", 10).append(final_coefficients_frame(diagnosis.final))
     html = report.to_html()
-    coefficient = results["final_coefficients"][0]
-    assert _pair(coefficient["ci95"]) in html and _pair(coefficient["ci95_posterior"]) in html
-    assert _pair(coefficient["ci50"]) in html and "noise replicates + posterior" in html
+    interval = diagnosis.final.intervals.coefficients[0]
+    given = diagnosis.final.evidence.ci95[0]
+    assert _pair(interval.ci95) in html and _pair(given) in html
+    assert _pair(interval.ci50) in html and "noise replicates + posterior" in html
 
 
 def test_final_intervals_replicate_with_the_final_models_upsampled_settings(monkeypatch):
-    """The noise replicates re-identify with ``settings["final_nsi"]`` (upsample 4, block rows x 4),
-    the settings the reported final coefficients were identified with, not the loop's data-rate ones."""
+    """The noise replicates re-identify with ``LoopResult.final_nsi`` (upsample 4, block rows x 4), the settings
+    the reported final coefficients were identified with, not the loop's data-rate ones."""
     from types import SimpleNamespace
 
-    from bayesnsi.loop import final as final_module
-    from bayesnsi.options import NSIOptions
+    import bayesnsi.evidence
+    import bayesnsi.uncertainty
+    from bayesnsi.diagnosis import _final_model
+    from bayesnsi.options import EvidenceOptions, NSIOptions
 
     seen = {}
 
@@ -109,13 +131,15 @@ def test_final_intervals_replicate_with_the_final_models_upsampled_settings(monk
         seen["nsi"] = nsi
         return "intervals"
 
-    monkeypatch.setattr(final_module, "candidate_evidence", fake_evidence)
-    monkeypatch.setattr(final_module, "candidate_intervals", fake_intervals)
+    monkeypatch.setattr(bayesnsi.evidence, "candidate_evidence", fake_evidence)
+    monkeypatch.setattr(bayesnsi.uncertainty, "candidate_intervals", fake_intervals)
+    monkeypatch.setattr(bayesnsi.uncertainty, "widen_final", lambda result, intervals, signals, **kw: (intervals, None))
     data_rate = NSIOptions(block_rows=60, order=4)
     fine = data_rate.replace(upsample=4, block_rows=240)
-    loop = SimpleNamespace(final="final", settings={"nsi": data_rate.to_dict(), "final_nsi": fine.to_dict(),
-                                                    "evidence": {}})
-    assert final_module.final_intervals(loop, "signals") == ("evidence", "intervals")
+    loop = SimpleNamespace(final="final", start="start", added=("step",), nsi=data_rate, final_nsi=fine)
+    selection = SimpleNamespace(segments=(), evidence=EvidenceOptions(), signals="signals")
+    final = _final_model(loop, selection, "start")
+    assert final.evidence == "evidence" and final.intervals == "intervals"
     assert seen["nsi"].upsample == 4 and seen["nsi"].block_rows == 240
 
 
@@ -123,40 +147,46 @@ def test_loop_report_notes_a_final_model_with_a_sign_term():
     """The loop report tells when the final model's noise intervals carry a discontinuous term."""
     from types import SimpleNamespace
 
-    from bayesnsi.models.terms import Term
-    from bayesnsi.report.loop import _discontinuity
+    from bayesnsi.findings import Finding
+    from bayesnsi.report.loop import _interval_how
 
-    coulomb = SimpleNamespace(final=SimpleNamespace(terms=(Term("v1*abs(v1)", 1), Term("sign(v2)", 2))))
-    smooth = SimpleNamespace(final=SimpleNamespace(terms=(Term("v1*abs(v1)", 1),)))
-    noise = {"final_intervals": {"method": "noise"}}
-    assert "sign(v2)@2 is discontinuous" in _discontinuity(noise, coulomb)
-    assert _discontinuity({"final_intervals": {"method": "segments"}}, coulomb) == ""
-    assert _discontinuity(noise, smooth) == "" and _discontinuity({}, coulomb) == ""
+    note = Finding("interval.discontinuous", "sign(v2)@2 is discontinuous at velocity reversals", "", "note")
+    noise = SimpleNamespace(intervals=SimpleNamespace(method="noise", findings=(note,)))
+    assert "sign(v2)@2 is discontinuous" in _interval_how(noise)
+    assert _interval_how(SimpleNamespace(intervals=SimpleNamespace(method="segments", findings=()))) == ""
+    assert _interval_how(SimpleNamespace(intervals=None)) == ""
 
 
 def test_an_inadequate_final_model_gets_select_s_widened_intervals():
-    """Trial with velocity sensors: ``select`` widened the model's intervals 43.7x for its model error, the
-    loop's final intervals of the same model were not widened (44x narrower); ``bayesnsi diagnose`` now
-    widens them with :func:`bayesnsi.uncertainty.widening.widen_final`. Reference: the quadratic-damping
-    case, whose linear model misses v|v| (residual several times the noise) and whose loop adds it."""
+    """With velocity sensors ``select`` widened a model's intervals 43.7x for its model error while the loop's
+    final intervals of the same model were not widened; the final model now gets the same widening
+    (:func:`bayesnsi.uncertainty.widening.widen_final`). Reference: the quadratic-damping case, whose linear
+    model misses v|v| (residual several times the noise) and whose loop adds it."""
     import warnings
-    from types import SimpleNamespace
 
-    from bayesnsi.loop import close_the_loop, final_intervals
+    import numpy as np
+
+    from bayesnsi.evidence import candidate_evidence
+    from bayesnsi.loop import close_the_loop
     from bayesnsi.options import EvidenceOptions, LoopOptions
     from bayesnsi.simulate import undeclared_case
+    from bayesnsi.uncertainty import candidate_intervals
     from bayesnsi.uncertainty.widening import widen_final
 
     case = undeclared_case("quadratic-damping", seed=0)
     evidence = EvidenceOptions(n_steps=200, n_burn=50, likelihood="white", compare=())
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+        warnings.filterwarnings("ignore", category=UserWarning, module="bayesnsi")
         loop = close_the_loop(case.signals, case.declared, LoopOptions(max_steps=1), nsi=case.nsi)
         assert [t.name for t in loop.final.terms] == ["v1*abs(v1)@1"]
-        _, kept = final_intervals(loop, case.signals, evidence)
-        kept, check = widen_final(loop.final, kept, case.signals)
-        _, linear = final_intervals(SimpleNamespace(final=loop.start, settings=loop.settings), case.signals, evidence)
-        linear, linear_check = widen_final(loop.start, linear, case.signals)
+
+        def intervals(model):
+            found = candidate_evidence(model, case.signals, evidence, np.random.SeedSequence(0), warn=False)["white"]
+            return candidate_intervals(model, case.signals, found, evidence, loop.final_nsi)
+
+        kept, check = widen_final(loop.final, intervals(loop.final), case.signals)
+        linear, linear_check = widen_final(loop.start, intervals(loop.start), case.signals)
     assert check.adequate and not linear_check.adequate
     assert kept.widening == 1.0  # the true model is adequate: its intervals carry the sensor noise only
-    assert linear.widening > 1.3 and any(note.startswith(f"widened {linear.widening:.2f}x") for note in linear.notes)
+    assert linear.widening > 1.3
+    assert any(f.message.startswith(f"widened {linear.widening:.2f}x") for f in linear.findings)

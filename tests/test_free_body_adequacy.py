@@ -24,6 +24,7 @@ import pytest
 from scipy import signal as sps
 
 from bayesnsi.checks.adequacy import adequacy_findings, model_checks
+from bayesnsi.findings import messages
 from bayesnsi.nsi import force_noise_std, identify
 from bayesnsi.options import NSIOptions
 from bayesnsi.signals import Signals
@@ -87,13 +88,13 @@ def test_free_body_is_judged_on_its_force_residual(carriage):
     # the displacement the ratio was the drift of the rigid-body mode over the encoder noise)
     assert true.adequate and 0.8 < true.noise_ratio < 1.3
     assert not wrong.adequate and wrong.noise_ratio > 10.0
-    assert not any("no candidate is adequate" in m for m in adequacy_findings({"linear": true}, "linear"))
+    assert not any("no candidate is adequate" in m for m in messages(adequacy_findings({"linear": true}, "linear")))
     assert true.to_dict()["quantity"] == "force"
 
 
 def test_no_adequate_free_body_says_force(carriage):
     _, checks = carriage
-    (message,) = [m for m in adequacy_findings({"linear": checks["friction"]}, "linear") if "adequate" in m]
+    (message,) = [m for m in messages(adequacy_findings({"linear": checks["friction"]}, "linear")) if "adequate" in m]
     assert "force residual against the force noise" in message
 
 
@@ -108,12 +109,12 @@ def test_free_body_validating_worse_is_reported_without_tolerance():
 
     # the EMPS figures of issue 14: the selected Coulomb + v|v| predicts the pulses' force 5 % worse
     force = {"Coulomb + v|v|": check("Coulomb + v|v|", 0.0647, "force"), "Coulomb": check("Coulomb", 0.0616, "force")}
-    (message,) = [m for m in adequacy_findings(force, "Coulomb + v|v|") if "validates worse" in m]
+    (message,) = [m for m in messages(adequacy_findings(force, "Coulomb + v|v|")) if "validates worse" in m]
     assert "'Coulomb'" in message and "force-prediction" in message and "+5 %" in message
-    assert not [m for m in adequacy_findings(force, "Coulomb") if "validates worse" in m]
+    assert not [m for m in messages(adequacy_findings(force, "Coulomb")) if "validates worse" in m]
     # a closed-loop simulation keeps the 10 % tolerance of issue 15
     moved = {n: check(n, c.validation_nrmse, "displacement") for n, c in force.items()}
-    assert not [m for m in adequacy_findings(moved, "Coulomb + v|v|") if "validates worse" in m]
+    assert not [m for m in messages(adequacy_findings(moved, "Coulomb + v|v|")) if "validates worse" in m]
 
 
 def test_parallel_filtering_of_the_nonlinear_columns():

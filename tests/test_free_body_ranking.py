@@ -81,15 +81,15 @@ def test_true_coulomb_carriage_is_not_bent_into_v_abs_v(carriage_scores):
 
 
 def test_failed_candidate_says_why_on_one_line():
-    from bayesnsi.cli._common import _outcome_text
+    from bayesnsi.report.terminal import outcome_line
 
     message = "UnstableModelError: |eig| = 1.0001\ntry another order or number of block rows"
     failed = SimpleNamespace(name="c", cached=False, seconds=1.0, result=None, error=message, evidences=None)
-    text = _outcome_text(failed, "ar1")
+    text = outcome_line(failed, "ar1")
     assert "\n" not in text and "|eig| = 1.0001 try another order" in text
     identified = SimpleNamespace(name="c", cached=True, seconds=0.0, error=message, evidences=None,
                                  result=SimpleNamespace(order=2), nrmse=0.1)
-    text = _outcome_text(identified, "ar1")
+    text = outcome_line(identified, "ar1")
     assert "\n" not in text and text.startswith("c: order 2, NRMSE 0.1000, evidence failed - UnstableModelError")
 
 

@@ -56,7 +56,7 @@ def test_segment_interval_is_centred_on_the_reported_nsi_value(windows):
     scatter = np.sqrt(WINDOW / (N - WINDOW) * np.mean((windows[:, 0] - NSI_VALUE) ** 2))
     assert p.sd == pytest.approx(np.hypot(p.posterior_sd, scatter))
     assert p.posterior_mean == pytest.approx(POSTERIOR_MEAN, abs=0.01)
-    assert any("posterior mean" in note and "sign(v1)@1" in note for note in iv.notes)
+    assert any(f.kind == "interval.disagreement" and "sign(v1)@1" in f.message for f in iv.findings)
     assert p.to_dict()["posterior_mean"] == p.posterior_mean
 
 
@@ -66,11 +66,11 @@ def test_posterior_only_interval_is_the_posterior_spread_about_the_nsi_value():
     (p,) = iv.coefficients
     assert p.estimate == NSI_VALUE and p.ci95[0] < NSI_VALUE < p.ci95[1]
     assert p.ci95[1] - p.ci95[0] == pytest.approx(2 * 1.96 * POSTERIOR_SD, rel=0.05)
-    assert iv.notes  # 19.35 is 8 sd from 21.0: said, not hidden
+    assert iv.findings  # 19.35 is 8 sd from 21.0: said, not hidden
 
 
 def test_no_note_when_the_estimators_agree(windows):
     result, signals, evidence = _inputs()
     result = SimpleNamespace(coefficient_values=np.array([POSTERIOR_MEAN + 0.1]), modes=())
     iv = candidate_intervals(result, signals, evidence, EvidenceOptions(interval="segments"))
-    assert not iv.notes
+    assert not iv.findings

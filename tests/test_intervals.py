@@ -20,7 +20,7 @@ from bayesnsi.options import EvidenceOptions
 from bayesnsi.run import run_candidates
 from bayesnsi.simulate import simulate_case, simulate_cases
 from bayesnsi.uncertainty import candidate_intervals, segment_estimates
-from bayesnsi.uncertainty.intervals import _scatter_sd
+from bayesnsi.uncertainty.windows import scatter_sd
 
 FAST = EvidenceOptions(n_steps=200, n_burn=50, likelihood="white", compare=())
 SEG = FAST.replace(interval="segments")
@@ -40,9 +40,9 @@ def two_dof_seeds():
         f_full = np.array([m.frequency_hz for m in result.modes])
         rows.append((
             result.coefficient_values[0],
-            _scatter_sd(coefs, result.coefficient_values, samples, case.signals.n_samples)[0],
+            scatter_sd(coefs, result.coefficient_values, samples, case.signals.n_samples)[0],
             f_full,
-            _scatter_sd(freqs, f_full, samples, case.signals.n_samples),
+            scatter_sd(freqs, f_full, samples, case.signals.n_samples),
         ))
     return cases, rows
 
@@ -108,7 +108,8 @@ def test_too_short_record_warns_and_falls_back():
     evidence = candidate_evidence(result, short, FAST, np.random.SeedSequence(1), warn=False)["white"]
     with pytest.warns(IntervalWarning, match="too narrow"):
         intervals = candidate_intervals(result, short, evidence, SEG, case.recommended)
-    assert intervals.method == "posterior" and len(intervals.notes) == 1
+    assert intervals.method == "posterior"
+    assert len([f for f in intervals.findings if f.kind == "interval.fallback"]) == 1
 
 
 def test_results_record_and_cache_carry_the_intervals():
@@ -120,7 +121,7 @@ def test_results_record_and_cache_carry_the_intervals():
     record = json.loads(json.dumps(_intervals(outcome, outcome.evidences["white"]), allow_nan=True))
     coefficient = record["coefficients"][0]
     assert coefficient["ci95"] == list(outcome.intervals.coefficients[0].ci95)
-    assert coefficient["ci95_posterior"] == pytest.approx(list(outcome.evidences["white"].ci95[0]))
+    assert coefficient["ci95_given_linear_part"] == pytest.approx(list(outcome.evidences["white"].ci95[0]))
     assert "ci50" in coefficient and len(record["modes"]) == 2 and "damping_ci95" in record["modes"][0]
     again = outcome_from_plain(*outcome_to_plain(outcome))
     assert again.intervals == outcome.intervals

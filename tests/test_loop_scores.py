@@ -35,7 +35,7 @@ def test_each_step_lists_the_screened_effects_with_screen_rank_and_evidence(loop
     step = loop.added[0]
     assert step.term.name == TRUE_TERM and step.search == 0
     records = loop.search_records(step.search)
-    assert len(records) == loop.settings["n_effects"]  # a linear start: the whole dictionary
+    assert len(records) == loop.n_effects  # a linear start: the whole dictionary
     # the screen ranks are a permutation of 1..n; the screen's own ranking, computed independently
     top_hz = max(m.frequency_hz for m in loop.start.modes)
     ranked = screen_effects(case.signals, case.declared, loop_effects(case.signals),
@@ -45,13 +45,13 @@ def test_each_step_lists_the_screened_effects_with_screen_rank_and_evidence(loop
     assert {r["term"]: r["screen_rank"] for r in records} == reference
     assert all(r["screen_view"] == "frequency" for r in records)
     true = next(r for r in records if r["term"] == TRUE_TERM)
-    assert 1 <= true["screen_rank"] <= loop.settings["screen"]
+    assert 1 <= true["screen_rank"] <= loop.options.screen
     assert true["status"] == "accepted" and true["reason"] == "accepted"
     # the evidence scores of the step itself, as the guards saw them
     assert true["log_bayes_factor"] == pytest.approx(step.log_bayes_factor, rel=1e-12)
     assert true["imag_ratio"] == pytest.approx(step.imag_ratio, rel=1e-12)
     assert true["nrmse"] == pytest.approx(step.nrmse_after, rel=1e-12)
-    screen = loop.settings["screen"]
+    screen = loop.options.screen
     out = [r for r in records if r["status"] == "screened out"]
     assert len(out) == len(records) - screen and all(r["screen_rank"] > screen for r in out)
     assert all(math.isnan(r["log_evidence_laplace"]) and "not re-identified" in r["reason"] for r in out)

@@ -105,17 +105,17 @@ def test_two_dof_modal_intervals_cover_the_exact_modes(two_dof_noise_intervals):
 
 def test_noise_intervals_fall_back_with_a_warning(monkeypatch):
     """Fewer than two replicates identified: posterior-only intervals, said with an IntervalWarning."""
-    from bayesnsi.evidence import perturbation
+    from bayesnsi.uncertainty import replicates as perturbation
 
     def failing(result, signals, options=None, n_replicates=16, seed=0):
         return np.zeros(1), np.zeros((0, 1)), np.zeros((0, 0)), np.zeros((0, 0)), ["noise replicate 0: failed"]
 
     monkeypatch.setattr(perturbation, "noise_replicates", failing)
-    result = SimpleNamespace(coefficient_values=np.array([2.0]), modes=())
+    result = SimpleNamespace(coefficient_values=np.array([2.0]), modes=(), terms=())
     with pytest.warns(IntervalWarning, match="too narrow"):
         iv = intervals_module.candidate_intervals(result, SimpleNamespace(n_samples=100),
                                                   _fake_evidence(["x1**3@1"], np.array([2.0])), EvidenceOptions())
-    assert iv.method == "posterior" and iv.notes
+    assert iv.method == "posterior" and any(f.kind == "interval.fallback" for f in iv.findings)
 
 
 def test_velocity_noise_from_the_mismatch_with_the_displacement():
@@ -141,8 +141,8 @@ def test_velocity_noise_from_the_mismatch_with_the_displacement():
 
 def test_sign_terms_carry_a_note_on_the_bias_estimate(monkeypatch):
     """A candidate with sign() is told that its replicates' bias estimate is only partly the bias."""
-    from bayesnsi.evidence import perturbation
     from bayesnsi.models.terms import Term
+    from bayesnsi.uncertainty import replicates as perturbation
 
     def replicates(result, signals, options=None, n_replicates=16, seed=0):
         coefs = np.array([[1.0, 2.0], [1.1, 2.1], [0.9, 1.9]])[:, :len(result.terms)]
@@ -157,5 +157,5 @@ def test_sign_terms_carry_a_note_on_the_bias_estimate(monkeypatch):
         evidence = _fake_evidence([t.name for t in terms], result.coefficient_values)
         iv = candidate_intervals(result, SimpleNamespace(n_samples=100), evidence, EvidenceOptions(interval="noise"))
         assert iv.method == "noise"
-        notes = [n for n in iv.notes if "discontinuous" in n]
-        assert (notes[0].startswith(named) if named else not notes), iv.notes
+        notes = [f.message for f in iv.findings if f.kind == "interval.discontinuous"]
+        assert (notes[0].startswith(named) if named else not notes), iv.findings

@@ -14,25 +14,28 @@ from .test_plots import _posterior
 
 
 def _evidence(q, log_z):
-    return SimpleNamespace(posterior=_posterior(q), log_evidence=log_z, log_evidence_se=0.01)
+    return SimpleNamespace(posterior=_posterior(q), log_evidence=log_z, log_evidence_se=0.01, likelihood="ar1",
+                           coefficient_names=[f"x1**{k + 2}@1" for k in range(q)], settings={"sampler": "emcee 3.1.6"})
 
 
 def test_posteriors_round_trip_through_netcdf(tmp_path):
     xr = pytest.importorskip("xarray")
     arviz_stats = pytest.importorskip("arviz_stats")
-    evidences = {"quadratic + cubic": {"ar1": _evidence(2, -10.5)}, "linear": {"ar1": _evidence(0, -20.0)},
-                 "failed": {}}
-    files = write_posteriors(tmp_path, evidences, "ar1")
+    evidences = {"quadratic + cubic": _evidence(2, -10.5), "linear": _evidence(0, -20.0), "failed": None}
+    files = write_posteriors(tmp_path, evidences)
     assert files == {"quadratic + cubic": "posterior/quadratic_cubic.nc", "linear": "posterior/linear.nc"}
     tree = read_posterior(tmp_path / files["quadratic + cubic"])
-    original = evidences["quadratic + cubic"]["ar1"].posterior
+    original = evidences["quadratic + cubic"].posterior
+    # without honest intervals the posterior is the sampler's own (given the linear part), and says so
     np.testing.assert_array_equal(tree["posterior"]["coefficient"].to_numpy(), original.coefficients)
+    np.testing.assert_array_equal(tree["posterior_given_linear_part"]["coefficient"].to_numpy(), original.coefficients)
     np.testing.assert_array_equal(tree["sample_stats"]["lp"].to_numpy(), original.log_posterior)
     assert list(tree["posterior"]["coefficient"].dims) == ["chain", "draw", "term"]
-    assert tree.attrs["candidate"] == "quadratic + cubic" and tree.attrs["log_evidence"] == -10.5
+    assert tree.attrs["model"] == "quadratic + cubic" and tree.attrs["log_evidence"] == -10.5
+    assert tree.attrs["interval"] == "none" and tree.attrs["sampler"] == "emcee 3.1.6"
     # what a notebook does: xarray opens it, arviz summarises it
     with xr.open_datatree(tmp_path / files["linear"], engine=NETCDF_ENGINE) as linear:
-        assert "coefficient" not in linear["posterior"] and "sigma" in linear["posterior"]
+        assert "coefficient" not in linear["posterior"] and "sigma" in linear["posterior_given_linear_part"]
     summary = arviz_stats.summary(tree, var_names=["coefficient"])
     np.testing.assert_allclose(summary["mean"], original.coefficients.mean(axis=(0, 1)), atol=0.01)
     assert not list(tmp_path.glob("posterior/.*partial"))
@@ -48,3 +51,26 @@ def test_posterior_file_names_are_safe_and_distinct():
 def test_reading_a_missing_posterior_is_bad_input(tmp_path):
     with pytest.raises(InputDataError, match="not found"):
         read_posterior(tmp_path / "nope.nc")
+
+
+def test_posterior_group_carries_the_honest_intervals_and_the_given_linear_part_group_the_samplers():
+    """arviz's summary of a file gives the honest 95 % interval of results.json (to the draws' resolution), and
+    the group of its own the sampler's narrower interval; reference: the intervals written, computed apart."""
+    arviz_stats = pytest.importorskip("arviz_stats")
+    from bayesnsi.io.posterior import posterior_tree
+    from bayesnsi.uncertainty import Intervals, ParameterInterval
+
+    evidence = _evidence(2, -10.5)
+    honest = tuple(ParameterInterval(name=name, estimate=2.0 + k, sd=2.6, posterior_sd=1.0, segment_sd=2.4,
+                                     ci50=(0.2 + k, 3.8 + k), ci95=(-3.0 + k, 7.5 + k), bias=-0.05)
+                   for k, name in enumerate(evidence.coefficient_names))
+    tree = posterior_tree("m", evidence, Intervals(method="noise", coefficients=honest, n_segments=16))
+    summary = arviz_stats.summary(tree, ci_prob=0.95, var_names=["coefficient"])
+    for k, p in enumerate(honest):
+        low, high = summary.iloc[k][["eti95_lb", "eti95_ub"]].to_numpy(dtype=float)
+        width = p.ci95[1] - p.ci95[0]
+        assert abs(low - p.ci95[0]) < 0.02 * width and abs(high - p.ci95[1]) < 0.02 * width
+    given = arviz_stats.summary(tree, ci_prob=0.95, var_names=["coefficient"], group="posterior_given_linear_part")
+    assert np.all(given["sd"].to_numpy(dtype=float) < summary["sd"].to_numpy(dtype=float))
+    assert tree["posterior"]["coefficient"].attrs["units"] == ["", ""]  # the data state no units here
+    assert "honest intervals" in tree["posterior"]["coefficient"].attrs["description"]

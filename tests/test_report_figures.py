@@ -274,8 +274,8 @@ def test_overlays_show_the_channels_where_the_terms_act():
 
 def test_coefficient_rows_carry_the_unit_of_lambda():
     # trials: "coefficient tables carry no unit"; λ of x³ is force over displacement cubed
-    from bayesnsi.cli._report import _with_unit
     from bayesnsi.io.units import ChannelUnits
+    from bayesnsi.report.sections import with_unit as _with_unit
 
     units = ChannelUnits(force="N", displacement="m", velocity="m/s")
     assert _with_unit("x3**3@3", units) == "x3**3@3 [N/m^3]"

@@ -10,7 +10,12 @@ import pytest
 
 from bayesnsi.options import EvidenceOptions
 from bayesnsi.report.document import Report
-from bayesnsi.report.intervals import coefficient_intervals_frame, interval_sections, mode_intervals_frame
+from bayesnsi.report.intervals import (
+    coefficient_intervals_frame,
+    coefficient_sentence,
+    interval_sections,
+    mode_intervals_frame,
+)
 from bayesnsi.run import run_candidates
 from bayesnsi.simulate import simulate_case
 
@@ -37,13 +42,13 @@ def _pair(ci):
 
 def test_report_contains_the_honest_interval_values(outcome):
     report = Report("t")
-    answer = report.section("Answer", 0)
-    interval_sections(report, [outcome], outcome.name, "white", answer, 30)
+    interval_sections(report, [outcome], "white")
+    report.section("Answer", 0).append(coefficient_sentence(outcome.name, outcome.intervals))
     html = report.to_html()
     honest = outcome.intervals.coefficients[0]
     posterior = outcome.evidences["white"].ci95[0]
     assert _pair(honest.ci95) in html and _pair(honest.ci50) in html
-    assert _pair(posterior) in html and "posterior only" in html
+    assert _pair(posterior) in html and "given the linear part" in html
     assert "linear part" in html and "copies of the record" in html and "errors-in-variables bias" in html
     # the honest interval is the wider one (it adds the linear part's scatter to the posterior)
     assert honest.ci95[1] - honest.ci95[0] > posterior[1] - posterior[0]
@@ -82,7 +87,7 @@ def test_select_report_shows_the_intervals_of_results_json(tmp_path, capsys):
     html = (tmp_path / "out" / "report.html").read_text()
     coefficient = record["coefficients"][0]
     assert coefficient["interval"] == "noise"  # the default
-    assert _pair(coefficient["ci95"]) in html and _pair(coefficient["ci95_posterior"]) in html
+    assert _pair(coefficient["ci95"]) in html and _pair(coefficient["ci95_given_linear_part"]) in html
     assert _pair(record["modes"][0]["frequency_ci95"]) in html
 
 
@@ -90,11 +95,15 @@ def test_report_says_when_a_term_is_discontinuous(outcome):
     """A candidate with sign() gets the note on its bias estimate; the smooth two-DOF candidate does not."""
     from types import SimpleNamespace
 
+    from dataclasses import replace
+
     from bayesnsi.models.terms import Term
     from bayesnsi.report.intervals import interval_text
+    from bayesnsi.uncertainty.replicates import discontinuity_findings
 
-    coulomb = SimpleNamespace(name="coulomb", intervals=outcome.intervals,
-                              result=SimpleNamespace(terms=(Term("v1*abs(v1)", 1), Term("sign(v2)", 2))))
+    terms = (Term("v1*abs(v1)", 1), Term("sign(v2)", 2))
+    noted = replace(outcome.intervals, findings=discontinuity_findings(SimpleNamespace(terms=terms)))
+    coulomb = SimpleNamespace(name="coulomb", intervals=noted, result=SimpleNamespace(terms=terms))
     assert "discontinuous" not in interval_text([outcome])
     text = interval_text([outcome, coulomb])
     assert "coulomb: sign(v2)@2 is discontinuous" in text and outcome.name + ":" not in text

@@ -15,6 +15,7 @@ import pytest
 
 from bayesnsi.checks.adequacy import ModelCheck, adequacy_findings, unsupported_terms
 from bayesnsi.exceptions import SpuriousPoleWarning
+from bayesnsi.findings import messages
 from bayesnsi.loop.separable import shared_fraction
 from bayesnsi.models import Term
 from bayesnsi.simulate.undeclared import undeclared_case
@@ -81,10 +82,11 @@ def test_select_warns_about_a_term_whose_interval_includes_zero():
     assert unsupported_terms(None) == ()
     check = ModelCheck(name="a", order=2, residual_rms=(1.0,), noise_std=(1.0,), noise_ratio=1.0, adequate=True,
                        quality_index=0.01, quality_ok=True, unsupported=unsupported_terms(intervals))
-    messages = adequacy_findings({"a": check}, "a")
-    assert messages == ("term v1**3@1 is not supported by the data: its 95 % interval [-2, 5] includes 0",)
-    assert adequacy_findings({"a": check, "b": check}, "b") != ()  # the selected model's terms only
-    assert adequacy_findings({"a": check, "b": ModelCheck(**{**check.__dict__, "unsupported": ()})}, "b") == ()
+    said = messages(adequacy_findings({"a": check}, "a"))
+    assert said == ("term v1**3@1 is not supported by the data: its 95 % interval [-2, 5] includes 0",)
+    assert messages(adequacy_findings({"a": check, "b": check}, "b")) != ()  # the selected model's terms only
+    none = ModelCheck(**{**check.__dict__, "unsupported": ()})
+    assert messages(adequacy_findings({"a": check, "b": none}, "b")) == ()
 
 
 @pytest.mark.skipif(not EMPS.exists(), reason="EMPS data not available")

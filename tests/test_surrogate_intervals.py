@@ -154,18 +154,17 @@ def test_auto_uses_model_replicates_for_coulomb_friction_only(coulomb):
             evidence = candidate_evidence(found, signals, options, warn=False)["white"]
             methods[name] = candidate_intervals(found, signals, evidence, options, nsi)
     assert methods["switch"].method == "surrogate" and methods["switch"].n_segments == 3
-    assert not any("discontinuous" in note for note in methods["switch"].notes)
+    assert not any(f.kind == "interval.discontinuous" for f in methods["switch"].findings)
     assert methods["smooth"].method == "noise"
     coefficient = methods["switch"].coefficients[1]
     assert coefficient.ci95[0] < coefficient.estimate < coefficient.ci95[1]
 
 
 def test_the_loop_report_says_how_a_velocity_switch_s_final_intervals_were_drawn():
-    from bayesnsi.models.terms import Term
-    from bayesnsi.report.loop import _discontinuity
+    from bayesnsi.report.loop import _interval_how
 
-    coulomb = SimpleNamespace(final=SimpleNamespace(terms=(Term("v1*abs(v1)", 1), Term("sign(v2)", 2))))
-    text = _discontinuity({"final_intervals": {"method": "surrogate", "n_segments": 16}}, coulomb)
+    final = SimpleNamespace(intervals=SimpleNamespace(method="surrogate", n_segments=16, findings=()))
+    text = _interval_how(final)
     assert "16 records of the identified model" in text and "random phases" in text
 
 
@@ -199,5 +198,6 @@ def test_a_model_that_diverges_on_the_surrogates_falls_back_to_noise_replicates(
         evidence = candidate_evidence(result, signals, options, warn=False)["white"]
         found = candidate_intervals(result, signals, evidence, options, NSIOptions(block_rows=60, order=4))
     assert found.method == "noise" and found.n_segments == 3
-    assert any(n.startswith("model replicates failed (model replicates: UnstableModelError") for n in found.notes)
-    assert any("sign(v2)@2 is discontinuous" in n for n in found.notes)  # the noise replicates' own caveat
+    assert any(f.message.startswith("model replicates failed (model replicates: UnstableModelError")
+               for f in found.findings)
+    assert any("sign(v2)@2 is discontinuous" in f.message for f in found.findings)  # the noise replicates' own caveat

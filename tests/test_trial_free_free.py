@@ -17,6 +17,7 @@ import warnings
 import numpy as np
 import pytest
 
+from bayesnsi.findings import messages
 from bayesnsi.nsi import identify
 from bayesnsi.nsi.free_body import rigid_body_poles
 from bayesnsi.options import NSIOptions
@@ -231,12 +232,12 @@ def test_selection_says_when_a_derived_velocity_is_mostly_noise():
 
     coulomb = CandidateModel.from_terms("Coulomb at 2", [("sign(v2)", 2)])
     noisy = _two_mass_record(duration=10.0, noise=1e-4)
-    (message,) = velocity_noise_findings(noisy, [coulomb])
+    (message,) = messages(velocity_noise_findings(noisy, [coulomb]))
     assert "v2" in message and "sign(v2)" in message and "measure the velocity" in message
-    assert velocity_noise_findings(_two_mass_record(duration=10.0, noise=1e-6), [coulomb]) == []
+    assert messages(velocity_noise_findings(_two_mass_record(duration=10.0, noise=1e-6), [coulomb])) == ()
     measured = Signals(force=noisy.force, displacement=noisy.displacement, velocity=noisy.velocities(), fs=FS,
                        input_dofs=(1,), output_dofs=(1, 2))
-    assert velocity_noise_findings(measured, [coulomb]) == []
+    assert messages(velocity_noise_findings(measured, [coulomb])) == ()
 
 
 def _carriage_candidates():
@@ -259,7 +260,7 @@ def test_select_scores_every_candidate_of_a_free_body_on_the_force():
         selection = select(carriage, _carriage_candidates(), NSIOptions(), EvidenceOptions(interval="posterior"))
     assert all(is_free_body(o.result) for o in selection.outcomes)
     assert selection.selected == "Coulomb"
-    assert any("identified again with its virtual spring" in w for w in selection.warnings)
+    assert any("identified again with its virtual spring" in f.message for f in selection.findings)
 
 
 def test_loop_from_a_grounded_looking_start_switches_to_the_free_body_view():
@@ -277,22 +278,25 @@ def test_loop_from_a_grounded_looking_start_switches_to_the_free_body_view():
     assert loop.final.coefficient_values[0] == pytest.approx(8.0, rel=0.05)
 
 
-def test_loop_summary_names_a_free_bodys_validation_error_as_force_prediction():
+def test_diagnose_lines_name_a_free_bodys_validation_error_as_force_prediction():
     """A free body is validated by the force it predicts, not by a closed-loop simulation."""
     from types import SimpleNamespace
 
     from bayesnsi.models import Term
-    from bayesnsi.report.loop import loop_summary
+    from bayesnsi.options import LoopOptions
+    from bayesnsi.report.terminal import diagnosis_lines
 
-    payload = {
-        "validation_before": [{"name": "second record", "nrmse": 0.411, "quantity": "force"}],
-        "validation": [{"name": "second record", "nrmse": 0.0957, "quantity": "force"}],
-        "candidates": [],
-    }
-    step = SimpleNamespace(accepted=True, term=Term("sign(v1)", 1), reason="", imag_ratio=0.02)
-    added = SimpleNamespace(steps=[step])
-    assert loop_summary(added, payload, "linear") == (
-        "loop from 'linear': added sign(v1)@1; force-prediction (free body) NRMSE 0.411 -> 0.0957 (second record).")
+    before = (SimpleNamespace(name="second record", nrmse=0.411, quantity="force"),)
+    after = (SimpleNamespace(name="second record", nrmse=0.0957, quantity="force"),)
+    step = SimpleNamespace(accepted=True, term=Term("sign(v1)", 1), reason="", imag_ratio=0.02, log_bayes_factor=9.0,
+                           effect=SimpleNamespace(name="sign(v)", location=(1,)))
+    loop = SimpleNamespace(steps=(step,), scores=(), options=LoopOptions(), final=SimpleNamespace(coefficients=()),
+                           final_nsi=SimpleNamespace(upsample=1), nsi=SimpleNamespace(upsample=1))
+    final = SimpleNamespace(check=None, intervals=None, result=SimpleNamespace(coefficients=()),
+                            validation_before=before, validation=after)
+    diagnosis = SimpleNamespace(loop=loop, added=(step,), start="linear", final=final,
+                                selection=SimpleNamespace(checks={}, signals=None))
+    assert "  validation second record: force-prediction NRMSE 0.411 -> 0.0957" in diagnosis_lines(diagnosis)
 
 
 def test_residual_force_of_a_free_body_has_the_size_of_the_effect():
@@ -314,7 +318,7 @@ def test_residual_force_of_a_free_body_has_the_size_of_the_effect():
 def test_report_names_the_rigid_body_poles_of_a_free_body_with_several_dofs():
     from types import SimpleNamespace
 
-    from bayesnsi.cli._report import _rigid_body_note
+    from bayesnsi.report.sections import _rigid_body_note
 
     results = {"Coulomb at 2": SimpleNamespace(rigid_body_poles=np.array([-0.021 + 0.016j, -0.021 - 0.016j])),
                "linear": SimpleNamespace(rigid_body_poles=np.array([0.0214 + 0j]))}
@@ -392,4 +396,4 @@ def test_select_does_not_widen_a_free_free_bodys_intervals_by_the_virtual_modes_
         selection = select(rig, candidates, NSIOptions(), EvidenceOptions(n_replicates=4))
     (interval,) = selection.outcome("Coulomb at 2").intervals.coefficients
     assert 0 < interval.ci95[0] < FC2 * 1.1 and interval.ci95[1] < 2 * FC2
-    assert not any("sign(v2)@2 is not supported" in w for w in selection.warnings)
+    assert not any("sign(v2)@2 is not supported" in f.message for f in selection.findings)

@@ -152,39 +152,44 @@ def test_loading_a_window_with_a_transient_warns_in_one_plain_line(tmp_path):
 
 # --- diagnose: "nothing added" while an effect that passes was never examined (n_tries) ---------
 
-def _loop_payload(n_tries: int = 3) -> dict:
-    """The trial's loop from 'linear' (8 N, realisation 1): three effects examined and rejected, the
-    joint's cubic ranked 4th by evidence, passing the quality index, left 'not checked'."""
-    def record(term, bf, ratio, status):
-        return {"term": term, "log_bayes_factor": bf, "imag_ratio": ratio, "status": status}
-    search = [
-        record("(v7-v8)*abs(v7-v8)@7-8", 44768.1, 1.199, "rejected"),
-        record("(x7-x8)*abs(x7-x8)@7-8", 44100.6, 0.287, "rejected"),
-        record("tanh((v7-v8)/0.0613)@7-8", 38972.7, 1.384, "rejected"),
-        record("(x7-x8)**3@7-8", 35964.2, 0.200, "not checked"),
-        record("tanh((v7-v8)/0.0306)@7-8", 30736.4, 1.152, "not checked"),  # fails the quality index
-        record("sign(v7-v8)@7-8", None, None, "screened out"),
-    ]
-    return {"loop_scores": [search], "candidates": [],
-            "settings": {"loop": {"threshold": 4.6, "max_imag_ratio": 0.3, "n_tries": n_tries}}}
+def _loop(examined=("(v7-v8)*abs(v7-v8)", "(x7-x8)*abs(x7-x8)", "tanh((v7-v8)/0.0613)")):
+    """A loop from 'linear' (8 N, realisation 1): three effects examined and rejected, the joint's cubic ranked
+    4th by evidence, passing the quality index, never examined (``n_tries = 3``)."""
+    import math
+    from types import SimpleNamespace
+
+    from bayesnsi.loop import EffectScore, LoopResult
+    from bayesnsi.models import Effect, Term
+    from bayesnsi.options import LoopOptions
+
+    def score(expr, base, bf, ratio):
+        effect = Effect(base, Term(expr, (7, 8)), eps=float(expr.split("/")[1][:-1]) if base == "tanh(v/eps)" else None)
+        return EffectScore(effect, math.nan if bf is None else 1000.0 + bf, log_bayes_factor=math.nan if bf is None
+                           else bf, imag_ratio=math.nan if ratio is None else ratio)
+
+    search = (
+        score("(v7-v8)*abs(v7-v8)", "v|v|", 44768.1, 1.199),
+        score("(x7-x8)*abs(x7-x8)", "x|x|", 44100.6, 0.287),
+        score("tanh((v7-v8)/0.0613)", "tanh(v/eps)", 38972.7, 1.384),
+        score("(x7-x8)**3", "x^3", 35964.2, 0.200),
+        score("tanh((v7-v8)/0.0306)", "tanh(v/eps)", 30736.4, 1.152),  # fails the quality index
+        score("sign(v7-v8)", "sign(v)", None, None),  # screened out
+    )
+    steps = tuple(SimpleNamespace(term=row.term, accepted=False, reason="quality index", imag_ratio=row.imag_ratio)
+                  for row in search if row.term.expr.text in examined)
+    return LoopResult(start=None, final=None, steps=steps, scores=(search,),
+                      options=LoopOptions(threshold=4.6, max_imag_ratio=0.3, n_tries=3))
 
 
 def test_nothing_added_names_the_unexamined_effect_that_passes():
-    from types import SimpleNamespace
+    from bayesnsi.report.loop import unexamined_note
 
-    from bayesnsi.cli._loop_unexamined import unexamined_note
-    from bayesnsi.report.loop import loop_summary
-
-    note = unexamined_note(_loop_payload())
+    note = unexamined_note(_loop())
     assert "(x7-x8)**3@7-8 (log Bayes factor 3.6e+04, |Im|/|Re| 0.2)" in note
     assert "tanh((v7-v8)/0.0306)" not in note and "sign(v7-v8)" not in note
     assert "n_tries = 3" in note and "--n-tries 6" in note
-    rejected = SimpleNamespace(accepted=False, reason="quality index |Im|/|Re| = 1.20 >= 0.3", imag_ratio=1.2)
-    line = loop_summary(SimpleNamespace(steps=[rejected]), _loop_payload(), "linear")
-    assert line.startswith("loop from 'linear': nothing added.") and "Not examined: (x7-x8)**3@7-8" in line
-    everything = _loop_payload()
-    everything["loop_scores"][0][3]["status"] = "rejected"  # examined: nothing left unexamined to name
-    assert unexamined_note(everything) == ""
+    everything = _loop(examined=("(v7-v8)*abs(v7-v8)", "(x7-x8)*abs(x7-x8)", "tanh((v7-v8)/0.0613)", "(x7-x8)**3"))
+    assert unexamined_note(everything) == ""  # examined: nothing left unexamined to name
 
 
 # --- a periodic test loaded without its period: say so -----------------------------------------

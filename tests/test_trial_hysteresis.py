@@ -13,6 +13,7 @@ import numpy as np
 
 matplotlib.use("Agg")
 
+from bayesnsi.findings import messages
 from bayesnsi.report.document import Report
 from bayesnsi.report.periodic import HEADING, periodic_section
 from bayesnsi.signals import Signals
@@ -70,7 +71,7 @@ def _fake_outcome(name: str, terms_values, residual_ratio: float):
     coefficients = [SimpleNamespace(term=Term(expr, 1), value=value, imag_ratio=0.05) for expr, value in terms_values]
     residual = np.full((400, 1), 0.02 * residual_ratio) * np.where(np.arange(400) % 2, 1.0, -1.0)[:, None]
     result = SimpleNamespace(order=2, coefficients=coefficients, virtual_stiffness=None, physical_parameters=(),
-                             reconstruct=lambda signals: SimpleNamespace(residual=residual))
+                             lowest_frequency_hz=0.0, reconstruct=lambda signals: SimpleNamespace(residual=residual))
     return SimpleNamespace(name=name, result=result, intervals=None)
 
 
@@ -83,7 +84,7 @@ def _periodic_noise_record(noise: float = 0.02) -> Signals:
 
 
 def test_selected_model_feeding_energy_in_is_warned():
-    # The trial's selected 'cubic + Coulomb' held sign(v1)@1 = -5.83 N (time route) and the frequency
+    # A selected 'cubic + Coulomb' held sign(v1)@1 = -5.83 N (time route) and the frequency
     # route's Coulomb -14.4 N: a friction with a negative coefficient does positive work on every
     # motion, which the loop refuses ("negative dissipation") but select reported silently.
     from bayesnsi.checks.adequacy import adequacy_findings, model_checks
@@ -98,47 +99,62 @@ def test_selected_model_feeding_energy_in_is_warned():
     assert checks["quadratic damping"].energy_input == () and checks["stiffening only"].energy_input == ()
     assert checks["cubic + Coulomb"].to_dict()["negative_dissipation"] == [{"term": "sign(v1)@1", "coefficient": -5.83}]
     warned = adequacy_findings(checks, "cubic + Coulomb")
-    assert any("sign(v1)@1 = -5.83" in w and "negative dissipation" in w for w in warned)
-    assert not any("negative dissipation" in w for w in adequacy_findings(checks, "quadratic damping"))
+    assert any(f.kind == "adequacy.negative_dissipation" and "sign(v1)@1 = -5.83" in f.message for f in warned)
+    assert not any("negative dissipation" in f.message for f in adequacy_findings(checks, "quadratic damping"))
 
 
 def test_intervals_of_an_inadequate_selected_model_are_qualified():
-    # The trial's time and frequency routes gave x1**3 = 7.37e9 [7.35e9, 7.47e9] and 4.43e9 [4.02e9, 4.80e9]
+    # The time and frequency routes gave x1**3 = 7.37e9 [7.35e9, 7.47e9] and 4.43e9 [4.02e9, 4.80e9]
     # on the same record: intervals that hold the sensor noise only cannot hold a model-form error of 40 %.
     from bayesnsi.checks.adequacy import adequacy_findings, model_checks
 
     record = _periodic_noise_record()
     none_fit = model_checks([_fake_outcome("a", [("x1**3", 1.0)], 6.0), _fake_outcome("b", [], 8.0)], record)
-    nothing = [w for w in adequacy_findings(none_fit, "a") if "no candidate is adequate" in w]
+    nothing = [f.message for f in adequacy_findings(none_fit, "a") if f.kind == "adequacy.none_adequate"]
     assert len(nothing) == 1 and "intervals carry the sensor noise only" in nothing[0]  # none to widen here
     one_fits = model_checks([_fake_outcome("a", [("x1**3", 1.0)], 6.0), _fake_outcome("b", [], 1.0)], record)
     assert one_fits["b"].adequate and not one_fits["a"].adequate
-    said = adequacy_findings(one_fits, "a")
+    said = messages(adequacy_findings(one_fits, "a"))
     assert any("'a' is not adequate" in w and "sensor noise only" in w for w in said), said
-    assert adequacy_findings(one_fits, "b") == ()
+    assert messages(adequacy_findings(one_fits, "b")) == ()
+
+
+def _fake_diagnosis(steps, checks, scores=(), added=(), validation=((), ())):
+    """A Diagnosis with the fields the report's loop sentences read: no loop needed."""
+    from types import SimpleNamespace
+
+    from bayesnsi.options import LoopOptions
+
+    loop = SimpleNamespace(steps=tuple(steps), scores=tuple(scores), options=LoopOptions(),
+                           unexamined=lambda: (), start=SimpleNamespace(reconstruct=None),
+                           final=SimpleNamespace(coefficients=()), final_nsi=SimpleNamespace(upsample=1))
+    final = SimpleNamespace(check=None, intervals=None, result=SimpleNamespace(coefficients=()),
+                            validation_before=validation[0], validation=validation[1])
+    selection = SimpleNamespace(checks=checks, signals=None)
+    return SimpleNamespace(loop=loop, added=tuple(added), start="linear", final=final, selection=selection)
 
 
 def test_diagnose_answer_says_why_nothing_was_added_and_that_the_model_left_is_inadequate():
-    # Trial, time route from 'linear': six effects rejected, all by the quality index (|Im|/|Re| 0.94-23.2),
+    # Time route from 'linear': six effects rejected, all by the quality index (|Im|/|Re| 0.94-23.2),
     # and the answer said only "nothing added", while the linear model's residual was 8.50x the noise.
     from types import SimpleNamespace
 
     from bayesnsi.report.loop import nothing_added_note
 
     steps = [SimpleNamespace(reason=f"quality index |Im|/|Re| = {r:.2f} >= 0.3", imag_ratio=r) for r in (0.99, 23.24)]
-    payload = {"candidates": [{"name": "linear", "model_check": {"adequate": False, "noise_ratio": 8.4994}},
-                              {"name": "cubic", "model_check": {"adequate": False, "noise_ratio": 7.2}}]}
-    note = nothing_added_note(steps, payload, "linear")
+    inadequate = {"linear": SimpleNamespace(adequate=False, noise_ratio=8.4994),
+                  "cubic": SimpleNamespace(adequate=False, noise_ratio=7.2)}
+    note = nothing_added_note(_fake_diagnosis(steps, inadequate))
     assert "failed the quality index (|Im|/|Re| 0.99-23)" in note and "memory (hysteresis" in note
-    # measured on the trial: --max-imag-ratio 1.0 adds x1**3, validation NRMSE 0.257 -> 0.187
+    # measured: --max-imag-ratio 1.0 adds x1**3, validation NRMSE 0.257 -> 0.187
     assert "raise [diagnose] max_imag_ratio above 0.99 (--max-imag-ratio)" in note
     assert "linear, is not adequate: its residual is 8.50x the noise it passes on" in note
     # a re-identified effect not examined that passes the quality index: a dictionary term may do after all
-    scored = dict(payload, loop_scores=[[{"term": "x1*abs(x1)@1", "imag_ratio": 0.22, "status": "not checked"}]])
-    assert "memory" not in nothing_added_note(steps, scored, "linear")
+    scored = [[SimpleNamespace(imag_ratio=0.22)]]
+    assert "memory" not in nothing_added_note(_fake_diagnosis(steps, inadequate, scored))
     mixed = steps + [SimpleNamespace(reason="log Bayes factor 1.2 < 5", imag_ratio=0.02)]
-    adequate = {"candidates": [{"name": "linear", "model_check": {"adequate": True, "noise_ratio": 1.05}}]}
-    assert nothing_added_note(mixed, adequate, "linear") == ""  # a control with nothing missing: nothing to say
+    adequate = {"linear": SimpleNamespace(adequate=True, noise_ratio=1.05)}
+    assert nothing_added_note(_fake_diagnosis(mixed, adequate)) == ""  # a control with nothing missing
 
 
 def test_headerless_single_column_file_says_how_to_join_input_and_output(tmp_path):
@@ -161,26 +177,25 @@ def test_headerless_single_column_file_says_how_to_join_input_and_output(tmp_pat
 
 
 def test_diagnose_prints_what_it_added_and_the_validation_error_before_and_after():
-    # Before, `bayesnsi diagnose` printed each rejection and the files it wrote, never the outcome.
+    # `bayesnsi diagnose` prints the outcome: what was added and the validation error before and after
     from types import SimpleNamespace
 
     from bayesnsi.models import Term
-    from bayesnsi.report.loop import loop_summary
+    from bayesnsi.report.terminal import diagnosis_lines
 
-    payload = {
-        "validation_before": [{"name": "second realisation", "nrmse": 0.25712}],
-        "validation": [{"name": "second realisation", "nrmse": 0.18685}],
-        "candidates": [{"name": "linear", "model_check": {"adequate": False, "noise_ratio": 8.5}}],
-    }
-    added = SimpleNamespace(steps=[SimpleNamespace(accepted=True, term=Term("x1**3", 1), reason="", imag_ratio=0.1)])
-    line = loop_summary(added, payload, "linear")
-    assert line == ("loop from 'linear': added x1**3@1; closed-loop validation NRMSE 0.257 -> 0.187 "
-                    "(second realisation).")
-    rejected = SimpleNamespace(steps=[SimpleNamespace(accepted=False, term=Term("x1**3", 1), imag_ratio=0.99,
-                                                      reason="quality index |Im|/|Re| = 0.99 >= 0.3")])
-    line = loop_summary(rejected, dict(payload, validation=payload["validation_before"]), "linear")
-    assert line.startswith("loop from 'linear': nothing added; closed-loop validation NRMSE 0.257 -> 0.257")
-    assert "memory (hysteresis" in line and "8.50x the noise it passes on" in line
+    before = (SimpleNamespace(name="second realisation", nrmse=0.25712, quantity="displacement"),)
+    after = (SimpleNamespace(name="second realisation", nrmse=0.18685, quantity="displacement"),)
+    inadequate = {"linear": SimpleNamespace(adequate=False, noise_ratio=8.5)}
+    step = SimpleNamespace(accepted=True, term=Term("x1**3", 1), reason="", imag_ratio=0.1, log_bayes_factor=12.0,
+                           effect=SimpleNamespace(name="x^3", location=(1,)))
+    lines = diagnosis_lines(_fake_diagnosis([step], inadequate, added=[step], validation=(before, after)))
+    assert lines[0].startswith("Closing the loop from linear: added x^3 at DOF 1 (log Bayes factor 12.0)")
+    assert "  validation second realisation: closed-loop NRMSE 0.2571 -> 0.1868" in lines
+    rejected = SimpleNamespace(accepted=False, term=Term("x1**3", 1), imag_ratio=0.99,
+                               reason="quality index |Im|/|Re| = 0.99 >= 0.3")
+    lines = diagnosis_lines(_fake_diagnosis([rejected], inadequate, validation=(before, before)))
+    assert lines[0].startswith("Closing the loop from linear: nothing added.")
+    assert "memory (hysteresis" in lines[0] and "8.50x the noise it passes on" in lines[0]
 
 
 def test_no_harmonic_balance_of_a_sign_friction_model_names_the_switching_term():
@@ -219,7 +234,8 @@ def test_report_answer_qualifies_the_probability_when_no_candidate_is_adequate(t
     results = json.loads((tmp_path / "out" / "results.json").read_text())
     assert not any(c["model_check"]["adequate"] for c in results["candidates"])  # the truth is v1|v1|
     html = (tmp_path / "out" / "report.html").read_text()
-    assert "The probability compares these candidates only: none of them explains the data down to the noise" in html
+    assert ("no candidate explains the data down to the noise, so the probability says which is least wrong, not "
+            "that it is right") in html and "class='lead-bad'" in html
 
 
 def test_a_selected_model_whose_validation_failed_is_not_said_to_be_inf_percent_worse():
@@ -231,8 +247,8 @@ def test_a_selected_model_whose_validation_failed_is_not_said_to_be_inf_percent_
         return ModelCheck(name=name, order=2, residual_rms=(6.0,), noise_std=(1.0,), noise_ratio=6.0, adequate=False,
                           quality_index=0.1, quality_ok=True, validation_nrmse=nrmse)
 
-    said = adequacy_findings({"cubic + Coulomb": check("cubic + Coulomb", float("inf")),
-                              "cubic": check("cubic", 0.1836)}, "cubic + Coulomb")
+    said = messages(adequacy_findings({"cubic + Coulomb": check("cubic + Coulomb", float("inf")),
+                              "cubic": check("cubic", 0.1836)}, "cubic + Coulomb"))
     failed = [w for w in said if "could not be validated" in w]
     assert len(failed) == 1 and "closed-loop simulation failed" in failed[0]
     assert "'cubic' validates with closed-loop NRMSE 0.184" in failed[0]

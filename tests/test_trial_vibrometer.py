@@ -15,6 +15,7 @@ import pytest
 
 from bayesnsi.checks.validation import LEVEL_MISMATCH, level_findings
 from bayesnsi.exceptions import NotIdentifiableError
+from bayesnsi.findings import messages
 from bayesnsi.models import Term
 from bayesnsi.nsi.physics import identification_routes
 from bayesnsi.nsi.steady import period_problems
@@ -45,12 +46,12 @@ def _record(scale_response: float = 1.0, scale_force: float = 1.0, seed: int = 0
 
 def test_validation_in_other_units_is_named():
     estimation = _record()
-    assert level_findings(estimation, [("same level", _record(seed=1))]) == []
+    assert messages(level_findings(estimation, [("same level", _record(seed=1))])) == ()
     # twice the force, twice the response (a linear structure): the same units
-    assert level_findings(estimation, [("louder", _record(2.0, 2.0, seed=2))]) == []
-    (message,) = level_findings(estimation, [("val", _record(1000.0, seed=3))])
+    assert messages(level_findings(estimation, [("louder", _record(2.0, 2.0, seed=2))])) == ()
+    (message,) = messages(level_findings(estimation, [("val", _record(1000.0, seed=3))]))
     assert "'val'" in message and "'v1' 996x" in message and "units row" in message
-    assert level_findings(estimation, [("nearly", _record(0.8 * LEVEL_MISMATCH, seed=4))]) == []
+    assert messages(level_findings(estimation, [("nearly", _record(0.8 * LEVEL_MISMATCH, seed=4))])) == ()
 
 
 def test_wrong_period_names_the_forces_period():
@@ -86,14 +87,14 @@ def _periodic(force_noise: float, seed: int = 0) -> Signals:
 def test_force_noise_that_reaches_the_responses_is_named():
     from bayesnsi.checks.force_noise import force_noise_findings
 
-    assert force_noise_findings(_periodic(0.0)) == []
-    (message,) = force_noise_findings(_periodic(0.005))
+    assert messages(force_noise_findings(_periodic(0.0))) == ()
+    (message,) = messages(force_noise_findings(_periodic(0.005)))
     assert re.search(r"scatters between periods by 0\.(49|5|51) % of its level", message)
     assert "take the force as exact" in message
     aperiodic = _periodic(0.005)
     from dataclasses import replace
 
-    assert force_noise_findings(replace(aperiodic, period=None)) == []  # no periods: nothing to separate it by
+    assert messages(force_noise_findings(replace(aperiodic, period=None))) == ()  # no periods: nothing to separate
 
 
 def test_final_model_check_carries_its_validation_error():

@@ -159,7 +159,7 @@ def test_loop_settings_are_command_line_flags():
 def test_to_statespace_of_a_free_body_has_its_virtual_spring_removed(two_dof_result):
     import dataclasses
 
-    spring = dataclasses.replace(two_dof_result, settings={**two_dof_result.settings, "virtual_stiffness": 300.0})
+    spring = dataclasses.replace(two_dof_result, options=two_dof_result.options.replace(virtual_stiffness=300.0))
     freqs = np.linspace(0.2, 20.0, 60)
     ss = spring.to_statespace()
     np.testing.assert_allclose(_frf_from_transfer_functions(ss, freqs), spring.underlying_frf(freqs), rtol=1e-6)

@@ -10,12 +10,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from types import SimpleNamespace
 
 import pytest
 
 from bayesnsi.checks.adequacy import ModelCheck
+from bayesnsi.findings import Finding, messages
 from bayesnsi.uncertainty import Intervals, ParameterInterval, widen, widen_inadequate
+
+WHY = Finding("interval.widened", "why", "", "note")
 
 
 def _intervals() -> Intervals:
@@ -32,7 +34,7 @@ def _check(name: str, ratio: float, quantity: str = "displacement") -> ModelChec
 
 
 def test_widen_scales_every_reach_about_the_bias_corrected_centre():
-    wide = widen(_intervals(), 4.0, "why")
+    wide = widen(_intervals(), 4.0, WHY)
     p = wide.coefficients[0]
     centre = 10.0 - 0.2
     assert p.sd == pytest.approx(2.0)
@@ -40,8 +42,8 @@ def test_widen_scales_every_reach_about_the_bias_corrected_centre():
     assert p.ci95 == pytest.approx((centre + 4 * (8.8 - centre), centre + 4 * (10.8 - centre)))
     f = wide.frequencies[0]  # no bias: about the midpoint of its 50 % interval
     assert f.ci95 == pytest.approx((4.92, 5.08))
-    assert wide.widening == 4.0 and wide.notes == ("why",)
-    assert widen(_intervals(), 0.5, "narrower?").coefficients[0].ci95 == _intervals().coefficients[0].ci95
+    assert wide.widening == 4.0 and wide.findings == (WHY,)
+    assert widen(_intervals(), 0.5, WHY).coefficients[0].ci95 == _intervals().coefficients[0].ci95
 
 
 @dataclass(frozen=True)
@@ -56,7 +58,7 @@ def test_only_inadequate_candidates_are_widened_and_zero_is_checked_again():
     widened, new_checks = widen_inadequate(outcomes, checks)
     assert widened[0].intervals == _intervals() and widened[2].intervals is None
     assert widened[1].intervals.widening == pytest.approx(12.0)
-    assert "widened 12.00x" in widened[1].intervals.notes[-1]
+    assert "widened 12.00x" in widened[1].intervals.findings[-1].message
     low, high = widened[1].intervals.coefficients[0].ci95
     assert low == pytest.approx(9.8 - 12 * 1.0) and low < 0.0 < high  # no longer supported
     assert new_checks["wrong"].unsupported == (("x1**3@1", low, high),)
@@ -64,7 +66,7 @@ def test_only_inadequate_candidates_are_widened_and_zero_is_checked_again():
     assert new_checks["wrong"].to_dict()["interval_widening"] == pytest.approx(12.0)
     from bayesnsi.checks.adequacy import adequacy_findings
 
-    said = adequacy_findings(new_checks, "wrong")
+    said = messages(adequacy_findings(new_checks, "wrong"))
     assert any("'wrong' is not adequate" in w and "its intervals are widened 12.00x for its model error" in w
                for w in said), said
 
@@ -78,16 +80,25 @@ def test_a_free_body_is_not_widened_by_its_force_residual_over_the_force_noise()
     checks = {"Coulomb": _check("Coulomb", 70.0, quantity="force")}
     widened, _ = widen_inadequate([_Outcome("Coulomb", _intervals())], checks)
     assert widened[0].intervals == _intervals()
-    said = adequacy_findings(checks, "Coulomb")
+    said = messages(adequacy_findings(checks, "Coulomb"))
     assert any("intervals carry the sensor noise only" in w for w in said), said
     assert not any("widened" in w for w in said)
 
 
 def test_integrated_accelerations_without_periods_are_not_widened():
-    # The F-16-like trial's sweep (time route, accelerations integrated): the displacement noise the
-    # ratio divides by is what the integration filter left of it, and the ratio read 18 000x.
-    sweep = SimpleNamespace(measured="acceleration", period=None, n_samples=4000)
-    periodic = SimpleNamespace(measured="acceleration", period=1000, n_samples=4000)
+    # A sweep of integrated accelerations (time route, no recipe kept): the displacement noise the ratio
+    # divides by is what the integration filter left of it, and the ratio read 18 000x.
+    import numpy as np
+
+    from bayesnsi.signals import Signals
+
+    rng = np.random.default_rng(0)
+    force = np.tile(rng.standard_normal(1000), 4)[:, None]
+    response = force + 0.01 * rng.standard_normal((4000, 1))
+    sweep = Signals(force=force, displacement=response, fs=100.0, input_dofs=(1,), output_dofs=(1,),
+                    measured="acceleration")
+    periodic = Signals(force=force, displacement=response, fs=100.0, input_dofs=(1,), output_dofs=(1,),
+                       measured="acceleration", period=1000)
     checks = {"cubic": _check("cubic", 18000.0)}
     kept, _ = widen_inadequate([_Outcome("cubic", _intervals())], checks, sweep)
     assert kept[0].intervals == _intervals()

@@ -42,7 +42,7 @@ def run(args) -> int:
     from ..io.loop_record import diagnosis_payload
     from ..loop import loop_effects
     from ..options import ExecutionOptions
-    from ..report import diagnosis_lines, diagnosis_report, step_line
+    from ..report.terminal import diagnosis_lines, step_line
 
     config, out, signals, data_findings = start_run(args)
     names = [c.name for c in config.candidates]
@@ -64,10 +64,17 @@ def run(args) -> int:
     if diagnosis.final.evidence is not None and diagnosis.added:  # the model the loop ends with
         posteriors[diagnosis.final.name] = (diagnosis.final.evidence, diagnosis.final.intervals)
     write_outputs(args, out, config, payload, posteriors,
-                  lambda: diagnosis_report(diagnosis, config, f"bayesnsi diagnose - {config.path.name}",
+                  lambda: _report().diagnosis_report(diagnosis, config, f"bayesnsi diagnose - {config.path.name}",
                                                           data_findings=data_findings))
     for line in diagnosis_lines(diagnosis):
         progress(line, args.quiet)
     for finding in diagnosis.findings:
         print(f"{finding.severity}: {' '.join(finding.message.split())}", file=sys.stderr)
     return 0
+
+
+def _report():
+    """The report package, imported only when a report is written (pandas, matplotlib: not with --no-figures)."""
+    from .. import report
+
+    return report

@@ -26,7 +26,6 @@ def run(args) -> int:
     """Execute the command."""
     from ..io import identification_payload
     from ..nsi.order import order_findings
-    from ..report import identification_report
     from ..run import run_candidates
     from ..run.free_view import one_view
 
@@ -38,8 +37,15 @@ def run(args) -> int:
         print(f"{finding.severity}: {' '.join(finding.message.split())}", file=sys.stderr)
     payload = identification_payload(outcomes, "identify", config, data_findings)
     path = write_outputs(args, out, config, payload, {},
-                         lambda: identification_report(
+                         lambda: _report().identification_report(
                              outcomes, config, signals, f"bayesnsi identify - {config.path.name}",
                              data_findings=data_findings))
     refuse_if_nothing_identified(outcomes, path)
     return 0
+
+
+def _report():
+    """The report package, imported only when a report is written (pandas, matplotlib: not with --no-figures)."""
+    from .. import report
+
+    return report

@@ -28,13 +28,13 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     """Execute the command."""
     from ..io import selection_payload
-    from ..report import selection_lines, selection_report
+    from ..report.terminal import selection_lines
 
     config, out, signals, data_findings = start_run(args)
     selection = run_selection(config, signals, args, out)
     payload = selection_payload(selection, "select", config, data_findings)
     path = write_outputs(args, out, config, payload, posterior_files(selection),
-                         lambda: selection_report(
+                         lambda: _report().selection_report(
                              selection, config, f"bayesnsi select - {config.path.name}",
                              data_findings=data_findings))
     refuse_if_nothing_identified(selection.outcomes, path)
@@ -100,3 +100,10 @@ def run_selection(config, signals, args, out):
             signals, config.candidates, config.nsi, config.evidence, execution=options,
             validation=load_validation(config),
         )
+
+
+def _report():
+    """The report package, imported only when a report is written (pandas, matplotlib: not with --no-figures)."""
+    from .. import report
+
+    return report

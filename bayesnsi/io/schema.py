@@ -265,8 +265,7 @@ def selection_payload(selection, command: str, config, data_findings=(), **extra
         "candidates": records,
         "validation": [e.to_dict() for e in selection.validation.get(selected, ())] if selected else [],
         "ranking": [] if selection.table is None else selection.table.reset_index().to_dict(orient="records"),
-        "comparison": [] if selection.table is None else selection.comparison().reset_index().to_dict(
-            orient="records"),
+        "comparison": _comparison(selection),
         "findings": [f.to_dict() for f in selection.findings],
         "data_findings": [f.to_dict() for f in data_findings],
         "settings": _settings(config, selection.evidence),
@@ -274,6 +273,14 @@ def selection_payload(selection, command: str, config, data_findings=(), **extra
         **extra,
     }
     return to_jsonable(payload)
+
+
+def _comparison(selection) -> list[dict[str, Any]]:
+    """:meth:`Selection.comparison` as records (empty when no candidate has an evidence)."""
+    table, likelihood = selection.table, selection.likelihood
+    if table is None or likelihood is None or f"log_evidence_{likelihood}" not in table:
+        return []
+    return selection.comparison().reset_index().to_dict(orient="records")
 
 
 def _settings(config, evidence) -> dict[str, Any]:

@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from ..exceptions import ConfigError
 from ..models import CandidateModel, Term
 from ..options import NSIOptions
 from ..signals import Signals
@@ -192,26 +193,53 @@ class NSIResult:
         """
         return self.frf(freqs_hz)[:, :, : len(self.input_dofs)]
 
-    def to_statespace(self):
+    def to_statespace(self, output: int | str | None = None, force: int | str | None = None):
         """The underlying linear model as a :class:`scipy.signal.StateSpace` (discrete time).
 
         ``StateSpace(A, B[:, :m], C, D[:, :m], dt)``: the force columns of the identified
         extended-input model, so its frequency response is :meth:`underlying_frf` exactly. ``dt``
         is the model's sampling interval (the data's, or the upsampled grid's, see
         :attr:`upsample`); inputs are the forces, outputs the displacements, in the data's units;
-        a free body's virtual spring is removed (:attr:`free_model`).
-        For python-control (``pip install control``): ``control.ss(s.A, s.B, s.C, s.D, s.dt)``
-        with ``s = result.to_statespace()``.
+        a free body's virtual spring is removed (:attr:`free_model`). One force/response pair is
+        picked by ``output`` and ``force``, as scipy's single-input frequency-response functions
+        (``scipy.signal.dfreqresp``, ``dbode``) need. For python-control (``pip install control``):
+        ``control.ss(s.A, s.B, s.C, s.D, s.dt)`` with ``s = result.to_statespace()``.
+
+        Parameters
+        ----------
+        output : int or str, optional
+            The response: its DOF (int) or its name ``"x<dof>"``; all responses when None.
+        force : int or str, optional
+            The force: the DOF it acts at (int) or its name ``"f<dof>"``; all forces when None.
 
         Returns
         -------
         scipy.signal.StateSpace
+
+        Raises
+        ------
+        ConfigError
+            When ``output`` or ``force`` names no channel of the model.
         """
         from scipy.signal import StateSpace
 
         m = len(self.input_dofs)
         model = self.free_model  # a free body's virtual spring removed (the same model otherwise)
-        return StateSpace(model.A, model.B[:, :m], model.C, model.D[:, :m], dt=model.dt)
+        rows = self._channel(output, self.output_dofs, "x", "output")
+        columns = self._channel(force, self.input_dofs, "f", "force")
+        return StateSpace(model.A, model.B[:, :m][:, columns], model.C[rows, :], model.D[:, :m][rows][:, columns],
+                          dt=model.dt)
+
+    @staticmethod
+    def _channel(which, dofs, prefix: str, role: str) -> slice | list[int]:
+        """Columns (or rows) of one channel named by DOF or ``"<prefix><dof>"``; all of them for None."""
+        if which is None:
+            return slice(None)
+        dof = int(which[len(prefix):]) if isinstance(which, str) and which[len(prefix):].isdigit() else which
+        if isinstance(dof, bool) or dof not in dofs:
+            raise ConfigError(f"{role} {which!r} is not a channel of the model; choose one of "
+                              f"{[f'{prefix}{d}' for d in dofs]}")
+        return [list(dofs).index(dof)]
 
     def innovation_form(self, signals: Signals, noise_std=None, force_noise_std=None):
         """The model's innovation form: its steady-state Kalman gain for the noise of ``signals``.

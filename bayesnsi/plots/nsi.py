@@ -144,24 +144,25 @@ def plot_frf(results, freqs_hz, output_index=None, input_index=None, exact=None,
         mag = fig.add_subplot(inner[0], sharex=fig.axes[0] if fig.axes else None)
         phase = fig.add_subplot(inner[1], sharex=mag)
         mag.tick_params(labelbottom=False)
-        if measured is not None:  # where the forces explain the output (coherence >= 0.5): elsewhere it is noise
+        if measured is not None:  # solid where the forces explain the output (coherence >= 0.5), dotted elsewhere
             out = output_index or 0 if single else o
             h1 = measured.frf[:, out, input_index or 0] if single else measured.frf[:, o, i]
             shown = measured.coherence[:, out] >= 0.5
-            angle = np.full(len(h1), np.nan)  # unwrapped over the coherent lines only: noise adds no turns
-            angle[shown] = np.degrees(np.unwrap(np.angle(h1[shown])))
-            mag.semilogy(measured.freqs_hz, np.where(shown, np.abs(h1), np.nan), "-", color="0.55", lw=0.7,
-                         label="measured (H1)")
-            phase.plot(measured.freqs_hz, np.where(shown, angle, np.nan), "-", color="0.55", lw=0.6)
+            angle = _phase_degrees(h1)
+            mag.semilogy(measured.freqs_hz, np.abs(h1), ":", color="0.6", lw=0.6)
+            mag.semilogy(measured.freqs_hz, np.where(shown, np.abs(h1), np.nan), "-", color="0.45", lw=0.8,
+                         label="measured (H1; dotted: coherence < 0.5)")
+            phase.plot(measured.freqs_hz, np.where(shown, angle, np.nan), "-", color="0.45", lw=0.6)
         if exact is not None:
             ref = exact[:, 0, 0] if single else exact[:, o, i]
             mag.semilogy(freqs_hz, np.abs(ref), "k-", lw=2.5, alpha=0.45, label="exact")
-            phase.plot(freqs_hz, np.degrees(np.unwrap(np.angle(ref))), "k-", lw=2.5, alpha=0.45)
+            phase.plot(freqs_hz, _phase_degrees(ref), "k-", lw=2.5, alpha=0.45)
         for k, (res, h) in enumerate(zip(results, frfs)):
             label = labels[k] if labels else res.candidate.name
-            mag.semilogy(freqs_hz, np.abs(h[:, o, i]), lw=1.2, label=label)
-            phase.plot(freqs_hz, np.degrees(np.unwrap(np.angle(h[:, o, i]))), lw=1.0)
-        # decades ticked and gridded; minor ticks off: 8 per decade on 8 panels cost 0.3 s of drawing (issue 16)
+            style = {"ls": _STYLES[k % len(_STYLES)], "lw": max(0.9, 1.8 - 0.3 * k), "color": f"C{k}"}
+            mag.semilogy(freqs_hz, np.abs(h[:, o, i]), label=label, **style)  # line styles: no model hides another
+            phase.plot(freqs_hz, _phase_degrees(h[:, o, i]), **style)
+        # decades ticked and gridded; minor ticks off: 8 per decade on 8 panels cost 0.3 s of drawing
         mag.yaxis.set_minor_locator(NullLocator())
         mag.grid(True, which="major", axis="y", color="0.88", lw=0.6)
         pair = f"H{first.output_dofs[o]},{first.input_dofs[i]}"
@@ -178,6 +179,17 @@ def plot_frf(results, freqs_hz, output_index=None, input_index=None, exact=None,
     fig.axes[0].legend(fontsize=8)
     fig.suptitle("Underlying linear FRF", fontsize=11, y=1 - 0.1 / height, va="top")  # above the first title
     return fig
+
+
+_STYLES = ("-", "--", "-.", ":")
+
+
+def _phase_degrees(h: np.ndarray) -> np.ndarray:
+    """Unwrapped phase [deg], shifted by whole turns so that it starts in (-180, 180]."""
+    angle = np.degrees(np.unwrap(np.angle(h)))
+    if not len(angle) or not np.isfinite(angle[0]):
+        return angle
+    return angle - 360.0 * np.ceil((angle[0] - 180.0) / 360.0)
 
 
 def plot_coefficient_spectrum(result, freqs_hz=None, axes=None, units=None):

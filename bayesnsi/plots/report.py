@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.ticker import NullFormatter
+from matplotlib.ticker import NullFormatter, ScalarFormatter
 
 from ..io.units import ChannelUnits
 
@@ -31,9 +31,10 @@ def plot_bayes_factors(decision, selected: str, ax=None):
     Returns
     -------
     matplotlib.figure.Figure
-        Horizontal bars [nat] with ±2 standard errors; the bands 1, 3, 5 nat separate "barely
-        worth mentioning", "positive", "strong" and "very strong". A candidate that failed
-        (factor ∞) is marked as such at the right edge.
+        One point per candidate [nat] with ±2 standard errors and a thin stem from 0, over the bands
+        1, 3, 5 nat that separate "barely worth mentioning", "positive", "strong" and "very strong"
+        (the bands stay visible behind every point). A candidate that failed (factor ∞) is marked as
+        such.
     """
     others = decision.drop(index=selected, errors="ignore")
     if ax is None:
@@ -44,17 +45,22 @@ def plot_bayes_factors(decision, selected: str, ax=None):
     finite = np.isfinite(values)
     top = max(6.0, float(np.max(values[finite], initial=0.0)) * 1.15)
     y = np.arange(len(others))
-    ax.barh(y[finite], values[finite], xerr=2 * others["log_bayes_factor_se"].to_numpy(dtype=float)[finite],
-            color="C0", capsize=3)
+    ax.hlines(y[finite], 0.0, values[finite], color="C0", lw=1.2, zorder=2)
+    ax.errorbar(values[finite], y[finite], xerr=2 * others["log_bayes_factor_se"].to_numpy(dtype=float)[finite],
+                fmt="o", color="C0", ms=6, capsize=3, zorder=3)
     for k in np.flatnonzero(~finite):
         ax.annotate("  failed: no evidence (factor ∞)", (0.0, y[k]), ha="left", va="center", fontsize=8)
     bands = ((1.0, 3.0, "positive", "#e8f0e8"), (3.0, 5.0, "strong", "#cfe3cf"), (5.0, top, "very strong", "#b3d4b3"))
     for low, high, word, colour in bands:
         ax.axvspan(low, high, color=colour, zorder=0, label=f"{word} (> {low:g} nat)")
+        ax.text((low * high) ** 0.5 if low > 0 else 0.5 * (low + high), len(others) - 0.5, word, ha="center",
+                va="bottom", fontsize=7, color="0.3", zorder=1)
     ax.set_yticks(y, [str(name) for name in others.index])
+    ax.set_ylim(len(others) - 0.5 + 0.35, -0.6)
     ax.set_ylabel("candidate")
-    ax.invert_yaxis()
-    ax.set_xscale("symlog", linthresh=10.0)
+    if top > 20.0:  # factors of hundreds beside the bands at 1-5 nat: linear to 10, logarithmic beyond
+        ax.set_xscale("symlog", linthresh=10.0)
+        ax.xaxis.set_major_formatter(ScalarFormatter())
     ax.set_xlim(min(0.0, float(np.min(values[finite], initial=0.0)) * 1.15), top)
     ax.set_xlabel(f"log Bayes factor of {selected} against each candidate [nat]")
     ax.set_title(f"How sure: evidence for {selected}", fontsize=10)

@@ -15,23 +15,30 @@ the report, the terminal and the files tell one story:
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from ..findings import Finding
-from ..io.units import ChannelUnits
-from .answer import evidence_sections, posterior_sections, selection_answer
-from .document import FIGURE_DPI, Report, format_number
-from .loop import diagnosis_sections
-from .sections import (
-    ANSWER,
-    answer_data_findings,
-    data_sections,
-    held_figures,
-    model_sections,
-    reconstruction_figures,
-    report_units,
-)
-from .terminal import diagnosis_lines, outcome_line, selection_lines, step_line
+
+if TYPE_CHECKING:
+    from ..io.units import ChannelUnits
+    from .document import Report
+
+# submodules are imported on first use (PEP 562): the terminal's lines need neither pandas nor matplotlib
+_LAZY = {
+    "FIGURE_DPI": "document", "Report": "document", "format_number": "document", "held_figures": "sections",
+    "report_units": "sections", "diagnosis_lines": "terminal", "outcome_line": "terminal",
+    "selection_lines": "terminal", "step_line": "terminal",
+}
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'bayesnsi.report' has no attribute {name!r}")
+    return getattr(importlib.import_module(f".{module}", __name__), name)
+
 
 __all__ = [
     "FIGURE_DPI",
@@ -70,6 +77,10 @@ def selection_report(selection, config, title: str, *, units: ChannelUnits | Non
     -------
     Report
     """
+    from .answer import evidence_sections, posterior_sections, selection_answer
+    from .document import Report
+    from .sections import answer_data_findings, data_sections, model_sections, reconstruction_figures, report_units
+
     units = report_units(config) if units is None else units
     report = Report(title, figures=figures)
     signals = selection.signals
@@ -103,6 +114,11 @@ def diagnosis_report(diagnosis, config, title: str, *, units: ChannelUnits | Non
     -------
     Report
     """
+    from .answer import evidence_sections
+    from .document import Report
+    from .loop import diagnosis_sections
+    from .sections import answer_data_findings, data_sections, model_sections, report_units
+
     units = report_units(config) if units is None else units
     report = Report(title, figures=figures)
     selection = diagnosis.selection
@@ -133,6 +149,16 @@ def identification_report(outcomes, config, signals, title: str, *, units: Chann
     Report
     """
     import pandas as pd
+
+    from .document import Report
+    from .sections import (
+        ANSWER,
+        answer_data_findings,
+        data_sections,
+        model_sections,
+        reconstruction_figures,
+        report_units,
+    )
 
     units = report_units(config) if units is None else units
     report = Report(title, figures=figures)

@@ -197,8 +197,9 @@ def _render(block) -> str:
         return f"<p class='{_CLASSES[block[0]]}'>{html.escape(block[1])}</p>"
     if hasattr(block, "to_html"):  # pandas DataFrame
         classes = "table wrap-last" if getattr(block, "attrs", {}).get("wrap_last") else "table"
-        block = _index_name_in_header(block)
-        table = block.to_html(float_format=format_number, na_rep="—", border=0, classes=classes, escape=True)
+        block, index = _index_name_in_header(block)
+        table = block.to_html(float_format=format_number, na_rep="—", border=0, classes=classes, escape=True,
+                              index=index)
         return f"<div class='scroll'>{table}</div>"
     if hasattr(block, "savefig"):  # matplotlib Figure
         caption = block.get_label() or ""
@@ -212,9 +213,12 @@ def _render(block) -> str:
 
 
 def _index_name_in_header(frame):
-    """The frame with its index name moved into the header row (pandas gives it a row of its own)."""
-    if frame.index.nlevels != 1 or frame.columns.nlevels != 1 or not frame.index.name:
-        return frame
-    moved = frame.copy()
-    moved.columns.name, moved.index.name = frame.index.name, None
-    return moved
+    """The frame with its index names in the header row (pandas gives them a row of their own), and whether
+    to render the index: a single named index heads its own column; a multi-level index becomes columns."""
+    if frame.columns.nlevels != 1 or not any(frame.index.names):
+        return frame, True
+    if frame.index.nlevels == 1:
+        moved = frame.copy()
+        moved.columns.name, moved.index.name = frame.index.name, None
+        return moved, True
+    return frame.reset_index(), False

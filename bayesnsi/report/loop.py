@@ -13,11 +13,11 @@ from .answer import posterior_sections, selection_answer
 from .document import Report
 from .intervals import SURROGATE_TEXT, coefficient_sentence, final_coefficients_frame, mode_sentence
 from .sections import ANSWER, BEFORE, LOOP
-from .tables import errors_frame, loop_frame
-from .text import term_label
+from .tables import errors_frame
+from .text import format_interval, term_label
 
-__all__ = ["added_sentence", "diagnosis_sections", "nothing_added_note", "step_number", "tried_with",
-           "unexamined_note", "where"]
+__all__ = ["added_channel", "added_sentence", "diagnosis_sections", "loop_frame", "nothing_added_note", "step_number",
+           "tried_with", "unexamined_note", "where"]
 
 
 def step_number(step, start) -> int:
@@ -67,6 +67,22 @@ def where(effect) -> str:
     """
     location = tuple(effect.location)
     return f"at DOF {location[0]}" if len(location) == 1 else f"between DOFs {location[0]} and {location[1]}"
+
+
+def added_channel(signals, added) -> int:
+    """Output channel of the loop's overlay: where its first added effect acts (the first output otherwise).
+
+    Parameters
+    ----------
+    signals : Signals
+    added : sequence of LoopStep
+
+    Returns
+    -------
+    int
+    """
+    outputs, dof = list(signals.output_dofs), added[0].term.at[0]
+    return outputs.index(dof) if dof in outputs else 0
 
 
 def added_sentence(diagnosis, units: ChannelUnits | None = None) -> str:
@@ -163,6 +179,45 @@ def unexamined_note(loop) -> str:
     return (f" Not examined: {names} - it passes the Bayes factor and the quality index, but each step examines only "
             f"the n_tries = {n_tries} effects best by evidence; rerun with --n-tries {n_tries + len(found) + 2} (or "
             "[diagnose] n_tries) to examine it.")
+
+
+def loop_frame(loop, units=None):
+    """The loop's steps, in the order they were examined, with readable headers.
+
+    Parameters
+    ----------
+    loop : LoopResult
+    units : ChannelUnits, optional
+
+    Returns
+    -------
+    pandas.DataFrame
+    """
+    import pandas as pd
+
+    ordered = sorted(loop.steps, key=lambda s: (step_number(s, loop.start), not s.accepted))
+    rows = [
+        {
+            "step": step_number(s, loop.start),
+            "effect": term_label(s.term.name, units),
+            "where": where(s.effect).removeprefix("at "),
+            "decision": ("added" if s.accepted else "rejected") + tried_with(s, loop),
+            "log Bayes factor [nat]": s.log_bayes_factor,
+            "coefficient λ": s.coefficient,
+            "95 % given the linear part": format_interval(s.ci95),
+            "|Im|/|Re|": s.imag_ratio,
+            "λ on record halves": "—" if s.half_coefficients[0] != s.half_coefficients[0]
+            else f"{s.half_coefficients[0]:.4g} / {s.half_coefficients[1]:.4g}",
+            "NRMSE before → after": f"{s.nrmse_before:.4g} → {s.nrmse_after:.4g}",
+            "closed-loop NRMSE before → after": "—" if s.closed_loop_nrmse_after != s.closed_loop_nrmse_after
+            else f"{s.closed_loop_nrmse_before:.4g} → {s.closed_loop_nrmse_after:.4g}",
+            "reason": s.reason + (f"; {s.half_note}" if s.half_note else ""),
+        }
+        for s in ordered
+    ]
+    frame = pd.DataFrame(rows).set_index("step")
+    frame.attrs["wrap_last"] = True  # the reasons wrap; the numbers do not
+    return frame
 
 
 def diagnosis_sections(report: Report, diagnosis, units: ChannelUnits) -> None:
@@ -275,8 +330,7 @@ def _loop_figures(section: list, diagnosis, signals, units: ChannelUnits) -> Non
     from ..plots import plot_effect_force, plot_reconstruction
 
     added = diagnosis.added
-    outputs, dof = list(signals.output_dofs), added[0].term.at[0]
-    channel = outputs.index(dof) if dof in outputs else 0
+    channel = added_channel(signals, added)
     recs = {f"start: {diagnosis.start}": diagnosis.loop.start.reconstruct(signals),
             "final model": diagnosis.final.result.reconstruct(signals)}
     name = signals.output_names[channel]

@@ -17,7 +17,6 @@ from ..findings import Finding
 from ..io import versions
 from ..io.units import ChannelUnits
 from ..nsi import stabilization
-from ..tables import coefficients_table, modes_table, physical_table
 from .choices import frf_band, measured_text, overlay_channels
 from .document import Report
 from .periodic import periodic_section
@@ -133,6 +132,8 @@ def model_sections(report: Report, config, signals, outcomes: Sequence, units: C
         Draw the figures (a report without figures is written with ``--no-figures``).
     """
     import pandas as pd
+
+    from ..tables import coefficients_table, modes_table, physical_table
 
     results = {o.name: o.result for o in outcomes if o.result is not None}
     periodic_section(report, signals, units, figures)  # periodic data: BLA figure and distortion level

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from .text import format_interval, probability_text, term_label, value_with_error
+from .text import probability_text, value_with_error
 
 __all__ = [
-    "adequacy_frame", "decision_frame", "errors_frame", "loop_frame", "model_check_frame", "ranking_frame",
+    "adequacy_frame", "decision_frame", "errors_frame", "model_check_frame", "ranking_frame",
     "summary_frame",
 ]
 
@@ -114,17 +114,17 @@ def model_check_frame(checks):
 
     def row(c):
         out = {
-            "residual / noise, worst channel": f"{c.noise_ratio:.3g}x",
+            "residual / noise, worst channel": f"{c.noise_ratio:.2f}x",
             "near the noise (adequate)": "yes" if c.adequate else "no",
             "sensor noise from": c.noise_source,
             "worst band: residual / noise": "-" if c.band_ratio is None else (
-                f"{c.band_ratio:.3g}x at {c.band_hz[0]:.3g}-{c.band_hz[1]:.3g} Hz (DOF {c.band_dof})"),
+                f"{c.band_ratio:.2f}x at {c.band_hz[0]:.3g}-{c.band_hz[1]:.3g} Hz (DOF {c.band_dof})"),
             "quality index |Im|/|Re|": "-" if c.quality_index is None else f"{c.quality_index:.3g}",
         }
         if c.validation_nrmse is not None:
             out["validation NRMSE"] = f"{c.validation_nrmse:.4g}"
         if c.widening != 1.0:
-            out["intervals widened"] = f"{c.widening:.3g}x"
+            out["intervals widened"] = f"{c.widening:.2f}x"
         return out
 
     return pd.DataFrame({name: row(c) for name, c in checks.items()}).T.rename_axis("candidate")
@@ -148,47 +148,6 @@ def summary_frame(summary):
         "r_hat": "R̂", "mcse_mean": "MC error of mean", "mcse_sd": "MC error of sd",
     }
     return summary.rename(columns=names).rename_axis("parameter")
-
-
-def loop_frame(loop, units=None):
-    """The loop's steps, in the order they were examined, with readable headers.
-
-    Parameters
-    ----------
-    loop : LoopResult
-    units : ChannelUnits, optional
-
-    Returns
-    -------
-    pandas.DataFrame
-    """
-    import pandas as pd
-
-    from .loop import step_number, tried_with, where
-
-    ordered = sorted(loop.steps, key=lambda s: (step_number(s, loop.start), not s.accepted))
-    rows = [
-        {
-            "step": step_number(s, loop.start),
-            "effect": term_label(s.term.name, units),
-            "where": where(s.effect).removeprefix("at "),
-            "decision": ("added" if s.accepted else "rejected") + tried_with(s, loop),
-            "log Bayes factor [nat]": s.log_bayes_factor,
-            "coefficient λ": s.coefficient,
-            "95 % given the linear part": format_interval(s.ci95),
-            "|Im|/|Re|": s.imag_ratio,
-            "λ on record halves": "—" if s.half_coefficients[0] != s.half_coefficients[0]
-            else f"{s.half_coefficients[0]:.4g} / {s.half_coefficients[1]:.4g}",
-            "NRMSE before → after": f"{s.nrmse_before:.4g} → {s.nrmse_after:.4g}",
-            "closed-loop NRMSE before → after": "—" if s.closed_loop_nrmse_after != s.closed_loop_nrmse_after
-            else f"{s.closed_loop_nrmse_before:.4g} → {s.closed_loop_nrmse_after:.4g}",
-            "reason": s.reason + (f"; {s.half_note}" if s.half_note else ""),
-        }
-        for s in ordered
-    ]
-    frame = pd.DataFrame(rows).set_index("step")
-    frame.attrs["wrap_last"] = True  # the reasons wrap; the numbers do not
-    return frame
 
 
 def errors_frame(diagnosis):

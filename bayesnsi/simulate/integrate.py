@@ -24,7 +24,7 @@ _CHUNK_OUTPUTS = 2048  # output samples per chunk of precomputed force terms ...
 _CHUNK_FLOATS = 2**22  # ... but at most this many floats (32 MiB) of them
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)
 class Response:
     """Simulated response at the output rate.
 
@@ -63,6 +63,11 @@ class Response:
     step: float
     n_steps: int
     elapsed_s: float
+
+    def __repr__(self) -> str:
+        from .._repr import compact_repr
+
+        return compact_repr(self, displacement=self.displacement, fs=self.fs, step=self.step, n_steps=self.n_steps)
 
     @property
     def n_samples(self) -> int:

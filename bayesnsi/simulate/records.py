@@ -22,7 +22,7 @@ from .integrate import Response
 __all__ = ["ReferenceCase", "CaseSetup"]
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)
 class ReferenceCase:
     """One simulated reference case of docs/method.md §8.
 
@@ -85,6 +85,14 @@ class ReferenceCase:
     excitation: Excitation
     settings: Mapping[str, Any] = field(default_factory=dict)
     title: str = ""
+
+    def __repr__(self) -> str:
+        from .._repr import compact_repr
+
+        return compact_repr(self, name=self.name, signals=self.signals, true_model=self.true_model,
+                            true_coefficients=tuple(float(c) for c in self.true_coefficients),
+                            candidates=tuple(c.name for c in self.candidates), seed=self.seed,
+                            noise_percent=self.noise_percent)
 
     @property
     def n_dofs(self) -> int:

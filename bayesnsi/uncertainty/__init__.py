@@ -7,15 +7,18 @@ treats as exact (docs/method.md §11). The intervals here repeat the whole ident
   from its noise model (scatter and errors-in-variables bias);
 - :mod:`~bayesnsi.uncertainty.surrogate`: on records of the identified model driven by
   phase-randomised forces (model replicates, for Coulomb friction);
-- :mod:`~bayesnsi.uncertainty.intervals`: sub-record windows, and the combination of either with
-  the posterior into 50 % / 95 % intervals of coefficients and modes (:func:`candidate_intervals`);
+- :mod:`~bayesnsi.uncertainty.windows`: on sub-record windows;
+- :mod:`~bayesnsi.uncertainty.intervals`: the combination of either with the posterior into
+  50 % / 95 % intervals of coefficients and modes (:func:`candidate_intervals`);
+- :mod:`~bayesnsi.uncertainty.draws`: draws that carry those intervals (the posterior files);
 - :mod:`~bayesnsi.uncertainty.widening`: intervals of inadequate models widened by their model error.
 """
 
-from .intervals import INTERVAL_METHODS, Intervals, ParameterInterval, candidate_intervals, segment_estimates, widen
+from .intervals import INTERVAL_METHODS, Intervals, ParameterInterval, candidate_intervals
 from .replicates import discontinuity_findings, match_modes, noise_replicates, reidentify, replicate_moments
 from .surrogate import holds_coulomb_friction, model_replicates, surrogate_forces, surrogate_problem
-from .widening import widen_final, widen_inadequate
+from .widening import widen, widen_final, widen_inadequate
+from .windows import segment_estimates
 
 __all__ = [
     "INTERVAL_METHODS",

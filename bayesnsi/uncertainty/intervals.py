@@ -1,4 +1,4 @@
-"""Intervals that carry the uncertainty of the identified linear part (issue 15, docs/method.md §11).
+"""Intervals that carry the uncertainty of the identified linear part (docs/method.md §11).
 
 The coefficient posterior of :func:`~bayesnsi.evidence.marginal_evidence` conditions on the
 identified underlying linear model (A, C and, with them, B, D) as if it were exact; on the
@@ -8,10 +8,10 @@ of the record (:data:`INTERVAL_METHODS`):
 
 * ``"noise"`` and ``"surrogate"`` (the default ``"auto"`` picks one per candidate): the scatter and
   the errors-in-variables bias over copies of the record with added sensor noise
-  (:mod:`.perturbation`) or over records of the identified model driven by phase-randomised
+  (:mod:`.replicates`) or over records of the identified model driven by phase-randomised
   forces (:mod:`.surrogate`), with Student-t quantiles; the intervals are centred on
   ``estimate - bias``, the 95 % one stretched to hold the reported estimate.
-* ``"segments"`` (kept): ``n_segments`` windows of ``b = segment_fraction · N`` samples are
+* ``"segments"`` (:mod:`.windows`): ``n_segments`` windows of ``b = segment_fraction · N`` samples are
   re-identified with the full record's order and band; for an error variance ``σ²/b`` the
   full-record variance is ``b/(N - b) · mean_w (θ_w - θ_N)²`` (delete-d jackknife), added to the
   posterior's, normal quantiles about the NSI value (the windows overlap, so the variance carries
@@ -26,15 +26,15 @@ in ``benchmarks/calibration_intervals.py`` and docs/calibration.md.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..exceptions import IntervalWarning
 from ..findings import Finding, emit
-from .replicates import reidentify
+from .windows import scatter_sd, segment_estimates
 
-__all__ = ["INTERVAL_METHODS", "ParameterInterval", "Intervals", "segment_estimates", "candidate_intervals", "widen"]
+__all__ = ["INTERVAL_METHODS", "ParameterInterval", "Intervals", "candidate_intervals"]
 
 INTERVAL_METHODS = ("posterior", "segments", "noise", "surrogate")
 """``"posterior"``: the coefficient posterior alone (conditional on the linear part);
@@ -48,7 +48,6 @@ else ``"noise"``."""
 
 _Z95 = 1.959963984540054
 _Z50 = 0.6744897501960817
-_MAX_FRACTION = 0.9  # windows are lengthened to what the block rows need, up to this fraction of the record
 
 
 @dataclass(frozen=True)
@@ -157,99 +156,6 @@ class Intervals:
         }
 
 
-def widen(intervals: Intervals, factor: float, why: Finding) -> Intervals:
-    """The same intervals with every sd and every interval's reach from its centre times ``factor``.
-
-    For a model whose residual is ``factor`` times the sensor noise (docs/method.md §11, model
-    adequacy): the noise replicates carry the sensor noise only, while the model error moves the
-    estimates from one record to the next about as much more (a Birge ratio; on the simulated
-    Bouc-Wen system the time route's coefficients scattered 3.8-7.6x their replicate sd over four
-    realisations, with residuals 6.2-8.5x the noise). Each interval keeps its centre
-    (``estimate - bias``, else its midpoint) and the reported estimate.
-
-    Parameters
-    ----------
-    intervals : Intervals
-    factor : float
-        Widening factor (at least 1).
-    why : Finding
-        Why, added to ``findings``.
-
-    Returns
-    -------
-    Intervals
-    """
-    factor = max(float(factor), 1.0)
-
-    def stretch(p: ParameterInterval) -> ParameterInterval:
-        centre = p.estimate - p.bias if math.isfinite(p.bias) else 0.5 * (p.ci50[0] + p.ci50[1])
-
-        def scaled(bounds):
-            low, high = centre + factor * (bounds[0] - centre), centre + factor * (bounds[1] - centre)
-            return low, high
-
-        low, high = scaled(p.ci95)
-        return replace(p, sd=p.sd * factor, ci50=scaled(p.ci50), ci95=(min(low, p.estimate), max(high, p.estimate)))
-
-    return replace(
-        intervals, coefficients=tuple(map(stretch, intervals.coefficients)),
-        frequencies=tuple(map(stretch, intervals.frequencies)),
-        damping_ratios=tuple(map(stretch, intervals.damping_ratios)),
-        findings=intervals.findings + (why,), widening=intervals.widening * factor,
-    )
-
-
-def segment_estimates(result, signals, options=None, n_segments: int = 8, fraction: float = 0.7):
-    """Re-identify a candidate on ``n_segments`` sub-records of ``fraction`` of the record.
-
-    Parameters
-    ----------
-    result : NSIResult
-        The full-record identification (its order and band are kept for the sub-records).
-    signals : Signals
-        The estimation data it came from.
-    options : NSIOptions, optional
-        Its identification settings (default ``NSIOptions()``).
-    n_segments : int
-        Number of sub-records, at evenly spaced offsets.
-    fraction : float
-        Length of a sub-record as a fraction of the record, in (0, 1); lengthened to what the
-        block rows need for this candidate, up to 90 % of the record. A record of several
-        ``realisations`` is cut into them instead (``n_segments`` and ``fraction`` unused).
-
-    Returns
-    -------
-    samples : int
-        Samples per sub-record.
-    coefficients : ndarray, shape (n_ok, q)
-        Coefficients of each sub-record identified successfully.
-    frequencies, damping_ratios : ndarray, shape (n_ok, n_modes)
-        Its modes matched to the full-record modes (NaN where none is within 10 % in frequency).
-    failures : list of str
-        One message per sub-record that failed.
-    """
-    from ..options import NSIOptions
-
-    if not 0.0 < fraction < 1.0:
-        raise ValueError(f"fraction must lie in (0, 1), got {fraction!r}")
-    options = (options or NSIOptions()).replace(order=result.order, band_hz=tuple(result.band_hz))
-    n = signals.n_samples
-    if getattr(signals, "realisations", 1) > 1:  # the realisations themselves: their scatter holds the distortion
-        records = enumerate(signals.realisation_records(), start=1)
-        return (n // signals.realisations, *reidentify(result, ((f"realisation {k}", s) for k, s in records), options))
-    b = max(int(round(fraction * n)), min(_shortest_window(result), int(_MAX_FRACTION * n)))
-    offsets = np.unique(np.linspace(0, n - b, n_segments).round().astype(int))
-    windows = ((f"samples {o}..{o + b}", signals.segment(int(o), int(o) + b)) for o in offsets)
-    return (b, *reidentify(result, windows, options))
-
-
-def _shortest_window(result) -> int:
-    """Fewest data samples the block rows accept for this candidate's extended input and outputs."""
-    channels = result.model.B.shape[1] + result.model.C.shape[0]
-    needed = 2 * int(result.block_rows) * (channels + 1) - 1  # on the identification grid
-    return -(-needed // max(int(result.upsample), 1)) + 1
-
-
 def _interval(
     name: str, centre: float, posterior_sd: float, segment_sd: float, posterior_mean: float = math.nan
 ) -> ParameterInterval:
@@ -284,15 +190,6 @@ def _failed(failures) -> tuple[Finding, ...]:
 
 def _fallback(message: str) -> Finding:
     return Finding("interval.fallback", message, "", "warning")
-
-
-def _scatter_sd(windows: np.ndarray, full: np.ndarray, samples: int, n: int) -> np.ndarray:
-    """``sqrt(b/(N-b) · mean_w (θ_w - θ_N)²)`` per column (NaN where fewer than 2 windows)."""
-    dev2 = (windows - full[None, :]) ** 2
-    count = np.sum(np.isfinite(dev2), axis=0)
-    with np.errstate(invalid="ignore"):
-        mean = np.nansum(dev2, axis=0) / np.maximum(count, 1)
-    return np.where(count >= 2, np.sqrt(samples / (n - samples) * mean), np.nan)
 
 
 def candidate_intervals(result, signals, evidence_result, options=None, nsi_options=None) -> Intervals:
@@ -349,11 +246,11 @@ def candidate_intervals(result, signals, evidence_result, options=None, nsi_opti
         found = _fallback(note)
         emit([found], IntervalWarning, stacklevel=2)
         return _posterior_only(names, draws, centres, (found,))
-    coef_sd = _scatter_sd(coefs, result.coefficient_values, samples, n)
+    coef_sd = scatter_sd(coefs, result.coefficient_values, samples, n)
     f_full = np.array([m.frequency_hz for m in result.modes])
     z_full = np.array([m.damping_ratio for m in result.modes])
-    f_sd = _scatter_sd(freqs, f_full, samples, n)
-    z_sd = _scatter_sd(zetas, z_full, samples, n)
+    f_sd = scatter_sd(freqs, f_full, samples, n)
+    z_sd = scatter_sd(zetas, z_full, samples, n)
     coefficients = tuple(
         _interval(nm, c, s, g, pm) for nm, c, s, g, pm in zip(names, centres, post_sd, coef_sd, post_mean)
     )

@@ -1,4 +1,4 @@
-"""The reports of `select` and `diagnose` in a real headless browser (issue 16).
+"""The reports of `select` and `diagnose` in a real headless browser.
 
 Checks what a reader would notice: no console or page errors, no broken image, nothing wider
 than the page (wide tables scroll inside their own container instead), and the answer before
@@ -22,7 +22,8 @@ from bayesnsi.cli import main
 
 CHROMIUM = os.environ.get("BAYESNSI_CHROMIUM") or shutil.which("chromium") or shutil.which("chromium-browser")
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
-WIDTH = 1100  # a laptop window narrower than the report's 1100 px column plus margins
+WIDTH = 1400  # a desktop window; tables wider than the column scroll inside their own container
+HEIGHT = 900  # the first screen
 
 needs_chromium = pytest.mark.skipif(
     CHROMIUM is None, reason="no chromium found (apt-get install chromium, or set BAYESNSI_CHROMIUM)"
@@ -40,8 +41,10 @@ _CHECKS = """() => {
   const broken = [...document.images].filter(i => !(i.complete && i.naturalWidth > 0)).map(i => i.alt);
   const headings = [...document.querySelectorAll('h2')].map(h => h.textContent);
   const alts = [...document.images].map(i => i.alt);
+  const lead = document.querySelector('p.lead, p.lead-bad');
+  const answerTop = lead ? lead.getBoundingClientRect().top + window.scrollY : null;
   return {page, scrollWidth: document.documentElement.scrollWidth, wide, broken, images: document.images.length,
-          headings, alts};
+          headings, alts, answerTop};
 }"""
 
 
@@ -69,7 +72,7 @@ def _with_playwright(path: Path) -> dict:
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=CHROMIUM, args=FLAGS)
         try:
-            page = browser.new_page(viewport={"width": WIDTH, "height": 900})
+            page = browser.new_page(viewport={"width": WIDTH, "height": HEIGHT})
             errors: list[str] = []
             page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
             page.on("pageerror", lambda e: errors.append(str(e)))
@@ -96,7 +99,7 @@ def _with_dump_dom(path: Path) -> dict:
     copy = path.with_name("probe.html")
     copy.write_text(report, encoding="utf-8")
     dom = subprocess.run(
-        [CHROMIUM, *FLAGS, f"--window-size={WIDTH},900", "--virtual-time-budget=5000", "--dump-dom", copy.as_uri()],
+        [CHROMIUM, *FLAGS, f"--window-size={WIDTH},{HEIGHT}", "--virtual-time-budget=5000", "--dump-dom", copy.as_uri()],
         capture_output=True, text=True, timeout=120, check=True,
     ).stdout
     marker = "data-checks=\""
@@ -123,8 +126,10 @@ def test_report_reads_cleanly_in_chromium(reports, command):
     assert facts["wide"] == [], f"elements wider than the {facts['page']} px page: {facts['wide'][:10]}"
     assert facts["scrollWidth"] <= facts["page"], "the page scrolls sideways"
     assert facts["headings"][0] == "Answer" and facts["headings"][-1] == "Versions", facts["headings"]
+    assert facts["answerTop"] is not None and facts["answerTop"] < HEIGHT - 100, "the answer is not on the first screen"
     if command == "diagnose":
         assert facts["headings"][1].startswith("Closing the loop")
+        assert facts["headings"][2].startswith("Before the loop")
         assert any(alt.startswith("Restoring-force view of sign(v) at DOF 2") for alt in facts["alts"]), facts["alts"]
 
 
@@ -147,5 +152,8 @@ def test_diagnose_reports_and_saves_the_final_model(reports):
     assert list(tree["posterior"]["coefficient"].coords["term"].values) == ["v1*abs(v1)@1", "sign(v2)@2"]
     assert results["final_evidence"]["log_evidence"] > results["candidates"][0]["log_evidence"]
     html = reports["diagnose"].read_text()
-    assert html.index("Final model of the loop") < html.index("declared - priors")  # the final posterior first
+    # the final posterior first, the final model's modes and FRF in the answer
+    assert html.index("final: v1*abs(v1)@1 + sign(v2)@2 - log evidence") < html.index("declared - log evidence")
     assert "against the starting and the final model" in html
+    answer = html.split("<h2")[1]
+    assert "Natural frequencies and damping ratios" in answer and "FRF of the final model" in answer

@@ -294,3 +294,38 @@ def test_the_loop_overlay_shows_where_the_added_effect_acts():
     assert added_channel(signals, [SimpleNamespace(term=Term("x1**3", 1))]) == 0
     assert added_channel(signals, [SimpleNamespace(term=Term("sign(v9)", 9))]) == 2
     assert added_channel(signals, [SimpleNamespace(term=Term("(x3-x9)**3", [3, 9]))]) == 1
+
+
+def test_no_figure_of_a_selection_report_clips_a_text():
+    """Every title, axis label, tick label and legend of the report's figures lies inside its figure
+    (clipped y-labels of the traces and the reconstruction errors were seen in the browser)."""
+    import warnings
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from types import SimpleNamespace
+
+    from bayesnsi import EvidenceOptions, select, simulate_case
+    from bayesnsi.exceptions import AdequacyWarning
+    from bayesnsi.report import selection_report
+    from bayesnsi.report.document import clipped_texts
+
+    case = simulate_case("two-dof", seed=1, duration=6.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AdequacyWarning)
+        selection = select(case.signals, case.candidates[:2], case.recommended,
+                           EvidenceOptions(n_steps=200, n_burn=50, likelihood="white", compare=(), n_replicates=3))
+    config = SimpleNamespace(meta={}, candidates=case.candidates, path=SimpleNamespace(name="two_dof.toml"),
+                             nsi=case.recommended, evidence=selection.evidence, seed=0,
+                             data=SimpleNamespace(integrate=None, period=None, integrated=None))
+    from bayesnsi.io.units import ChannelUnits
+
+    report = selection_report(selection, config, "t", units=ChannelUnits(force="N", displacement="m", velocity="m/s"))
+    figures = [block for _, _, blocks in report.sections for block in blocks if hasattr(block, "savefig")]
+    assert len(figures) >= 8
+    for fig in figures:
+        assert clipped_texts(fig) == [], (fig.get_label()[:60], clipped_texts(fig))
+    import matplotlib.pyplot as plt
+
+    plt.close("all")

@@ -133,11 +133,11 @@ def plot_frf(results, freqs_hz, output_index=None, input_index=None, exact=None,
         exact = np.asarray(exact)
         exact = exact.reshape(len(exact), 1, 1) if exact.ndim == 1 else exact
     frfs = [res.underlying_frf(freqs_hz) for res in results]
-    height = 3.1 * len(pairs) + 0.6
+    height = 3.1 * len(pairs) + 0.75
     # fixed margins [in]: constrained layout costs seconds with the 16 panels of an 8-output structure
     fig = plt.figure(figsize=(6.5, height))
     outer = fig.add_gridspec(
-        len(pairs), 1, left=0.8 / 6.5, right=1 - 0.15 / 6.5, top=1 - 0.55 / height, bottom=0.45 / height, hspace=0.42
+        len(pairs), 1, left=0.8 / 6.5, right=1 - 0.15 / 6.5, top=1 - 0.55 / height, bottom=0.6 / height, hspace=0.42
     )
     for p, (o, i) in enumerate(pairs):
         inner = outer[p].subgridspec(2, 1, height_ratios=[2, 1], hspace=0.06)

@@ -23,7 +23,7 @@ from typing import Any
 
 from ..io.results import atomic_write_text
 
-__all__ = ["FIGURE_DPI", "Report", "figure_png", "format_number"]
+__all__ = ["FIGURE_DPI", "Report", "clipped_texts", "figure_png", "format_number"]
 
 FIGURE_DPI = 150
 """Resolution of the figures embedded in a report (dots per inch)."""
@@ -70,6 +70,36 @@ def figure_png(fig, dpi: int = FIGURE_DPI) -> bytes:
     fig.savefig(buffer, format="png", dpi=dpi)
     plt.close(fig)
     return buffer.getvalue()
+
+
+def clipped_texts(fig) -> list[str]:
+    """What of a Figure's drawn content (titles, axis and tick labels, legends) sticks out of it.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+
+    Returns
+    -------
+    list of str
+        For each axes or legend whose drawn extent leaves the figure (by more than 1 px), its title or
+        label and the side it leaves by; empty when everything drawn lies inside.
+    """
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    frame = fig.bbox
+    out = []
+    for artist in [*fig.axes, *fig.legends]:
+        box = artist.get_tightbbox(renderer)
+        if box is None:
+            continue
+        sides = [side for side, outside in (("left", box.x0 < frame.x0 - 1), ("bottom", box.y0 < frame.y0 - 1),
+                                            ("right", box.x1 > frame.x1 + 1), ("top", box.y1 > frame.y1 + 1))
+                 if outside]
+        if sides:
+            name = artist.get_title() if hasattr(artist, "get_title") else "legend"
+            out.append(f"{name or artist.get_label() or type(artist).__name__}: {', '.join(sides)}")
+    return out
 
 
 def format_number(value) -> str:

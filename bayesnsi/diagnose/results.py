@@ -9,7 +9,7 @@ from typing import Any
 from ..models import CandidateModel, Effect, Term
 from .forces import ResidualForce
 
-__all__ = ["EffectScore", "LoopResult", "LoopStep", "score_record"]
+__all__ = ["Check", "EffectScore", "LoopResult", "LoopStep", "score_record"]
 
 
 @dataclass(frozen=True)
@@ -68,6 +68,39 @@ class EffectScore:
 
 
 @dataclass(frozen=True)
+class Check:
+    """One check of a proposed effect: the quantity the effect itself shows, its limit, the outcome.
+
+    Every check reads a property of the proposed effect in the model enlarged by it (docs/method.md
+    §7, "One acceptance rule"); a rejection names the first check the effect failed, in the order of
+    :data:`bayesnsi.diagnose.guards.CHECK_ORDER`.
+
+    Attributes
+    ----------
+    name : str
+        ``"log Bayes factor"``, ``"quality index"``, ``"record halves"``, ``"separable"``,
+        ``"force prediction"`` (free bodies) or ``"dissipation"``.
+    value : float
+        What the effect shows (the log Bayes factor; its |Im|/|Re|; the ratio of its record-half
+        estimates, inf when they differ in sign or one failed; the squared partial correlation with the
+        added effect that shares most of its column; the enlarged model's force-prediction NRMSE; its
+        coefficient).
+    limit : float
+        The threshold it is held against (``LoopOptions.threshold``, ``max_imag_ratio``,
+        ``stability_factor``, ``max_shared``; the current model's NRMSE; 0).
+    passed : bool
+    text : str
+        The check in words with its value and limit, e.g. ``"quality index |Im|/|Re| = 0.87 >= 0.3"``.
+    """
+
+    name: str
+    value: float
+    limit: float
+    passed: bool
+    text: str
+
+
+@dataclass(frozen=True)
 class LoopStep:
     """One accepted (or the best rejected) effect.
 
@@ -119,6 +152,13 @@ class LoopStep:
     search : int or None
         Index in :attr:`LoopResult.scores` of the search that proposed the effect (None for an
         effect proposed in exchange for another, whose search is not recorded).
+    checks : tuple of Check
+        Every check of the effect with its value and limit (empty for a step recorded before the checks
+        were kept, e.g. read from an old results.json).
+    quality_only : bool
+        True when the quality index is the only check the effect failed: the evidence favours it by
+        more than the threshold and its record halves agree (``LoopOptions.accept_quality_only``
+        accepts such an effect).
     """
 
     effect: Effect
@@ -141,6 +181,13 @@ class LoopStep:
     half_block_rows: int | None = None
     half_note: str = ""
     search: int | None = None
+    checks: tuple[Check, ...] = ()
+    quality_only: bool = False
+
+    @property
+    def failed_checks(self) -> tuple[Check, ...]:
+        """The checks the effect failed, in the order they were made."""
+        return tuple(c for c in self.checks if not c.passed)
 
     @property
     def term(self) -> Term:

@@ -30,11 +30,20 @@ import numpy as np
 
 from ..exceptions import BayesNSIError, BayesNSIWarning, ConfigError, LoopError
 from ..models import CandidateModel, default_gaps, default_widths, effect_dictionary
-from ..models.dictionary import CLEARANCE, DEFAULT_EFFECT_TYPES, EFFECT_TYPES, SMOOTH_FRICTION, Effect
+from ..models.dictionary import (
+    CLEARANCE,
+    DEFAULT_EFFECT_TYPES,
+    DIRECTIONAL,
+    EFFECT_TYPES,
+    MIN_REVERSALS,
+    SMOOTH_FRICTION,
+    Effect,
+    velocity_reversals,
+)
 from ..nsi import identify
 from ..options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions
 from .free_view import free_body_start
-from .guards import NEGATIVE_DISSIPATION, check_effect, documented
+from .guards import ADMISSIBILITY, check_effect, documented
 from .moves import accept_pair, look_ahead, prune
 from .results import LoopResult
 from .scoring import laplace_score, rank_effects
@@ -56,7 +65,10 @@ def loop_effects(signals, names=None) -> list[Effect]:
     names : sequence of str, optional
         Keys of :data:`bayesnsi.models.EFFECT_TYPES`, ``"clearance"`` and ``"tanh(v/eps)"``
         (``LoopOptions.effects``); default :data:`bayesnsi.models.dictionary.DEFAULT_EFFECT_TYPES`,
-        clearances and tanh frictions. Clearances are tried at each measured DOF with gaps of 0.5, 1
+        clearances and tanh frictions. The types that compare the two directions of motion
+        (:data:`bayesnsi.models.dictionary.DIRECTIONAL`, e.g. ``|v|``) are kept only at locations
+        whose velocity reverses at least ``MIN_REVERSALS`` times in each half of the record
+        (:func:`bayesnsi.models.dictionary.velocity_reversals`). Clearances are tried at each measured DOF with gaps of 0.5, 1
         and 1.5 displacement standard deviations (refined when one ranks among the best); the
         smoothed friction ``tanh(v/eps)`` at every location (DOFs and pairs) with ε = 0.25 and 0.5
         standard deviations of the velocity it acts on (the relative velocity for a pair), written
@@ -82,7 +94,29 @@ def loop_effects(signals, names=None) -> list[Effect]:
         std = {d: signals.displacement[:, c].std() for c, d in enumerate(signals.output_dofs)}
         gaps = {(d,): tuple(default_gaps(s)) for d, s in std.items()}
     widths = _friction_widths(signals) if SMOOTH_FRICTION in names else None
-    return effect_dictionary(signals.output_dofs, [t for t in EFFECT_TYPES if t in names], gaps=gaps, widths=widths)
+    effects = effect_dictionary(signals.output_dofs, [t for t in EFFECT_TYPES if t in names], gaps=gaps, widths=widths)
+    if not any(e.base in DIRECTIONAL for e in effects):
+        return effects
+    reversing = _reversing_locations(signals)
+    return [e for e in effects if e.base not in DIRECTIONAL or e.location in reversing]
+
+
+def _reversing_locations(signals) -> set[tuple[int, ...]]:
+    """Locations (DOFs and consecutive pairs) whose velocity reverses MIN_REVERSALS times in each record half."""
+    velocity = signals.velocities()
+    half = len(velocity) // 2
+
+    def reverses(v) -> bool:
+        return min(velocity_reversals(v[:half]), velocity_reversals(v[half:])) >= MIN_REVERSALS
+
+    column = {int(d): c for c, d in enumerate(signals.output_dofs)}
+    out = set()
+    for d, c in column.items():
+        if reverses(velocity[:, c]):
+            out.add((d,))
+        if d + 1 in column and reverses(velocity[:, c] - velocity[:, column[d + 1]]):
+            out.add((d, d + 1))
+    return out
 
 
 def _friction_widths(signals) -> dict[tuple[int, ...], Sequence[float]]:
@@ -281,12 +315,13 @@ def _step(context: LoopContext, state: LoopState, scored=None) -> bool:
     added = {s.term.name for s in state.steps if s.accepted}  # the "separable" guard checks against these
     accepted = tuple(t for t in state.current.candidate.terms if t.name in added)
     tries = 0
-    for entry in scored:  # the n_tries best; an effect rejected for negative dissipation does not count
+    for entry in scored:  # the n_tries best; an effect whose own coefficient is not physical does not count
         if tries >= options.n_tries or not np.isfinite(entry.log_evidence):
             break
         verdict = check_effect(context, entry, baseline, state.next_seed(), state.half_cache, accepted, search=search)
         state.steps.append(verdict.step)
-        tries += not verdict.step.reason.startswith(NEGATIVE_DISSIPATION)
+        failed = verdict.step.failed_checks
+        tries += not (failed and failed[0].name in ADMISSIBILITY)  # a coefficient that is not physical: no try
         if verdict.step.accepted:
             step = documented(verdict.step, state.current, entry.result, context.signals)
             state.replace_step(verdict.step, step)

@@ -178,7 +178,7 @@ ADMISSIBILITY = ("quality index", "dissipation")
 coefficient?); an effect failing one of them first does not use up one of the loop's ``n_tries``."""
 
 
-def _checks(context, entry, baseline, log_bf, coef, halves_args, shared, rho2, feeds_energy, free_body):
+def _checks(context, entry, baseline, log_bf, coef, with_halves, halves_args, shared, rho2, feeds_energy, free_body):
     """Every check of one effect (module notes), in :data:`CHECK_ORDER`."""
     options = context.options
     threshold, max_imag_ratio = options.threshold, options.max_imag_ratio
@@ -190,7 +190,8 @@ def _checks(context, entry, baseline, log_bf, coef, halves_args, shared, rho2, f
     relation = "<" if ratio < max_imag_ratio else ">="
     out.append(Check("quality index", ratio, max_imag_ratio, bool(ratio < max_imag_ratio),
                      f"quality index |Im|/|Re| = {ratio:.2f} {relation} {max_imag_ratio}"))
-    out.append(Check(*half_check(*halves_args)))
+    if with_halves:
+        out.append(Check(*half_check(*halves_args)))
     if shared:
         passed = rho2 <= options.max_shared
         out.append(Check(
@@ -229,7 +230,7 @@ def _decision(checks, accept_quality_only: bool) -> tuple[str, bool]:
 
 def check_effect(
     context: LoopContext, entry: EffectScore, baseline: Baseline, seed, half_cache=None, accepted=(),
-    search: int | None = None,
+    search: int | None = None, halves_if_unsound: bool = True,
 ) -> Verdict:
     """Log Bayes factor (Laplace) and the checks of one proposed effect (module notes).
 
@@ -258,6 +259,10 @@ def check_effect(
         The terms of the current model the loop added (the "separable" guard checks against them).
     search : int, optional
         Index of the search that proposed the effect (:attr:`LoopStep.search`).
+    halves_if_unsound : bool
+        Compute the record halves of an effect that fails its quality index too (to tell whether
+        that is the only check it fails: ``quality_only``). The loop asks for them only while it
+        can use the answer (``accept_quality_only``, or no look-ahead candidate found yet).
 
     Returns
     -------
@@ -271,30 +276,35 @@ def check_effect(
     halves: tuple[float, float] = (math.nan, math.nan)
     too_short, rows, note = False, context.nsi.block_rows, ""
     feeds_energy = injects_energy(entry.effect.term, float(np.real(coef.value)))
-    overlap = half_overlap(signals) if log_bf > threshold else 1.0
-    if log_bf > threshold and overlap >= MIN_HALF_OVERLAP and free_body:
+    sound = coef.imag_ratio < options.max_imag_ratio
+    if log_bf > threshold and not sound and not (halves_if_unsound or options.accept_quality_only):
+        log_bf_checked = False  # the quality index decides; the halves (two identifications) are not needed
+    else:
+        log_bf_checked = log_bf > threshold
+    overlap = half_overlap(signals) if log_bf_checked else 1.0
+    if log_bf_checked and overlap >= MIN_HALF_OVERLAP and free_body:
         halves = half_coefficients_force(signals, trial)
-    elif log_bf > threshold and overlap >= MIN_HALF_OVERLAP:  # the halves cost two identifications
+    elif log_bf_checked and overlap >= MIN_HALF_OVERLAP:  # the halves cost two identifications
         halves, too_short, rows = half_coefficients(signals, trial.candidate, context.nsi, half_cache)
         if rows != context.nsi.block_rows:
             note = (
                 f"{TOO_SHORT} at {context.nsi.block_rows} block rows ({signals.n_samples // 2} samples each): "
                 + (f"identified with {rows}" if not too_short else "not identified")
             )
-    elif log_bf > threshold:
+    elif log_bf_checked:
         note = (
             f"record halves not compared: their forces excite different bands (spectral overlap {overlap:.2f} < "
             f"{MIN_HALF_OVERLAP:g}, e.g. a sweep), so they are two different experiments"
         )
-    skipped = log_bf > threshold and overlap < MIN_HALF_OVERLAP
+    skipped = log_bf_checked and overlap < MIN_HALF_OVERLAP
     # a free body's halves are read in the force view, where its evidence is scored
-    reference = force_view_estimate(signals, trial) if free_body and log_bf > threshold else coef.value
+    reference = force_view_estimate(signals, trial) if free_body and log_bf_checked else coef.value
     shared, rho2 = "", 0.0
     if log_bf > threshold and accepted:
         terms = trial.candidate.terms
         shared, rho2 = shared_fraction(signals, terms[:-1], terms[-1], accepted, free_body)
     checks = _checks(
-        context, entry, baseline, log_bf, coef,
+        context, entry, baseline, log_bf, coef, log_bf_checked,
         (halves, reference, options.stability_factor, too_short, skipped, note, signals.n_samples // 2, rows),
         shared, rho2, feeds_energy, free_body,
     )
@@ -313,7 +323,7 @@ def check_effect(
         ci95=ci95,
         imag_ratio=coef.imag_ratio,
         half_coefficients=halves,
-        half_block_rows=rows if log_bf > threshold and not skipped and not free_body else None,
+        half_block_rows=rows if log_bf_checked and not skipped and not free_body else None,
         half_note=note,
         log_bayes_factor=float(log_bf),
         nrmse_before=baseline.nrmse,

@@ -68,8 +68,8 @@ def loop_effects(signals, names=None) -> list[Effect]:
         clearances and tanh frictions. The types that compare the two directions of motion
         (:data:`bayesnsi.models.dictionary.DIRECTIONAL`, e.g. ``|v|``) are kept only at locations
         whose velocity reverses at least ``MIN_REVERSALS`` times in each half of the record
-        (:func:`bayesnsi.models.dictionary.velocity_reversals`). Clearances are tried at each measured DOF with gaps of 0.5, 1
-        and 1.5 displacement standard deviations (refined when one ranks among the best); the
+        (:func:`bayesnsi.models.dictionary.velocity_reversals`). Clearances are tried at each measured
+        DOF with gaps of 0.5, 1 and 1.5 displacement standard deviations (refined when one ranks among the best); the
         smoothed friction ``tanh(v/eps)`` at every location (DOFs and pairs) with ε = 0.25 and 0.5
         standard deviations of the velocity it acts on (the relative velocity for a pair), written
         with its numeric ε (:func:`bayesnsi.models.default_widths`).
@@ -318,7 +318,8 @@ def _step(context: LoopContext, state: LoopState, scored=None) -> bool:
     for entry in scored:  # the n_tries best; an effect whose own coefficient is not physical does not count
         if tries >= options.n_tries or not np.isfinite(entry.log_evidence):
             break
-        verdict = check_effect(context, entry, baseline, state.next_seed(), state.half_cache, accepted, search=search)
+        verdict = check_effect(context, entry, baseline, state.next_seed(), state.half_cache, accepted, search=search,
+                               halves_if_unsound=options.lookahead and pending is None)
         state.steps.append(verdict.step)
         failed = verdict.step.failed_checks
         tries += not (failed and failed[0].name in ADMISSIBILITY)  # a coefficient that is not physical: no try

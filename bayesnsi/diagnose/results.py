@@ -239,11 +239,11 @@ class LoopResult:
     def unexplained(self) -> tuple[tuple[int, str, float], ...]:
         """Effects the evidence favours by more than the threshold that the loop neither added nor rejected.
 
-        ``select`` over the loop's own final candidates (the model of a search that added nothing,
-        enlarged by each of its effects) prefers such an effect's model by more than ``threshold``; the
-        loop must then add the effect or name the check it failed (a step of that search). The effects
-        of each search that added nothing with a log Bayes factor above ``settings["threshold"]`` and no
-        step are listed (e.g. not checked because ``n_tries`` effects failed before them).
+        ``select`` over the loop's own final candidates (the final model enlarged by each effect of
+        the searches after the last one that added an effect) prefers such an effect's model by more
+        than ``threshold``; the loop must then add the effect or name the check it failed (a step of
+        that search). Those effects with a log Bayes factor above ``settings["threshold"]`` and no step
+        are listed (e.g. not checked because ``n_tries`` effects failed before them).
 
         Returns
         -------
@@ -251,10 +251,13 @@ class LoopResult:
             ``(search index, term name, log Bayes factor)``; empty when the loop and ``select`` agree.
         """
         threshold = self.settings.get("threshold", math.inf)
+        added = [s.search for s in self.steps if s.search is not None and (s.accepted or s.reason.startswith(
+            ("removed once", "exchanged for")))]  # searches that added an effect (kept or not)
+        last = max(added, default=-1)
         out = []
         for index, search in enumerate(self.scores):
-            if any(s.accepted for s in self.steps if s.search == index):
-                continue  # an effect of it was added: the searches from the enlarged model take over
+            if index <= last:
+                continue  # the searches from the model that added its last effect take over
             checked = {s.term.name for s in self.steps if s.search == index}
             out += [(index, row.term.name, float(row.log_bayes_factor)) for row in search
                     if row.log_bayes_factor > threshold and row.term.name not in checked]

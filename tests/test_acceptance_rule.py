@@ -94,3 +94,4 @@ def test_every_rejection_names_a_check_the_effect_itself_failed():
             assert step.reason.startswith("not added: checked only beside")
     assert all(c.passed for c in loop.added[0].checks)
     assert loop.unexplained() == ()
+    assert loop.friction is None  # v|v| is no piecewise-linear friction law (and the chain has two DOFs)

@@ -66,3 +66,6 @@ def test_emps_loop_adds_coulomb_then_direction_dependent_viscous_friction():
     forward, backward = reading.intervals["viscous_forward"], reading.intervals["viscous_backward"]
     assert forward[1] < backward[0]  # slower forwards than backwards, beyond their intervals
     assert reading.force_error(load_validation(raw)[0][1]) <= 3.2
+    # the loop's own reading (mean-removed data): the same friction law, offset aside
+    assert loop.friction.viscous_forward == pytest.approx(reading.viscous_forward, rel=0.02)
+    assert loop.friction.viscous_backward == pytest.approx(reading.viscous_backward, rel=0.02)

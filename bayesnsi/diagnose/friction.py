@@ -29,7 +29,7 @@ import numpy as np
 from ..exceptions import NotIdentifiableError
 from ..nsi.inverse import edge_samples, filtered_kinematics, inverse_force, parallel_filter
 
-__all__ = ["FrictionReading", "friction_reading"]
+__all__ = ["FrictionReading", "friction_reading", "holds_friction"]
 
 _Z95 = 1.959963984540054  # two-sided 95 % quantile of the normal distribution
 _PROBE = np.array([-2.0, -1.0, 1.0, 2.0])  # velocities at which a term's piecewise-linear form is read
@@ -135,6 +135,30 @@ def _piecewise_linear(term, dof: int):
     if not np.allclose(n3, expected, rtol=1e-9, atol=1e-12):
         return None
     return intercept_plus, slope_plus, intercept_minus, slope_minus
+
+
+def holds_friction(result) -> bool:
+    """True for a one-DOF model with a velocity term that is piecewise linear and not linear (a friction law).
+
+    Parameters
+    ----------
+    result : NSIResult
+
+    Returns
+    -------
+    bool
+        ``sign(v)``, ``|v|``, ``v·[v > 0]``, ``sign(v)+`` (not ``v|v|``, ``tanh``, displacement terms).
+    """
+    if not result.physical_parameters:
+        return False
+    dof = max((d for t in result.terms for d in t.expr.velocity_dofs), default=1)
+    for term in result.terms:
+        if not term.expr.velocity_dofs:
+            continue
+        form = _piecewise_linear(term, dof)
+        if form is not None and not (form[0] == form[2] == 0.0 and form[1] == form[3]):
+            return True
+    return False
 
 
 def friction_reading(result, signals, cutoff_hz: float | None = None) -> FrictionReading:

@@ -214,6 +214,13 @@ class LoopResult:
         screen order) when the screen left it out.
     settings : dict
         The loop, NSI and evidence settings, the seed, the dictionary size and ``final_nsi``.
+    friction : FrictionReading or None
+        The physical reading of the final model's friction law (forward and backward viscous
+        coefficients, Coulomb level, offset with 95 % intervals;
+        :func:`bayesnsi.diagnose.friction_reading`) on the estimation data, for a one-DOF final model
+        that holds a friction term piecewise linear in the velocity (``sign(v)``, ``|v|``, ``v+``);
+        None otherwise. Its offset is the constant force beyond the data's mean: read it again on
+        the data with the force's mean kept for the offset itself.
     """
 
     start: Any
@@ -221,6 +228,7 @@ class LoopResult:
     steps: tuple[LoopStep, ...]
     scores: tuple[tuple[EffectScore, ...], ...]
     settings: dict = field(default_factory=dict)
+    friction: Any = None
 
     def __repr__(self) -> str:
         from .._repr import compact_repr

@@ -43,6 +43,7 @@ from ..models.dictionary import (
 from ..nsi import identify
 from ..options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions
 from .free_view import free_body_start
+from .friction import friction_reading, holds_friction
 from .guards import ADMISSIBILITY, check_effect, documented
 from .moves import accept_pair, look_ahead, prune
 from .results import LoopResult
@@ -289,7 +290,17 @@ def close_the_loop_with(
     }
     # accepted steps first (in order), then the rejected ones
     ordered = [s for s in state.steps if s.accepted] + [s for s in state.steps if not s.accepted]
-    return LoopResult(start=start, final=final, steps=tuple(ordered), scores=tuple(state.scores), settings=settings)
+    friction = _friction(final, signals)
+    return LoopResult(start=start, final=final, steps=tuple(ordered), scores=tuple(state.scores), settings=settings,
+                      friction=friction)
+
+
+def _friction(final, signals):
+    """The final model's friction reading (:func:`bayesnsi.diagnose.friction_reading`), None without one."""
+    try:
+        return friction_reading(final, signals) if holds_friction(final) else None
+    except (BayesNSIError, np.linalg.LinAlgError, ValueError):
+        return None
 
 
 def _step(context: LoopContext, state: LoopState, scored=None) -> bool:

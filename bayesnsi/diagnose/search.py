@@ -111,7 +111,7 @@ def _reversing_locations(signals) -> set[tuple[int, ...]]:
         return min(velocity_reversals(v[:half]), velocity_reversals(v[half:])) >= MIN_REVERSALS
 
     column = {int(d): c for c, d in enumerate(signals.output_dofs)}
-    out = set()
+    out: set[tuple[int, ...]] = set()
     for d, c in column.items():
         if reverses(velocity[:, c]):
             out.add((d,))

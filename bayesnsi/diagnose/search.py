@@ -4,9 +4,10 @@ Greedy forward search with a backward check. Every effect of a dictionary (type 
 :class:`bayesnsi.models.Effect`) is added in turn to the current candidate, identified by NSI and
 scored by its Laplace log-evidence (:mod:`bayesnsi.diagnose.scoring`; a frequency-domain screen
 first chooses which effects are identified). The best ``n_tries`` are checked in turn and the
-first that passes the guards (:mod:`bayesnsi.diagnose.guards`: Bayes factor, quality index,
-stability across record halves, no negative dissipation) is added; an effect rejected because its
-coefficient feeds energy in does not use up one of the ``n_tries``. Then effects added earlier that the new one made
+first that passes the checks (:mod:`bayesnsi.diagnose.guards`, the one acceptance rule: Bayes factor,
+quality index, stability across record halves, separability, no negative dissipation) is added; an
+effect whose own coefficient is not physical (quality index, negative dissipation) does not use up
+one of the ``n_tries``. Then effects added earlier that the new one made
 redundant are pruned; an effect that failed only the quality index may be added with a second one
 (look ahead), after which the pair's first effect is re-examined (:mod:`bayesnsi.diagnose.moves`).
 The search repeats from the enlarged model until no effect passes or ``max_steps`` effects were
@@ -151,9 +152,11 @@ def close_the_loop(
         Starting model (e.g. the selected one, or a linear model with no terms).
     options : LoopOptions, optional
         The residual the effects are scored on, the guards (``threshold``: least log Bayes
-        factor, default log 100; ``max_imag_ratio``: largest quality index |Im λ|/|Re λ|;
+        factor, default log 100; ``max_imag_ratio``: largest quality index |Im λ|/|Re λ|, whose
+        failure alone is accepted with ``accept_quality_only``;
         ``stability_factor``: largest ratio of the record-half estimates, which must also share
-        their sign), the search (``n_tries`` effects checked per step, best first; ``screen``
+        their sign), the search (``n_tries`` effects checked per step, best first, not counting those
+        whose quality index or dissipation fails; ``screen``
         effects identified per step after the frequency-domain screen, None: all;
         ``lookahead``: when no effect passes but one failed only the quality index, search one
         effect further from the model holding it and add the pair; ``max_steps``), the final

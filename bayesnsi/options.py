@@ -276,8 +276,13 @@ class LoopOptions(_Options):
         0.5, "largest squared partial correlation of a new effect's column with an effect the loop added",
         kind="float", low=0.0, high=1.0)
     max_steps: int = _option(3, "most effects added", kind="int", low=0, high=1000)
-    n_tries: int = _option(3, "effects checked per step, best first", kind="int", low=1, high=1000)
+    n_tries: int = _option(
+        3, "effects checked per step, best first (one whose quality index or dissipation fails does not count)",
+        kind="int", low=1, high=1000)
     lookahead: bool = _option(True, "try a pair when an effect fails only the quality index", kind="bool")
+    accept_quality_only: bool = _option(
+        False, "accept an effect whose only failed check is the quality index (the evidence favours it and its "
+        "record halves agree)", kind="bool")
     refine_final: int | None = _option(
         4, "upsample factor of the final re-identification of friction-like models (none: off)", kind="int",
         low=2, high=MAX_UPSAMPLE, none=True)

@@ -99,7 +99,8 @@ def _with_dump_dom(path: Path) -> dict:
     copy = path.with_name("probe.html")
     copy.write_text(report, encoding="utf-8")
     dom = subprocess.run(
-        [CHROMIUM, *FLAGS, f"--window-size={WIDTH},{HEIGHT}", "--virtual-time-budget=5000", "--dump-dom", copy.as_uri()],
+        [CHROMIUM, *FLAGS, f"--window-size={WIDTH},{HEIGHT}", "--virtual-time-budget=5000", "--dump-dom",
+         copy.as_uri()],
         capture_output=True, text=True, timeout=120, check=True,
     ).stdout
     marker = "data-checks=\""
@@ -126,7 +127,7 @@ def test_report_reads_cleanly_in_chromium(reports, command):
     assert facts["wide"] == [], f"elements wider than the {facts['page']} px page: {facts['wide'][:10]}"
     assert facts["scrollWidth"] <= facts["page"], "the page scrolls sideways"
     assert facts["headings"][0] == "Answer" and facts["headings"][-1] == "Versions", facts["headings"]
-    assert facts["answerTop"] is not None and facts["answerTop"] < HEIGHT - 100, "the answer is not on the first screen"
+    assert facts["answerTop"] is not None and facts["answerTop"] < HEIGHT - 100, "no answer on the first screen"
     if command == "diagnose":
         assert facts["headings"][1].startswith("Closing the loop")
         assert facts["headings"][2].startswith("Before the loop")

@@ -93,9 +93,8 @@ def test_select_report_shows_the_intervals_of_results_json(tmp_path, capsys):
 
 def test_report_says_when_a_term_is_discontinuous(outcome):
     """A candidate with sign() gets the note on its bias estimate; the smooth two-DOF candidate does not."""
-    from types import SimpleNamespace
-
     from dataclasses import replace
+    from types import SimpleNamespace
 
     from bayesnsi.models.terms import Term
     from bayesnsi.report.intervals import interval_text

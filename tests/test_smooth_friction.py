@@ -80,7 +80,7 @@ def test_an_effect_rejected_for_negative_dissipation_does_not_use_up_a_try(monke
     """With n_tries = 1, the best effect relabelled as feeding energy in: the next one is still checked."""
     from dataclasses import replace
 
-    from bayesnsi.loop import close_the_loop, guards, search
+    from bayesnsi.loop import Check, close_the_loop, guards, search
     from bayesnsi.options import LoopOptions
 
     calls = []
@@ -89,7 +89,9 @@ def test_an_effect_rejected_for_negative_dissipation_does_not_use_up_a_try(monke
         verdict = guards.check_effect(context, entry, *args, **kwargs)
         calls.append(entry.term.name)
         if len(calls) == 1:
-            step = replace(verdict.step, accepted=False, reason=f"{NEGATIVE_DISSIPATION}: (test)")
+            reason = f"{NEGATIVE_DISSIPATION}: (test)"
+            failed = Check("dissipation", -1.0, 0.0, False, reason)
+            step = replace(verdict.step, accepted=False, reason=reason, checks=(*verdict.step.checks, failed))
             return replace(verdict, step=step)
         return verdict
 

@@ -19,6 +19,9 @@ Reads ``workflows/emps/emps.toml`` (the data at ``../shared/data/emps`` relative
    predicted from the measured motion, IDIM view; both filtered at fs/20, means kept) on the
    validation file of the linear model (before), the final model (after) and the published inverse
    model (computed here from the published parameters). The validation file never enters a decision.
+4. the friction reading of the loop's final model (:func:`bayesnsi.loop.friction_reading`: forward and
+   backward viscous coefficients, Coulomb level and offset with 95 % intervals, least squares in the force
+   view its evidence scores) and the error of the force it predicts on the validation file.
 
 Writes ``OUT/emps.md`` (the table) and ``OUT/results.json``.
 """
@@ -44,7 +47,7 @@ from bayesnsi.io import (
     to_jsonable,
     versions,
 )
-from bayesnsi.loop import close_the_loop
+from bayesnsi.loop import close_the_loop, friction_reading
 from bayesnsi.models import Term
 from bayesnsi.nsi import force_prediction, identify
 from bayesnsi.nsi.inverse import edge_samples, filtered_kinematics, inverse_force
@@ -168,6 +171,9 @@ def run(config_path=CONFIG, quiet=False) -> dict:
     lam = float(with_offset.coefficient_values[1])
     out["models"].append(force_row(f"Coulomb + offset (force mean kept; NSI offset {lam:.3f} N)", with_offset, kept,
                                    val_kept))
+    # the physical reading of the loop's final friction law, where its evidence scores it (force view)
+    reading = friction_reading(loop.final, est_raw)
+    out["friction"] = {**reading.as_dict(), "force_rmse_validation": reading.force_error(val_raw)}
     out["published"] = {
         **PUBLISHED,
         "force_rmse_estimation": published_force(est_raw),
@@ -196,6 +202,24 @@ def table(results: dict) -> str:
         f"| published IDIM-LS (Janot et al. 2019) | {pub['mass']:.4f} | {pub['damping']:.4f} | {pub['coulomb']:.4f} | "
         f"{pub['offset']:.4f} | {pub['force_rmse_estimation']:.3f} | {pub['force_rmse_validation']:.3f} |"
     )
+    fr = results.get("friction")
+    if fr:
+        def cell(name, digits=2):
+            low, high = fr["intervals"][name]
+            return f"{fr[name]:.{digits}f} [{low:.{digits}f}, {high:.{digits}f}]"
+
+        lines += [
+            "",
+            "Friction reading of the loop's final model (" + ", ".join(fr["terms"]) + "; force view, least squares,"
+            " 95 % intervals; `bayesnsi.loop.friction_reading`):",
+            "",
+            "| M [kg] | viscous forwards [N s/m] | viscous backwards [N s/m] | Coulomb [N] | offset [N] | "
+            "force error, estimation [N] | force error, validation (pulses) [N] |",
+            "|" + " --- |" * 7,
+            f"| {cell('mass')} | {cell('viscous_forward')} | {cell('viscous_backward')} | {cell('coulomb', 3)} | "
+            f"{cell('offset', 3)} | {fr['force_rmse']:.3f} | {fr['force_rmse_validation']:.3f} "
+            f"({fr['force_rmse_validation'] / pub['force_rmse_validation']:.2f}× published) |",
+        ]
     return "\n".join(lines) + "\n"
 
 

@@ -1,34 +1,37 @@
-"""The guards an effect must pass to be added (docs/method.md §7, step 4).
+"""The one acceptance rule of the loop: the checks of a proposed effect (docs/method.md §7, step 4).
 
-An effect proposed against the current model is kept only if
+Every check reads a property of the proposed effect itself, in the model enlarged by it, and
+records its value and limit (:class:`~bayesnsi.loop.results.Check`, ``LoopStep.checks``); an
+effect is added when it passes every check, and a rejection names the first check it failed, in
+the order of :data:`CHECK_ORDER`:
 
-* its log Bayes factor (Laplace) against the current model exceeds ``LoopOptions.threshold``;
-  the full evidence (emcee + bridge sampling) then gives its credible interval,
-* its coefficient is physically sound: quality index |Im λ|/|Re λ| below ``max_imag_ratio``,
-* its coefficient is stable: identified on each half of the record it keeps its sign and stays
-  within a factor ``stability_factor`` (docs/method.md §7: "the stability of the coefficient across data
-  segments" guards against terms that only absorb model-form error). When a half is too short
-  for the block rows (each half needs j >= 2 i k samples), the halves are identified with the
-  most block rows a half allows, and the step's ``half_note`` says so ("record too short for the
-  halves at 60 block rows: identified with 41"); only when not even that works is the effect
-  rejected with the reason "record too short for the halves". The check needs halves that are the
-  same experiment: when the forces of the two halves excite different bands (spectral overlap
-  below :data:`MIN_HALF_OVERLAP`, :func:`half_overlap`: a sweep), it is skipped and ``half_note``
-  says why.
-* it does not feed energy in: a pure velocity term that is odd in the velocity and dissipative
-  in shape (``n(v)·v >= 0`` with v the velocity at its location, relative for an element:
-  ``v|v|``, ``v^3``, ``sign(v)``, ``tanh(v/eps)``) adds the force ``-λ l n`` (the equation of
-  motion ``M ẅ + C ẇ + K w + λ l n = F f``, extended input ``[f; -n]``), whose power
-  ``-λ n(v)·v`` is positive for every motion when ``λ < 0``. An effect that passes every other
-  guard but this one is rejected with the reason "negative dissipation"
-  (:func:`bayesnsi.checks.dissipation.injects_energy`; checked last, so the other guards' reasons
-  are unchanged); the loop does not count it among its ``n_tries`` (it is not a candidate, so the
-  next effect is checked in its place; the look-ahead and exchange moves of
-  :mod:`bayesnsi.loop.moves` do count it).
-* it is separable from the effects the loop added before: the squared partial correlation of its
-  column with each of theirs, given the linear part and the other terms, is at most
-  ``max_shared`` (:mod:`bayesnsi.loop.separable`); otherwise the reason reads "not separable
-  from ...".
+* **log Bayes factor** (Laplace) of the enlarged model against the current one above
+  ``LoopOptions.threshold``; the full evidence (emcee + bridge sampling) then gives its credible
+  interval;
+* **quality index** |Im λ|/|Re λ| of its coefficient below ``max_imag_ratio``: λ(ω) consistent over
+  the band, a coefficient and not a filter;
+* **record halves**: identified on each half of the record its coefficient keeps its sign and stays
+  within a factor ``stability_factor`` (:mod:`bayesnsi.loop.halves`; a free body's in the force
+  view its evidence scores);
+* **separable** from the effects the loop added before: the squared partial correlation of its
+  column with each of theirs, given the linear part and the other terms, at most ``max_shared``
+  (:mod:`bayesnsi.loop.separable`);
+* **force prediction** (free bodies): the enlarged model's own force-prediction error does not rise;
+* **dissipation**: a pure velocity term that is odd in the velocity and dissipative in shape
+  (``n(v)·v >= 0`` with v the velocity at its location, relative for an element: ``v|v|``,
+  ``v^3``, ``sign(v)``, ``tanh(v/eps)``) adds the force ``-λ l n`` (the equation of motion
+  ``M ẅ + C ẇ + K w + λ l n = F f``, extended input ``[f; -n]``), whose power ``-λ n(v)·v`` is
+  positive for every motion when ``λ < 0`` (:func:`bayesnsi.checks.dissipation.injects_energy`).
+  This is the physics, not a tolerance: a negative quadratic damping fitted to a Coulomb joint on
+  one level diverges on a stronger one (the simulated GVT, ``benchmarks/gvt_loop.py``).
+
+The quality index and the dissipation judge whether the effect's own coefficient is a physical one
+(:data:`ADMISSIBILITY`): an effect that fails one of them first does not use up one of the loop's
+``n_tries`` (the next effect is checked in its place), so that effects the evidence favours for
+model-form reasons cannot hide one that passes (Silverbox: three velocity terms with |Im|/|Re|
+0.58-2.37 kept x² from being checked; docs/measurements.md, "One acceptance rule"). An effect whose
+only failed check is the quality index (the evidence favours it, its halves agree) is marked
+``quality_only``; ``LoopOptions.accept_quality_only`` accepts it.
 """
 
 from __future__ import annotations
@@ -39,24 +42,32 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..checks.dissipation import injects_energy
+from ..checks.dissipation import dissipative_shape, injects_energy
 from ..evidence import candidate_evidence
-from ..exceptions import BayesNSIError, BayesNSIWarning, BlockRowsError
-from ..models import CandidateModel, Term
-from ..nsi import identify, is_free_body, short_horizon_nrmse
+from ..exceptions import BayesNSIError, BayesNSIWarning
+from ..nsi import is_free_body, short_horizon_nrmse
 from .forces import residual_force
-from .results import EffectScore, LoopStep
-from .scoring import shared_correlations
+from .halves import (
+    MIN_HALF_OVERLAP,
+    TOO_SHORT,
+    force_view_estimate,
+    half_block_rows,
+    half_check,
+    half_coefficients,
+    half_coefficients_force,
+    half_overlap,
+    without,
+)
+from .results import Check, EffectScore, LoopStep
 from .separable import shared_fraction
 from .state import Baseline, LoopContext, measured_nrmse
 
 __all__ = [
-    "MIN_HALF_OVERLAP", "NEGATIVE_DISSIPATION", "TOO_SHORT", "Verdict", "about_estimates", "check_effect",
-    "documented", "half_block_rows", "half_coefficients", "half_overlap", "without",
+    "ADMISSIBILITY", "CHECK_ORDER", "MIN_HALF_OVERLAP", "NEGATIVE_DISSIPATION", "TOO_SHORT", "Verdict",
+    "about_estimates", "check_effect", "documented", "half_block_rows", "half_coefficients",
+    "half_coefficients_force", "half_overlap", "without",
 ]
 
-TOO_SHORT = "record too short for the halves"
-"""Start of the reason of an effect rejected because the record halves cannot be identified."""
 NEGATIVE_DISSIPATION = "negative dissipation"
 """Start of the reason of a dissipative-shaped velocity effect whose coefficient feeds energy in."""
 
@@ -106,143 +117,78 @@ def about_estimates(evidence, estimates) -> np.ndarray:
     return np.asarray(evidence.ci95, dtype=float) + shift[:, None]
 
 
-def without(candidate: CandidateModel, term: Term) -> CandidateModel:
-    """``candidate`` without ``term`` (and its prior scale)."""
-    keep = [k for k, t in enumerate(candidate.terms) if t != term]
-    return CandidateModel(
-        name=f"{candidate.name} - {term.name}",
-        terms=tuple(candidate.terms[k] for k in keep),
-        prior=candidate.prior,
-        coefficient_prior_scales=tuple(candidate.coefficient_prior_scales[k] for k in keep),
-    )
+CHECK_ORDER = ("log Bayes factor", "quality index", "record halves", "separable", "force prediction", "dissipation")
+"""The checks of :func:`check_effect`, in the order a rejection names the first one failed."""
+ADMISSIBILITY = ("quality index", "dissipation")
+"""Checks of the effect's own coefficient in the enlarged model (is it a physical, consistent
+coefficient?); an effect failing one of them first does not use up one of the loop's ``n_tries``."""
 
 
-def half_block_rows(n_half: int, block_rows: int, n_channels: int) -> int:
-    """The block rows for a record half: ``block_rows``, or the most that ``n_half`` samples allow.
-
-    Parameters
-    ----------
-    n_half : int
-        Samples in the shorter half.
-    block_rows : int
-        The block rows of the whole record (``NSIOptions.block_rows``).
-    n_channels : int
-        k, inputs (force and nonlinear terms) plus outputs of the extended-input system.
-
-    Returns
-    -------
-    int
-        ``min(block_rows, (n_half + 1) // (2 (k + 1)))``: the largest i with
-        ``n_half >= 2 i (k + 1) - 1`` (:func:`bayesnsi.nsi.order.check_block_rows`).
-    """
-    return int(min(block_rows, (n_half + 1) // (2 * (n_channels + 1))))
-
-
-def half_coefficients(signals, candidate, nsi, cache=None) -> tuple[tuple[float, float], bool, int]:
-    """The last coefficient of ``candidate`` identified on each half of the record.
-
-    Parameters
-    ----------
-    signals : Signals
-    candidate : CandidateModel
-    nsi : NSIOptions
-    cache : dict, optional
-        Kept across calls; the Hankel products of each half for the candidate without its last
-        term are stored in it, so that the effects checked against one model share them.
-
-    Returns
-    -------
-    ((float, float), bool, int)
-        The two estimates (NaN where the identification failed), whether a half was too short
-        even for the reduced block rows, and the block rows the halves were identified with
-        (``nsi.block_rows``, or fewer when a half is too short for them: :func:`half_block_rows`).
-    """
-    n = signals.n_samples // 2
-    realisations = getattr(signals, "realisations", 1)
-    if realisations > 1:  # halves of whole realisations (a cut inside one would not be periodic)
-        n = realisations // 2 * (signals.n_samples // realisations)
-    parts = (signals.segment(0, n), signals.segment(n, signals.n_samples))
-    n_channels = signals.force.shape[1] + len(candidate.terms) + signals.displacement.shape[1]
-    rows = half_block_rows(n, nsi.block_rows, n_channels)
-    if rows < 2:
-        return (math.nan, math.nan), True, rows
-    if rows != nsi.block_rows:
-        nsi = replace(nsi, block_rows=rows)
-    shared = (None, None)
-    if cache is not None and candidate.terms:
-        base = without(candidate, candidate.terms[-1])
-        key = (rows, *(t.name for t in base.terms))
-        if key not in cache:
-            cache[key] = tuple(shared_correlations(part, base, nsi) for part in parts)
-        shared = cache[key]
-    values, too_short = [], False
-    for part, correlations in zip(parts, shared):
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", BayesNSIWarning)
-                values.append(identify(part, candidate, nsi, correlations=correlations).coefficient_values[-1])
-        except BlockRowsError:
-            values.append(np.nan)
-            too_short = True
-        except (BayesNSIError, np.linalg.LinAlgError):
-            values.append(np.nan)
-    return (float(values[0]), float(values[1])), too_short, rows
+def _checks(context, entry, baseline, log_bf, coef, with_halves, halves_args, shared, rho2, feeds_energy, free_body):
+    """Every check of one effect (module notes), in :data:`CHECK_ORDER`."""
+    options = context.options
+    threshold, max_imag_ratio = options.threshold, options.max_imag_ratio
+    out = [Check("log Bayes factor", float(log_bf), threshold, bool(log_bf > threshold),
+                 f"log Bayes factor {log_bf:.2f} {'>' if log_bf > threshold else '<='} threshold {threshold:.2f}")]
+    if not log_bf > threshold:  # the other checks are not made (they cost identifications)
+        return tuple(out)
+    ratio = float(coef.imag_ratio)
+    relation = "<" if ratio < max_imag_ratio else ">="
+    out.append(Check("quality index", ratio, max_imag_ratio, bool(ratio < max_imag_ratio),
+                     f"quality index |Im|/|Re| = {ratio:.2f} {relation} {max_imag_ratio}"))
+    if with_halves:
+        out.append(Check(*half_check(*halves_args)))
+    if shared:
+        passed = rho2 <= options.max_shared
+        out.append(Check(
+            "separable", float(rho2), options.max_shared, passed,
+            f"separable from {shared}: squared partial correlation {rho2:.2f} <= max_shared {options.max_shared:g}"
+            if passed else
+            f"not separable from {shared}: {shared} already explains {100 * rho2:.0f} % of its column beyond the "
+            f"linear part (squared partial correlation {rho2:.2f} > max_shared {options.max_shared:g}; "
+            f"it would inflate the variance of {shared}'s coefficient {1 / (1 - min(rho2, 0.999999)):.1f}x)"))
+    if free_body and np.isfinite(entry.nrmse):  # the field's error for a free body: its own force prediction
+        passed = not entry.nrmse > baseline.nrmse
+        out.append(Check(
+            "force prediction", float(entry.nrmse), float(baseline.nrmse), passed,
+            f"force-prediction NRMSE {baseline.nrmse:.4g} -> {entry.nrmse:.4g} (free body, IDIM view)" if passed
+            else f"force-prediction NRMSE rises from {baseline.nrmse:.4g} to {entry.nrmse:.4g} (free body, IDIM view)"))
+    if dissipative_shape(entry.effect.term):
+        out.append(Check(
+            "dissipation", float(np.real(coef.value)), 0.0, not feeds_energy,
+            f"{NEGATIVE_DISSIPATION}: coefficient {coef.value:.4g} < 0 of a dissipative velocity term feeds energy "
+            "into every motion" if feeds_energy else f"dissipative coefficient {coef.value:.4g} >= 0"))
+    return tuple(out)
 
 
-MIN_HALF_OVERLAP = 0.5
-"""Least spectral overlap of the two halves' forces for the half-record check to compare like with like."""
-
-
-def half_overlap(signals) -> float:
-    """Overlap of the force spectra of the record's two halves: 1 for a stationary test, near 0 for a sweep.
-
-    ``Σ_f min(p₁(f), p₂(f))`` of the halves' force power spectra (Welch, summed over the forces), each
-    normalised to unit sum. A sweep drives its first half in one band and its second in another: their
-    coefficients then come from two different experiments (a trial's swept beam: the cubic spring at the
-    tip 5.4e7 on the first half, -1.2e10 on the second, whose band holds no resonance of that DOF).
-
-    Parameters
-    ----------
-    signals : Signals
-
-    Returns
-    -------
-    float
-        In [0, 1]; 1 for a record too short to tell.
-    """
-    f = np.asarray(signals.force, dtype=float).reshape(signals.n_samples, -1)
-    n = len(f) // 2
-    segment = int(2 ** np.floor(np.log2(max(n // 8, 16))))
-    if n < 64:
-        return 1.0
-    window = np.hanning(segment)
-    spectra = []
-    for half in (f[:n], f[n : 2 * n]):
-        power = np.zeros(segment // 2 + 1)
-        for start in range(0, n - segment + 1, segment // 2):
-            piece = half[start : start + segment]
-            power += (np.abs(np.fft.rfft(window[:, None] * (piece - piece.mean(axis=0)), axis=0)) ** 2).sum(axis=1)
-        spectra.append(power / max(float(power.sum()), np.finfo(float).tiny))
-    return float(np.minimum(*spectra).sum())
-
-
-def _stable(halves, value: float, factor: float) -> bool:
-    """Both halves finite, of the sign of ``value``, within ``factor`` of each other."""
-    if not all(np.isfinite(halves)) or not np.sign(halves[0]) == np.sign(halves[1]) == np.sign(value):
-        return False
-    return max(abs(h) for h in halves) < factor * min(abs(h) for h in halves)
+def _decision(checks, accept_quality_only: bool) -> tuple[str, bool]:
+    """The reason (``"accepted"`` or the first failed check's text) and whether only the quality index failed."""
+    failed = [c for c in checks if not c.passed]
+    complete = any(c.name == "record halves" for c in checks)
+    quality_only = complete and len(failed) == 1 and failed[0].name == "quality index"
+    if not failed:
+        return "accepted", False
+    if quality_only and accept_quality_only:
+        return (f"accepted: only the quality index objects ({failed[0].text}) and accept_quality_only = true; "
+                "the evidence favours it and its record halves agree"), True
+    return failed[0].text, quality_only
 
 
 def check_effect(
     context: LoopContext, entry: EffectScore, baseline: Baseline, seed, half_cache=None, accepted=(),
-    search: int | None = None,
+    search: int | None = None, halves_if_unsound: bool = True,
 ) -> Verdict:
-    """Log Bayes factor (Laplace) and the guards of one proposed effect (module notes).
+    """Log Bayes factor (Laplace) and the checks of one proposed effect (module notes).
 
-    The decision uses the Laplace log-evidence ``entry`` was ranked by; the full emcee evidence
-    runs only for an effect that passes, to give its credible interval (one kept only with a second
-    effect, ``lookahead``, gets its interval from the pair's evidence). The record-half estimates
-    (two identifications) are computed only for an effect whose Bayes factor clears the threshold.
+    Every check reads the proposed effect itself in the model enlarged by it (:data:`CHECK_ORDER`); a
+    rejection names the first it failed with its value and limit (:class:`~bayesnsi.loop.results.Check`,
+    ``LoopStep.checks``). An effect whose only failed check is the quality index is marked
+    ``quality_only``; ``LoopOptions.accept_quality_only`` accepts it. The decision uses the Laplace
+    log-evidence ``entry`` was ranked by; the full emcee evidence runs only for an effect that passes,
+    to give its credible interval (one kept only with a second effect, ``lookahead``, gets its interval
+    from the pair's evidence). The record-half estimates (two identifications; for a free body the
+    force-view least-squares estimates, :func:`half_coefficients_force`) are computed only for an effect
+    whose Bayes factor clears the threshold.
 
     Parameters
     ----------
@@ -259,83 +205,80 @@ def check_effect(
         The terms of the current model the loop added (the "separable" guard checks against them).
     search : int, optional
         Index of the search that proposed the effect (:attr:`LoopStep.search`).
+    halves_if_unsound : bool
+        Compute the record halves of an effect that fails its quality index too (to tell whether
+        that is the only check it fails: ``quality_only``). The loop asks for them only while it
+        can use the answer (``accept_quality_only``, or no look-ahead candidate found yet).
 
     Returns
     -------
     Verdict
     """
     options, signals, trial = context.options, context.signals, entry.result
-    threshold, max_imag_ratio = options.threshold, options.max_imag_ratio
+    threshold = options.threshold
     log_bf = entry.log_evidence - baseline.log_evidence
     coef = trial.coefficients[-1]
+    free_body = is_free_body(trial)
     halves: tuple[float, float] = (math.nan, math.nan)
     too_short, rows, note = False, context.nsi.block_rows, ""
     feeds_energy = injects_energy(entry.effect.term, float(np.real(coef.value)))
-    overlap = half_overlap(signals) if log_bf > threshold else 1.0
-    if log_bf > threshold and overlap >= MIN_HALF_OVERLAP:  # the halves cost two identifications
+    sound = coef.imag_ratio < options.max_imag_ratio
+    if log_bf > threshold and not sound and not (halves_if_unsound or options.accept_quality_only):
+        log_bf_checked = False  # the quality index decides; the halves (two identifications) are not needed
+    else:
+        log_bf_checked = log_bf > threshold
+    overlap = half_overlap(signals) if log_bf_checked else 1.0
+    if log_bf_checked and overlap >= MIN_HALF_OVERLAP and free_body:
+        halves = half_coefficients_force(signals, trial)
+    elif log_bf_checked and overlap >= MIN_HALF_OVERLAP:  # the halves cost two identifications
         halves, too_short, rows = half_coefficients(signals, trial.candidate, context.nsi, half_cache)
         if rows != context.nsi.block_rows:
             note = (
                 f"{TOO_SHORT} at {context.nsi.block_rows} block rows ({signals.n_samples // 2} samples each): "
                 + (f"identified with {rows}" if not too_short else "not identified")
             )
-    elif log_bf > threshold:
+    elif log_bf_checked:
         note = (
             f"record halves not compared: their forces excite different bands (spectral overlap {overlap:.2f} < "
             f"{MIN_HALF_OVERLAP:g}, e.g. a sweep), so they are two different experiments"
         )
-    skipped = log_bf > threshold and overlap < MIN_HALF_OVERLAP
-    stable = skipped or _stable(halves, coef.value, options.stability_factor)
+    skipped = log_bf_checked and overlap < MIN_HALF_OVERLAP
+    # a free body's halves are read in the force view, where its evidence is scored
+    reference = force_view_estimate(signals, trial) if free_body and log_bf_checked else coef.value
     shared, rho2 = "", 0.0
     if log_bf > threshold and accepted:
         terms = trial.candidate.terms
-        shared, rho2 = shared_fraction(signals, terms[:-1], terms[-1], accepted, is_free_body(trial))
-    if log_bf <= threshold:
-        reason = f"log Bayes factor {log_bf:.2f} <= threshold {threshold:.2f}"
-    elif coef.imag_ratio >= max_imag_ratio:
-        reason = f"quality index |Im|/|Re| = {coef.imag_ratio:.2f} >= {max_imag_ratio}"
-    elif too_short:
-        reason = f"{TOO_SHORT} ({signals.n_samples // 2} samples each for {rows} block rows)"
-    elif not stable:
-        reason = f"coefficient unstable across record halves: {halves[0]:.4g} vs {halves[1]:.4g}"
-    elif rho2 > options.max_shared:
-        reason = (
-            f"not separable from {shared}: {shared} already explains {100 * rho2:.0f} % of its column beyond the "
-            f"linear part (squared partial correlation {rho2:.2f} > max_shared {options.max_shared:g}; "
-            f"it would inflate the variance of {shared}'s coefficient {1 / (1 - min(rho2, 0.999999)):.1f}x)"
-        )
-    elif is_free_body(trial) and np.isfinite(entry.nrmse) and entry.nrmse > baseline.nrmse:
-        # the field's error for a free body: the identified model's own force prediction must improve
-        reason = f"force-prediction NRMSE rises from {baseline.nrmse:.4g} to {entry.nrmse:.4g} (free body, IDIM view)"
-    elif feeds_energy:  # last: it rejects only what every other guard would accept
-        reason = (
-            f"{NEGATIVE_DISSIPATION}: coefficient {coef.value:.4g} < 0 of a dissipative velocity term feeds energy "
-            "into every motion"
-        )
-    else:
-        reason = "accepted"
-    quality_only = log_bf > threshold and stable and coef.imag_ratio >= max_imag_ratio and not feeds_energy
+        shared, rho2 = shared_fraction(signals, terms[:-1], terms[-1], accepted, free_body)
+    checks = _checks(
+        context, entry, baseline, log_bf, coef, log_bf_checked,
+        (halves, reference, options.stability_factor, too_short, skipped, note, signals.n_samples // 2, rows),
+        shared, rho2, feeds_energy, free_body,
+    )
+    reason, quality_only = _decision(checks, options.accept_quality_only)
+    accepted_now = reason.startswith("accepted")
     ci95, intervals = (math.nan, math.nan), None
-    if reason == "accepted":  # emcee only for what is kept: its credible intervals
+    if accepted_now:  # emcee only for what is kept: its credible intervals
         full = candidate_evidence(trial, signals, context.evidence, seed, warn=False)[context.evidence.likelihood]
         intervals = about_estimates(full, trial.coefficient_values)
         ci95 = (float(intervals[-1][0]), float(intervals[-1][1]))
     step = LoopStep(
         effect=entry.effect,
-        accepted=reason == "accepted",
+        accepted=accepted_now,
         reason=reason,
         coefficient=coef.value,
         ci95=ci95,
         imag_ratio=coef.imag_ratio,
         half_coefficients=halves,
-        half_block_rows=rows if log_bf > threshold and not skipped else None,
+        half_block_rows=rows if log_bf_checked and not skipped and not free_body else None,
         half_note=note,
         log_bayes_factor=float(log_bf),
         nrmse_before=baseline.nrmse,
         nrmse_after=_nrmse_after(entry, trial, signals),
         candidate=trial.candidate,
-        error_quantity="force" if is_free_body(trial) else getattr(signals, "measured", "displacement"),
+        error_quantity="force" if free_body else getattr(signals, "measured", "displacement"),
         search=search,
+        checks=checks,
+        quality_only=quality_only,
     )
     return Verdict(step, float(entry.log_evidence), intervals, quality_only)
 

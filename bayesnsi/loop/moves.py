@@ -92,7 +92,9 @@ def look_ahead(context: LoopContext, state: LoopState, pending: tuple[Verdict, E
 
     The second effect must pass every guard against the model holding the first, and the
     first one's quality index, in the model with both, must be below ``max_imag_ratio``. Every
-    effect checked is appended to ``state.steps``, the search's scores to ``state.scores``.
+    effect checked is appended to ``state.steps``, the search's scores to ``state.scores``. A second
+    effect that passes its own checks while the first still fails its quality index is not rejected:
+    its step keeps its checks (all passed) and says that the pair was declined for the first's index.
 
     Parameters
     ----------
@@ -121,9 +123,12 @@ def look_ahead(context: LoopContext, state: LoopState, pending: tuple[Verdict, E
         first_coef = trial.result.coefficients[-2]
         step = second.step
         if step.accepted and first_coef.imag_ratio >= max_imag_ratio:
+            # not a rejection of this effect (it failed none of its own checks): the pair is declined
             step = replace(
                 step, accepted=False,
-                reason=f"passes, but {p_step.term.name} keeps |Im|/|Re| = {first_coef.imag_ratio:.2f} with it",
+                reason=f"not added: checked only beside {p_step.term.name} (look-ahead), where it passes its own "
+                f"checks; the pair is declined because {p_step.term.name} still fails its quality index "
+                f"|Im|/|Re| = {first_coef.imag_ratio:.2f} >= {max_imag_ratio} with it",
             )
         state.steps.append(step)
         if step.accepted:

@@ -12,8 +12,9 @@ from .forces import ResidualForce
 
 if TYPE_CHECKING:
     from ..nsi import NSIResult
+    from .friction import FrictionReading
 
-__all__ = ["EffectScore", "LoopResult", "LoopStep", "score_record"]
+__all__ = ["Check", "EffectScore", "LoopResult", "LoopStep", "score_record"]
 
 
 @dataclass(frozen=True)
@@ -72,6 +73,39 @@ class EffectScore:
 
 
 @dataclass(frozen=True)
+class Check:
+    """One check of a proposed effect: the quantity the effect itself shows, its limit, the outcome.
+
+    Every check reads a property of the proposed effect in the model enlarged by it (docs/method.md
+    §7, "One acceptance rule"); a rejection names the first check the effect failed, in the order of
+    :data:`bayesnsi.loop.guards.CHECK_ORDER`.
+
+    Attributes
+    ----------
+    name : str
+        ``"log Bayes factor"``, ``"quality index"``, ``"record halves"``, ``"separable"``,
+        ``"force prediction"`` (free bodies) or ``"dissipation"``.
+    value : float
+        What the effect shows (the log Bayes factor; its |Im|/|Re|; the ratio of its record-half
+        estimates, inf when they differ in sign or one failed; the squared partial correlation with the
+        added effect that shares most of its column; the enlarged model's force-prediction NRMSE; its
+        coefficient).
+    limit : float
+        The threshold it is held against (``LoopOptions.threshold``, ``max_imag_ratio``,
+        ``stability_factor``, ``max_shared``; the current model's NRMSE; 0).
+    passed : bool
+    text : str
+        The check in words with its value and limit, e.g. ``"quality index |Im|/|Re| = 0.87 >= 0.3"``.
+    """
+
+    name: str
+    value: float
+    limit: float
+    passed: bool
+    text: str
+
+
+@dataclass(frozen=True)
 class LoopStep:
     """One accepted (or the best rejected) effect.
 
@@ -123,6 +157,13 @@ class LoopStep:
     search : int or None
         Index in :attr:`LoopResult.scores` of the search that proposed the effect (None for an
         effect proposed in exchange for another, whose search is not recorded).
+    checks : tuple of Check
+        Every check of the effect with its value and limit (empty for a step recorded before the checks
+        were kept, e.g. read from an old results.json).
+    quality_only : bool
+        True when the quality index is the only check the effect failed: the evidence favours it by
+        more than the threshold and its record halves agree (``LoopOptions.accept_quality_only``
+        accepts such an effect).
     """
 
     effect: Effect
@@ -145,6 +186,13 @@ class LoopStep:
     half_block_rows: int | None = None
     half_note: str = ""
     search: int | None = None
+    checks: tuple[Check, ...] = ()
+    quality_only: bool = False
+
+    @property
+    def failed_checks(self) -> tuple[Check, ...]:
+        """The checks the effect failed, in the order they were made."""
+        return tuple(c for c in self.checks if not c.passed)
 
     @property
     def term(self) -> Term:
@@ -179,6 +227,12 @@ class LoopResult:
         The evidence settings of its Laplace scores (the loop's residual, the primary likelihood).
     n_effects : int
         Size of the dictionary searched.
+    friction : FrictionReading or None
+        The physical reading of the final model's friction law (forward and backward viscous
+        coefficients, Coulomb level, offset with 95 % intervals; :func:`bayesnsi.loop.friction_reading`)
+        on the estimation data, for a one-DOF final model that holds a friction term piecewise linear
+        in the velocity (``sign(v)``, ``|v|``, ``v+``); None otherwise. Its offset is the constant force
+        beyond the data's mean.
     """
 
     start: NSIResult
@@ -190,6 +244,7 @@ class LoopResult:
     final_nsi: NSIOptions = field(default_factory=NSIOptions)
     evidence: EvidenceOptions = field(default_factory=EvidenceOptions)
     n_effects: int = 0
+    friction: FrictionReading | None = None
 
     def __repr__(self) -> str:
         from .._repr import compact_repr
@@ -204,6 +259,33 @@ class LoopResult:
     def added(self) -> tuple[LoopStep, ...]:
         """The accepted steps."""
         return tuple(s for s in self.steps if s.accepted)
+
+    def unexplained(self) -> tuple[tuple[int, str, float], ...]:
+        """Effects the evidence favours by more than the threshold that the loop neither added nor rejected.
+
+        ``select`` over the loop's own final candidates (the final model enlarged by each effect of
+        the searches after the last one that added an effect) prefers such an effect's model by more
+        than ``threshold``; the loop must then add the effect or name the check it failed (a step of
+        that search). Those effects with a log Bayes factor above ``options.threshold`` and no step
+        are listed (e.g. not checked because ``n_tries`` effects failed before them).
+
+        Returns
+        -------
+        tuple of (int, str, float)
+            ``(search index, term name, log Bayes factor)``; empty when the loop and ``select`` agree.
+        """
+        threshold = self.options.threshold
+        added = [s.search for s in self.steps if s.search is not None and (s.accepted or s.reason.startswith(
+            ("removed once", "exchanged for")))]  # searches that added an effect (kept or not)
+        last = max(added, default=-1)
+        out = []
+        for index, search in enumerate(self.scores):
+            if index <= last:
+                continue  # the searches from the model that added its last effect take over
+            checked = {s.term.name for s in self.steps if s.search == index}
+            out += [(index, row.term.name, float(row.log_bayes_factor)) for row in search
+                    if row.log_bayes_factor > threshold and row.term.name not in checked]
+        return tuple(out)
 
     def search_records(self, index: int) -> list[dict]:
         """Every effect of one search with its screen and evidence scores and what became of it.

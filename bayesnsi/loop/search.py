@@ -4,9 +4,10 @@ Greedy forward search with a backward check. Every effect of a dictionary (type 
 :class:`bayesnsi.models.Effect`) is added in turn to the current candidate, identified by NSI and
 scored by its Laplace log-evidence (:mod:`bayesnsi.loop.scoring`; a frequency-domain screen
 first chooses which effects are identified). The best ``n_tries`` are checked in turn and the
-first that passes the guards (:mod:`bayesnsi.loop.guards`: Bayes factor, quality index,
-stability across record halves, no negative dissipation) is added; an effect rejected because its
-coefficient feeds energy in does not use up one of the ``n_tries``. Then effects added earlier that the new one made
+first that passes the checks (:mod:`bayesnsi.loop.guards`, the one acceptance rule: Bayes factor,
+quality index, stability across record halves, separability, no negative dissipation) is added; an
+effect whose own coefficient is not physical (quality index, negative dissipation) does not use up
+one of the ``n_tries``. Then effects added earlier that the new one made
 redundant are pruned; an effect that failed only the quality index may be added with a second one
 (look ahead), after which the pair's first effect is re-examined (:mod:`bayesnsi.loop.moves`).
 The search repeats from the enlarged model until no effect passes or ``max_steps`` effects were
@@ -30,11 +31,21 @@ import numpy as np
 
 from ..exceptions import BayesNSIError, BayesNSIWarning, ConfigError, LoopError
 from ..models import CandidateModel, default_gaps, default_widths, effect_dictionary
-from ..models.dictionary import CLEARANCE, DEFAULT_EFFECT_TYPES, EFFECT_TYPES, SMOOTH_FRICTION, Effect
+from ..models.dictionary import (
+    CLEARANCE,
+    DEFAULT_EFFECT_TYPES,
+    DIRECTIONAL,
+    EFFECT_TYPES,
+    MIN_REVERSALS,
+    SMOOTH_FRICTION,
+    Effect,
+    velocity_reversals,
+)
 from ..nsi import identify
 from ..options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions
 from .free_view import free_body_start
-from .guards import NEGATIVE_DISSIPATION, check_effect, documented
+from .friction import friction_reading, holds_friction
+from .guards import ADMISSIBILITY, check_effect, documented
 from .moves import accept_pair, look_ahead, prune
 from .results import LoopResult
 from .scoring import laplace_score, rank_effects
@@ -56,8 +67,11 @@ def loop_effects(signals, names=None) -> list[Effect]:
     names : sequence of str, optional
         Keys of :data:`bayesnsi.models.EFFECT_TYPES`, ``"clearance"`` and ``"tanh(v/eps)"``
         (``LoopOptions.effects``); default :data:`bayesnsi.models.dictionary.DEFAULT_EFFECT_TYPES`,
-        clearances and tanh frictions. Clearances are tried at each measured DOF with gaps of 0.5, 1
-        and 1.5 displacement standard deviations (refined when one ranks among the best); the
+        clearances and tanh frictions. The types that compare the two directions of motion
+        (:data:`bayesnsi.models.dictionary.DIRECTIONAL`, e.g. ``|v|``) are kept only at locations
+        whose velocity reverses at least ``MIN_REVERSALS`` times in each half of the record
+        (:func:`bayesnsi.models.dictionary.velocity_reversals`). Clearances are tried at each measured
+        DOF with gaps of 0.5, 1 and 1.5 displacement standard deviations (refined when one ranks among the best); the
         smoothed friction ``tanh(v/eps)`` at every location (DOFs and pairs) with ε = 0.25 and 0.5
         standard deviations of the velocity it acts on (the relative velocity for a pair), written
         with its numeric ε (:func:`bayesnsi.models.default_widths`).
@@ -82,7 +96,29 @@ def loop_effects(signals, names=None) -> list[Effect]:
         std = {d: signals.displacement[:, c].std() for c, d in enumerate(signals.output_dofs)}
         gaps = {(d,): tuple(default_gaps(s)) for d, s in std.items()}
     widths = _friction_widths(signals) if SMOOTH_FRICTION in names else None
-    return effect_dictionary(signals.output_dofs, [t for t in EFFECT_TYPES if t in names], gaps=gaps, widths=widths)
+    effects = effect_dictionary(signals.output_dofs, [t for t in EFFECT_TYPES if t in names], gaps=gaps, widths=widths)
+    if not any(e.base in DIRECTIONAL for e in effects):
+        return effects
+    reversing = _reversing_locations(signals)
+    return [e for e in effects if e.base not in DIRECTIONAL or e.location in reversing]
+
+
+def _reversing_locations(signals) -> set[tuple[int, ...]]:
+    """Locations (DOFs and consecutive pairs) whose velocity reverses MIN_REVERSALS times in each record half."""
+    velocity = signals.velocities()
+    half = len(velocity) // 2
+
+    def reverses(v) -> bool:
+        return min(velocity_reversals(v[:half]), velocity_reversals(v[half:])) >= MIN_REVERSALS
+
+    column = {int(d): c for c, d in enumerate(signals.output_dofs)}
+    out: set[tuple[int, ...]] = set()
+    for d, c in column.items():
+        if reverses(velocity[:, c]):
+            out.add((d,))
+        if d + 1 in column and reverses(velocity[:, c] - velocity[:, column[d + 1]]):
+            out.add((d, d + 1))
+    return out
 
 
 def _friction_widths(signals) -> dict[tuple[int, ...], Sequence[float]]:
@@ -116,9 +152,11 @@ def close_the_loop(
         Starting model (e.g. the selected one, or a linear model with no terms).
     options : LoopOptions, optional
         The residual the effects are scored on, the guards (``threshold``: least log Bayes
-        factor, default log 100; ``max_imag_ratio``: largest quality index |Im λ|/|Re λ|;
+        factor, default log 100; ``max_imag_ratio``: largest quality index |Im λ|/|Re λ|, whose
+        failure alone is accepted with ``accept_quality_only``;
         ``stability_factor``: largest ratio of the record-half estimates, which must also share
-        their sign), the search (``n_tries`` effects checked per step, best first; ``screen``
+        their sign), the search (``n_tries`` effects checked per step, best first, not counting those
+        whose quality index or dissipation fails; ``screen``
         effects identified per step after the frequency-domain screen, None: all;
         ``lookahead``: when no effect passes but one failed only the quality index, search one
         effect further from the model holding it and add the pair; ``max_steps``), the final
@@ -246,8 +284,18 @@ def close_the_loop_with(
     final, final_nsi = _refined(context, state.current)
     # accepted steps first (in order), then the rejected ones
     ordered = [s for s in state.steps if s.accepted] + [s for s in state.steps if not s.accepted]
+    friction = _friction(final, signals)
     return LoopResult(start=start, final=final, steps=tuple(ordered), scores=tuple(state.scores), options=options,
-                      nsi=context.nsi, final_nsi=final_nsi, evidence=evidence, n_effects=len(effects))
+                      nsi=context.nsi, final_nsi=final_nsi, evidence=evidence, n_effects=len(effects),
+                      friction=friction)
+
+
+def _friction(final, signals):
+    """The final model's friction reading (:func:`bayesnsi.loop.friction_reading`), None without one."""
+    try:
+        return friction_reading(final, signals) if holds_friction(final) else None
+    except (BayesNSIError, np.linalg.LinAlgError, ValueError):
+        return None
 
 
 def _step(context: LoopContext, state: LoopState, scored=None) -> bool:
@@ -273,12 +321,14 @@ def _step(context: LoopContext, state: LoopState, scored=None) -> bool:
     added = {s.term.name for s in state.steps if s.accepted}  # the "separable" guard checks against these
     accepted = tuple(t for t in state.current.candidate.terms if t.name in added)
     tries = 0
-    for entry in scored:  # the n_tries best; an effect rejected for negative dissipation does not count
+    for entry in scored:  # the n_tries best; an effect whose own coefficient is not physical does not count
         if tries >= options.n_tries or not np.isfinite(entry.log_evidence):
             break
-        verdict = check_effect(context, entry, baseline, state.next_seed(), state.half_cache, accepted, search=search)
+        verdict = check_effect(context, entry, baseline, state.next_seed(), state.half_cache, accepted, search=search,
+                               halves_if_unsound=options.lookahead and pending is None)
         state.steps.append(verdict.step)
-        tries += not verdict.step.reason.startswith(NEGATIVE_DISSIPATION)
+        failed = verdict.step.failed_checks
+        tries += not (failed and failed[0].name in ADMISSIBILITY)  # a coefficient that is not physical: no try
         if verdict.step.accepted:
             step = documented(verdict.step, state.current, entry.result, context.signals)
             state.replace_step(verdict.step, step)

@@ -16,12 +16,15 @@ __all__ = [
     "DEFAULT_EFFECT_TYPES",
     "Effect",
     "SMOOTH_FRICTION",
+    "DIRECTIONAL",
+    "MIN_REVERSALS",
     "clearance_effect",
     "clearance_expression",
     "default_gaps",
     "default_widths",
     "effect_dictionary",
     "smooth_friction_effect",
+    "velocity_reversals",
 ]
 
 EFFECT_TYPES: dict[str, str] = {
@@ -34,6 +37,7 @@ EFFECT_TYPES: dict[str, str] = {
     "x^2 sign(v)": "{x}**2*sign({v})",
     "sign(v)+": "(1+sign({v}))/2",
     "v+": "{v}*(1+sign({v}))/2",
+    "|v|": "abs({v})",
     "offset": "1",
 }
 """Effect types: name -> expression template in the displacement ``{x}`` and velocity ``{v}``.
@@ -43,10 +47,28 @@ viscous damper) they make friction asymmetric, ``F+`` moving forwards and ``F-``
 ``λ_sign = F-`` and ``λ_sign+ = F+ - F-``. Asymmetric Coulomb friction differs from a constant force
 only while the body is at rest, so on records that seldom stop the two cannot be told apart.
 ``offset`` is a constant force (its coefficient read from the FRF at DC); a record whose means were
-removed leaves it nothing to explain. These three are not in :data:`DEFAULT_EFFECT_TYPES`."""
+removed leaves it nothing to explain. These three are not in :data:`DEFAULT_EFFECT_TYPES`.
 
-DEFAULT_EFFECT_TYPES: tuple[str, ...] = ("x^2", "x|x|", "x^3", "sign(v)", "v|v|", "v^3", "x^2 sign(v)")
+``|v|`` is direction-dependent viscous friction written without a linear part: beside the linear
+damping ``c·v`` of the identified model, ``λ|v|`` makes the viscous coefficient ``c + λ`` moving
+forwards and ``c - λ`` backwards (:func:`bayesnsi.diagnose.friction_reading`). It is ``v+`` less its
+linear half (``v·[v > 0] = (v + |v|)/2``): NSI identifies the linear damping with the linear part,
+so a basis that holds ``v/2`` as well leaves the two to share it. Offered by default wherever the
+velocity reverses often enough to inform it (:data:`DIRECTIONAL`). A Coulomb friction that differs by
+direction (``sign(v)+`` beside ``sign(v)``) is Coulomb friction plus a constant force: its asymmetry
+is the offset, read with the free body's linear part (docs/method.md §11)."""
+
+DEFAULT_EFFECT_TYPES: tuple[str, ...] = ("x^2", "x|x|", "x^3", "sign(v)", "v|v|", "v^3", "x^2 sign(v)", "|v|")
 """The types a dictionary holds unless others are asked for (``[diagnose] effects``)."""
+
+DIRECTIONAL: tuple[str, ...] = ("|v|", "v+", "sign(v)+")
+"""Types that compare the two directions of motion: offered only where the velocity reverses at least
+:data:`MIN_REVERSALS` times in each half of the record (:func:`velocity_reversals`)."""
+
+MIN_REVERSALS = 2
+"""Fewest reversals of the velocity in each half of the record for a :data:`DIRECTIONAL` effect at a
+location: each half then holds a motion forwards and one backwards, so that the record-halves check
+compares like with like (the EMPS axis: 7 reversals in 25 s, 3 and 4 per half)."""
 
 CLEARANCE = "clearance"
 """Type of a clearance (dead-zone) spring, whose gap is a parameter (:func:`clearance_effect`)."""
@@ -272,3 +294,31 @@ def default_widths(velocity_std: float, fractions=(0.25, 0.5)) -> np.ndarray:
         The widths [m/s], one per fraction.
     """
     return np.asarray(fractions) * velocity_std
+
+
+def velocity_reversals(velocity, hysteresis: float = 0.05) -> int:
+    """How often a velocity changes direction, with a dead band against noise.
+
+    A reversal is counted when the velocity crosses from above ``+h`` to below ``-h`` or back, with
+    ``h = hysteresis · std(velocity)``: sensor noise about a standstill does not count.
+
+    Parameters
+    ----------
+    velocity : array_like, shape (n,)
+        The velocity at a location (relative velocity for a pair) [m/s].
+    hysteresis : float
+        Half-width of the dead band as a fraction of the velocity's standard deviation.
+
+    Returns
+    -------
+    int
+        The number of reversals.
+    """
+    v = np.asarray(velocity, dtype=float).ravel()
+    v = v[np.isfinite(v)]
+    if v.size < 2:
+        return 0
+    h = hysteresis * float(np.std(v))
+    state = np.where(v > h, 1, np.where(v < -h, -1, 0))
+    signs = state[state != 0]
+    return int(np.count_nonzero(np.diff(signs)))

@@ -197,8 +197,23 @@ def diagnose(
     final = _final_model(loop, selection, start)
     limit = selection.evidence.max_band_ratio if selection.evidence is not None else 2.0
     found = band_findings(final.check, final.name, "the final model", limit) if loop.added else ()
+    found += _unexplained(loop)
     emit(found, AdequacyWarning, stacklevel=2)
     return Diagnosis(selection, start, loop, final, options, tuple(found))
+
+
+def _unexplained(loop: LoopResult) -> tuple[Finding, ...]:
+    """A finding when the evidence favours an effect the loop neither added nor rejected (loop and select disagree)."""
+    rows = loop.unexplained()
+    if not rows:
+        return ()
+    listed = ", ".join(f"{name} (log Bayes factor {bf:.3g})" for _, name, bf in rows)
+    return (Finding(
+        "loop.unexplained",
+        f"the evidence favours {listed} over the final model by more than the loop's threshold "
+        f"({loop.options.threshold:.3g}), but the loop neither added nor examined it (each step examines only the "
+        f"n_tries = {loop.options.n_tries} effects best by evidence); rerun with a larger --n-tries",
+        "", "warning", {"terms": tuple(name for _, name, _ in rows), "threshold": loop.options.threshold}),)
 
 
 def _final_model(loop: LoopResult, selection: Selection, start: str) -> FinalModel:

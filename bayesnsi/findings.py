@@ -134,7 +134,7 @@ def finding_from_warning(caught: warnings.WarningMessage) -> Finding:
         Kind ``"warning.<Category>"`` for a warning that carries no finding.
     """
     message = caught.message
-    args = getattr(message, "args", ())
+    args: tuple = tuple(getattr(message, "args", ()))
     if len(args) == 1 and isinstance(args[0], Finding):
         return args[0]
     return Finding(f"warning.{caught.category.__name__}", str(message) or caught.category.__name__)

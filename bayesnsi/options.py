@@ -1,10 +1,9 @@
 """Typed, frozen settings of each layer: identification, evidence, the loop, execution.
 
-Every option of bayesnsi is a field of one of these dataclasses, with its default, its check and
-its help text written once, here. The config file's tables (``[nsi]``, ``[evidence]``,
-``[diagnose]``), the command line flags, the Python API and the cache key all read the same
-fields, and ``results.json`` records :meth:`to_dict`. An instance is validated when it is built,
-so a function that receives one can trust it.
+Every option of bayesnsi is a field of one of these dataclasses, with its default, check and help
+text written once, here (``help(NSIOptions)`` lists them). The config's tables (``[nsi]``,
+``[evidence]``, ``[diagnose]``), the command line, the Python API and the cache key read the same
+fields; ``results.json`` records :meth:`to_dict`. An instance is validated when it is built.
 
 Examples
 --------
@@ -430,31 +429,22 @@ def _plain(value):
     return repr(value)
 
 
+_KIND_TEXT = {"bool": "true or false", "order": 'integer >= 1 or "auto"', "band": "[low, high] in Hz",
+              "likelihood": '"white", "ar1" or "arP"', "likelihoods": "list of likelihood names",
+              "auto-number": 'number >= 0 or "auto"', "any": "any object"}
+
+
 def _range_text(meta: Mapping[str, Any]) -> str:
     """The accepted values of an option, in words."""
-    if meta["kind"] == "choice":
-        text = "one of " + ", ".join(repr(c) for c in meta["choices"])
-    elif meta["kind"] in ("int", "float"):
-        low, high = meta["low"], meta["high"]
-        noun = "integer" if meta["kind"] == "int" else "number"
-        text = (f"{noun} in [{_fmt(low)}, {_fmt(high)}]" if high is not None
-                else f"{noun} >= {_fmt(low)}" if low is not None else noun)
-    else:
-        text = {"bool": "true or false", "order": 'integer >= 1 or "auto"', "band": "[low, high] in Hz",
-                "likelihood": '"white", "ar1" or "arP"', "likelihoods": "list of likelihood names",
-                "auto-number": 'number >= 0 or "auto"', "any": "any object"}.get(meta["kind"], meta["kind"])
+    kind, low, high = meta["kind"], meta["low"], meta["high"]
+    noun = "integer" if kind == "int" else "number"
+    text = ("one of " + ", ".join(repr(c) for c in meta["choices"]) if kind == "choice"
+            else f"{noun} in [{_fmt(low)}, {_fmt(high)}]" if kind in ("int", "float") and high is not None
+            else f"{noun} >= {_fmt(low)}" if kind in ("int", "float") else _KIND_TEXT.get(kind, kind))
     return text + (", or none" if meta["none"] else "")
 
 
-def _documented(cls: type) -> type:
-    """Append a numpydoc Parameters section made from the fields' help, defaults and ranges (``help(cls)``)."""
-    lines = ["", "    Parameters", "    ----------"]
-    for item in fields(cls):
-        lines.append(f"    {item.name} : {_range_text(item.metadata)}; default {item.default!r}")
-        lines.append(f"        {item.metadata['help']}.")
-    cls.__doc__ = (cls.__doc__ or "").rstrip() + "\n" + "\n".join(lines) + "\n"
-    return cls
-
-
-for _cls in (NSIOptions, EvidenceOptions, LoopOptions, ExecutionOptions):
-    _documented(_cls)
+for _cls in (NSIOptions, EvidenceOptions, LoopOptions, ExecutionOptions):  # help(): each field's meaning and range
+    _cls.__doc__ = (_cls.__doc__ or "").rstrip() + "\n\n    Parameters\n    ----------\n" + "".join(
+        f"    {item.name} : {_range_text(item.metadata)}; default {item.default!r}\n        {item.metadata['help']}.\n"
+        for item in fields(_cls))

@@ -230,12 +230,13 @@ class Selection:
         raise KeyError(f"no candidate named {name!r}; candidates: {[o.name for o in self.outcomes]}")
 
     def _best(self, column: str) -> str | None:
-        if self.table is None or column not in self.table:
+        table = self.table
+        if table is None or column not in table:
             return None
         ranked = [o.name for o in self.outcomes if o.status == "ok" and o.evidences is not None]
         if not ranked:
             return None
-        return max(ranked, key=lambda name: float(self.table.loc[name, column]))
+        return max(ranked, key=lambda name: float(table.loc[name, column]))
 
 
 def select(
@@ -293,6 +294,8 @@ def select(
     nsi = NSIOptions() if nsi is None else nsi
     require(nsi, NSIOptions, "nsi", "build one with NSIOptions(...) or NSIOptions.from_mapping(...)")
     require(evidence, EvidenceOptions, "evidence", "build one with EvidenceOptions(...)")
+    if execution is not None:
+        require(execution, ExecutionOptions, "execution", "build one with ExecutionOptions(jobs=..., ...)")
     candidates = tuple(candidates)
     for k, candidate in enumerate(candidates):
         require(candidate, CandidateModel, f"candidates[{k}]", "build one with bayesnsi.CandidateModel(name, terms)")

@@ -221,8 +221,10 @@ posterior_ar1.summary
 
 # %% [markdown]
 # `bayesnsi select CONFIG --out DIR` saves these draws as `DIR/posterior/<candidate>.nc` (an arviz
-# `DataTree` in netCDF4, listed in results.json `posterior_files`). Written here the same way and
-# read back as a notebook reads a run's output: xarray opens the file, arviz works on the tree.
+# `DataTree` in netCDF4, listed in results.json `posterior_files`; `docs/posterior-files.md`). Written
+# here the same way and read back as a notebook reads a run's output: xarray opens the file, arviz
+# works on the tree. Without the honest intervals (notebook 04 writes them) the `posterior` group
+# holds the sampler's draws, given the identified linear part.
 
 # %%
 import tempfile
@@ -233,7 +235,7 @@ import xarray as xr
 from bayesnsi.io.posterior import NETCDF_ENGINE, write_posteriors
 
 run_folder = tempfile.mkdtemp()
-files = write_posteriors(run_folder, evidence, "ar1")
+files = write_posteriors(run_folder, {name: by["ar1"] for name, by in evidence.items()})
 tree = xr.open_datatree(f"{run_folder}/{files['model 3']}", engine=NETCDF_ENGINE)
 arviz_stats.summary(tree, var_names=["coefficient"])
 

@@ -72,6 +72,6 @@ def test_the_frf_figure_draws_the_data_beside_the_models():
     fig = plot_frf([result], np.geomspace(0.1, measured.excited_hz, 400), measured=measured, log_frequency=True)
     try:
         labels = [line.get_label() for line in fig.axes[0].get_lines()]
-        assert "measured (H1)" in labels and fig.axes[-1].get_xscale() == "log"
+        assert any(label.startswith("measured (H1") for label in labels) and fig.axes[-1].get_xscale() == "log"
     finally:
         plt.close(fig)

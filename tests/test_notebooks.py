@@ -62,8 +62,8 @@ def small(monkeypatch, tmp_path_factory):
         monkeypatch.setenv(name, "1")
 
 
-def test_three_notebooks_present():
-    assert [p.stem[:2] for p in SCRIPTS] == ["01", "02", "03"]
+def test_four_notebooks_present():
+    assert [p.stem[:2] for p in SCRIPTS] == ["01", "02", "03", "04"]
 
 
 @pytest.mark.parametrize("script", SCRIPTS, ids=lambda p: p.stem)

@@ -123,10 +123,11 @@ def test_bayes_factors_and_probabilities_are_labelled():
     fig = plot_bayes_factors(decision_table(table, "ar1"), "a")
     xlabels, _ = _labelled(fig)
     assert xlabels == ["log Bayes factor of a against each candidate [nat]"]
-    from matplotlib.container import BarContainer
+    from matplotlib.container import ErrorbarContainer
 
-    bars = [p.get_width() for c in fig.axes[0].containers if isinstance(c, BarContainer) for p in c]
-    assert bars == pytest.approx([3.5])  # b; c failed and is marked, not drawn
+    points = [x for c in fig.axes[0].containers if isinstance(c, ErrorbarContainer) for x in c[0].get_xdata()]
+    assert points == pytest.approx([3.5])  # b; c failed and is marked, not drawn
+    assert any("failed" in t.get_text() for t in fig.axes[0].texts)
     assert _labelled(plot_model_probabilities(table))[1] == ["P(model | data)"]
 
 

@@ -13,7 +13,7 @@ import pytest
 
 from bayesnsi import EvidenceOptions, NSIOptions, select, simulate_case
 from bayesnsi.evidence import candidate_evidence, compare_evidence
-from bayesnsi.exceptions import ConfigError, NotIdentifiableError
+from bayesnsi.exceptions import ArgumentTypeError, ConfigError, NotIdentifiableError
 from bayesnsi.io import selection_payload
 from bayesnsi.nsi import identify
 
@@ -87,7 +87,7 @@ def test_selection_payload_is_json_with_evidence_and_validation(case, selection,
 
 
 def test_options_of_the_wrong_type_are_refused(case):
-    with pytest.raises(ConfigError, match="NSIOptions"):
+    with pytest.raises(ArgumentTypeError, match="nsi must be a NSIOptions, got dict"):
         select(case.signals, case.candidates, {"block_rows": 40}, FAST)
-    with pytest.raises(ConfigError, match="ExecutionOptions"):
+    with pytest.raises(ArgumentTypeError, match="execution must be a ExecutionOptions"):
         select(case.signals, case.candidates, NSI, FAST, execution={"jobs": 2})

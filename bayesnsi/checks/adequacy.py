@@ -400,7 +400,8 @@ def _validation_findings(checks: Mapping[str, ModelCheck], selected: str | None,
     if not chosen.validation_nrmse > (1 + (0.0 if force else VALIDATION_TOLERANCE)) * others[best]:
         return []
     what = "force-prediction NRMSE (free body)" if force else "closed-loop NRMSE"
-    values = {"validation_nrmse": chosen.validation_nrmse, "best": best, "best_validation_nrmse": others[best]}
+    values: dict[str, float | str | None] = {"validation_nrmse": chosen.validation_nrmse, "best": best,
+                                             "best_validation_nrmse": others[best]}
     if not math.isfinite(chosen.validation_nrmse):  # its simulation failed: no error to compare
         message = (
             f"the selected model {selected!r} could not be validated - its "

@@ -31,8 +31,8 @@ def run(args) -> int:
 
     config, out, signals, data_findings = start_run(args)
     with execution(args, out, config) as options:
-        outcomes = run_candidates(signals, config.candidates, config.nsi, execution=options)
-        outcomes, view = one_view(signals, outcomes, config.nsi, None, options)  # free bodies: one view
+        first = run_candidates(signals, config.candidates, config.nsi, execution=options)
+        outcomes, view = one_view(signals, first, config.nsi, None, options)  # free bodies: one view
     for finding in (*view, *order_findings(outcomes)):  # order "auto" that may have missed modes, as select says
         print(f"{finding.severity}: {' '.join(finding.message.split())}", file=sys.stderr)
     payload = identification_payload(outcomes, "identify", config, data_findings)

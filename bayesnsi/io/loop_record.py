@@ -6,7 +6,7 @@ coefficient, Bayes factor, quality index and errors before and after; ``loop_sco
 of every search); the final model (``final_model``, ``final_coefficients`` with their honest
 intervals, ``final_intervals``, ``final_evidence``, ``final_model_check``); and the closed-loop
 errors of the starting and the final model on each validation segment (``validation_before``,
-``validation``).
+``validation``), and the physical reading of a friction law the final model holds (``friction``).
 """
 
 from __future__ import annotations
@@ -56,6 +56,9 @@ def step_record(step, loop) -> dict[str, Any]:
         "error_quantity": step.error_quantity,
         "short_horizon_nrmse_before": step.short_horizon_nrmse_before,
         "short_horizon_nrmse_after": step.short_horizon_nrmse_after,
+        "checks": [{"name": c.name, "value": c.value, "limit": c.limit, "passed": c.passed, "text": c.text}
+                   for c in step.checks],
+        "quality_only": step.quality_only,
         "search": step.search,  # the effects that search screened and scored, what became of each
         "screened": [] if step.search is None else loop.search_records(step.search),
     }
@@ -110,6 +113,7 @@ def diagnosis_payload(diagnosis, command: str, config, data_findings=()) -> dict
         validation=[e.to_dict() for e in final.validation],
         loop_scores=[loop.search_records(k) for k in range(len(loop.scores))],
         loop_findings=[f.to_dict() for f in diagnosis.findings],
+        friction=None if loop.friction is None else loop.friction.as_dict(),
     )
     payload["settings"]["loop"] = {**loop.options.to_dict(), "final_nsi": loop.final_nsi.to_dict(),
                                    "nsi": loop.nsi.to_dict(), "n_effects": loop.n_effects}

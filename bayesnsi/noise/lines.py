@@ -75,6 +75,8 @@ class SpectralLines:
         r = r.reshape(len(r), -1)[self.interior]
         if self.period is not None:
             blocks = period_blocks(r, self.period, self.realisations)
+            if blocks is None:
+                raise ValueError("the lines of a periodic layout need two or more whole periods")
             return np.mean(np.abs(np.fft.rfft(blocks, axis=1)[:, self.lines]) ** 2, axis=0) / self.period
         return np.abs(np.fft.rfft(r, axis=0)[self.lines]) ** 2 / len(r)
 

@@ -54,9 +54,11 @@ class NoiseDraw(NamedTuple):
 class NoiseModel(Protocol):
     """The noise of one record: where the estimate came from, its level, and fresh draws of it."""
 
-    source: str
-    """Where the level comes from: "period scatter", "accelerometers (estimated)" (or declared, or velocity
-    sensors) or "differences"."""
+    @property
+    def source(self) -> str:
+        """Where the level comes from: "period scatter", "accelerometers (estimated)" (or declared, or velocity
+        sensors) or "differences"."""
+        ...
 
     def std(self, interior: bool = False) -> np.ndarray:
         """Noise std of each response channel, in the record's displacement field.

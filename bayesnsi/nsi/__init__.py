@@ -1,5 +1,6 @@
 """Nonlinear subspace identification (docs/method.md §2-5); numpy/scipy only."""
 
+from ._hankel import HankelCorrelations
 from .feedback import extended_input
 from .free_body import PhysicalParameters, is_free_body, physical_parameters
 from .identify import hankel_correlations, identify
@@ -24,7 +25,7 @@ from .reconstruct import (
     nrmse,
     reconstruct,
 )
-from .result import HankelCorrelations, IdentificationFit, NSIResult
+from .result import IdentificationFit, NSIResult
 from .statespace import StateSpaceModel
 
 __all__ = [

@@ -10,6 +10,8 @@ carried out on ``L`` (Van Overschee & De Moor 1996, sec. 6.1: the "R factor" of 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
@@ -20,7 +22,7 @@ __all__ = [
     "gram_factor",
     "hankel_gram",
     "lagged_products",
-    "lq_factor",
+    "lq_factor", "HankelCorrelations", "correlation_key"
 ]
 
 _CHUNK = 4096
@@ -237,7 +239,7 @@ def gram_factor(z, block_rows: int, n_inputs: int, lagged: np.ndarray | None = N
     raise np.linalg.LinAlgError("Hankel Gram matrix is not positive definite even after regularisation")
 
 
-def lq_factor(z: np.ndarray, block_rows: int, n_inputs: int) -> np.ndarray:
+def lq_factor(z: np.ndarray | ScaledStack, block_rows: int, n_inputs: int) -> np.ndarray:
     """Reference route: the L factor of the LQ decomposition of the explicit Hankel matrix.
 
     Memory and time grow with ``2i k × N``: for validating :func:`gram_factor` and small data.
@@ -248,5 +250,82 @@ def lq_factor(z: np.ndarray, block_rows: int, n_inputs: int) -> np.ndarray:
     j = n - two_i + 1
     windows = sliding_window_view(z, (two_i, k))[:, 0].reshape(j, two_i * k)
     perm = grouped_order(block_rows, n_inputs, k - n_inputs)
-    r = np.linalg.qr(windows[:, perm] / np.sqrt(j), mode="r")
+    r: np.ndarray = np.linalg.qr(windows[:, perm] / np.sqrt(j), mode="r")  # type: ignore[assignment]
     return r.T
+
+
+@dataclass(frozen=True)
+class HankelCorrelations:
+    """Lagged products of one candidate's scaled ``[u, y]``, reusable by candidates that add terms.
+
+    Made by :func:`hankel_correlations`; passed to :func:`identify` (``correlations=``) for a
+    candidate whose terms start with these, it saves the products among the shared channels:
+    only those of the added terms' inputs are computed (:func:`extend_lagged_products`).
+    The closing-the-loop search identifies one fixed model plus each effect in turn, so most of
+    the products are shared (time saved: ``docs/measurements.md``).
+
+    Attributes
+    ----------
+    term_names : tuple of str
+    key : tuple
+        ``(n_samples, block_rows, input_hold, velocity_method, upsample)`` they were built with.
+    scales : ndarray, shape (k,)
+        Channel scales of ``[u, y]``.
+    lagged : ndarray, shape (2i, k, k)
+    """
+
+    term_names: tuple[str, ...]
+    key: tuple
+    scales: np.ndarray
+    lagged: np.ndarray
+
+    def extended(self, terms, key, stack) -> np.ndarray | None:
+        """Lagged products of ``stack`` (the channels of ``terms``) or None when these do not apply.
+
+        They apply when ``terms`` start with this candidate's terms, the settings ``key`` are
+        the same and the shared channels have the same scales.
+
+        Parameters
+        ----------
+        terms : sequence of Term
+            The new candidate's terms.
+        key : tuple
+            Its settings (:func:`correlation_key`).
+        stack : ScaledStack
+            Its scaled ``[u, y]``.
+
+        Returns
+        -------
+        ndarray, shape (2i, k, k), or None
+        """
+        n_old_terms = len(self.term_names)
+        if key != self.key or tuple(t.name for t in terms[:n_old_terms]) != self.term_names:
+            return None
+        n_outputs = stack.y.shape[1]
+        scales = np.concatenate([stack.u_scale, stack.y_scale])
+        n_shared_inputs = len(self.scales) - n_outputs
+        old = np.concatenate([np.arange(n_shared_inputs), len(scales) - n_outputs + np.arange(n_outputs)])
+        if not np.array_equal(scales[old], self.scales):
+            return None
+        return extend_lagged_products(self.lagged, stack, old)
+
+
+def correlation_key(n_samples, block_rows, input_hold, velocity_method, upsample, stiffness=0.0) -> tuple:
+    """Settings that must agree for :class:`HankelCorrelations` to be reused.
+
+    Parameters
+    ----------
+    n_samples, block_rows : int
+        Record length on the identification grid and i.
+    input_hold, velocity_method : str
+        Resolved input hold and differentiator.
+    upsample : int
+        Identification-grid factor.
+    stiffness : float
+        Virtual stiffness on the input (free bodies).
+
+    Returns
+    -------
+    tuple
+    """
+    return (int(n_samples), int(block_rows), input_hold, velocity_method, int(upsample), float(stiffness))

@@ -20,6 +20,7 @@ from ..signals import Signals
 from . import _hankel, _subspace
 from ._eiv import refine_prediction_error, refine_prediction_error_bc
 from ._frequency import identify_frequency
+from ._hankel import HankelCorrelations, correlation_key
 from ._line_information import band_weighting
 from ._output_error import refine_output_error
 from ._output_error import refine_poles as _refine_poles
@@ -36,7 +37,7 @@ from .physics import (
     identification_routes,
     split_poles,
 )
-from .result import HankelCorrelations, IdentificationFit, NSIResult, correlation_key
+from .result import IdentificationFit, NSIResult
 from .statespace import StateSpaceModel
 
 __all__ = ["hankel_correlations", "identify"]

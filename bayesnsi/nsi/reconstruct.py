@@ -84,7 +84,7 @@ class Reconstruction:
         return np.sqrt(np.mean(self.residual**2, axis=0))
 
 
-def initial_state(model: StateSpaceModel, inputs: np.ndarray, outputs: np.ndarray, forced=None) -> np.ndarray:
+def initial_state(model: StateSpaceModel, inputs: np.ndarray | None, outputs: np.ndarray, forced=None) -> np.ndarray:
     """Least-squares initial state for a given input/output record.
 
     Minimises ``Σ_k ‖y_k - ŷ_k^{forced} - C A^k x₀‖²``. The normal matrix

@@ -11,13 +11,12 @@ from ..exceptions import ConfigError
 from ..models import CandidateModel, Term
 from ..options import NSIOptions
 from ..signals import Signals
-from . import _hankel
 from .feedback import extended_input, working_signals
 from .free_body import PhysicalParameters, free_frf, free_model, physical_parameters, stabilise
 from .physics import CoefficientEstimate, Mode, coefficient_spectrum
 from .statespace import StateSpaceModel
 
-__all__ = ["HankelCorrelations", "IdentificationFit", "NSIResult", "correlation_key"]
+__all__ = ["IdentificationFit", "NSIResult"]
 
 
 @dataclass(frozen=True)
@@ -374,80 +373,3 @@ class NSIResult:
         from .reconstruct import reconstruct
 
         return reconstruct(self, signals, closed_loop=closed_loop, n_init=n_init)
-
-
-@dataclass(frozen=True)
-class HankelCorrelations:
-    """Lagged products of one candidate's scaled ``[u, y]``, reusable by candidates that add terms.
-
-    Made by :func:`hankel_correlations`; passed to :func:`identify` (``correlations=``) for a
-    candidate whose terms start with these, it saves the products among the shared channels:
-    only those of the added terms' inputs are computed (:func:`_hankel.extend_lagged_products`).
-    The closing-the-loop search identifies one fixed model plus each effect in turn, so most of
-    the products are shared (time saved: ``docs/measurements.md``).
-
-    Attributes
-    ----------
-    term_names : tuple of str
-    key : tuple
-        ``(n_samples, block_rows, input_hold, velocity_method, upsample)`` they were built with.
-    scales : ndarray, shape (k,)
-        Channel scales of ``[u, y]``.
-    lagged : ndarray, shape (2i, k, k)
-    """
-
-    term_names: tuple[str, ...]
-    key: tuple
-    scales: np.ndarray
-    lagged: np.ndarray
-
-    def extended(self, terms, key, stack) -> np.ndarray | None:
-        """Lagged products of ``stack`` (the channels of ``terms``) or None when these do not apply.
-
-        They apply when ``terms`` start with this candidate's terms, the settings ``key`` are
-        the same and the shared channels have the same scales.
-
-        Parameters
-        ----------
-        terms : sequence of Term
-            The new candidate's terms.
-        key : tuple
-            Its settings (:func:`correlation_key`).
-        stack : _hankel.ScaledStack
-            Its scaled ``[u, y]``.
-
-        Returns
-        -------
-        ndarray, shape (2i, k, k), or None
-        """
-        n_old_terms = len(self.term_names)
-        if key != self.key or tuple(t.name for t in terms[:n_old_terms]) != self.term_names:
-            return None
-        n_outputs = stack.y.shape[1]
-        scales = np.concatenate([stack.u_scale, stack.y_scale])
-        n_shared_inputs = len(self.scales) - n_outputs
-        old = np.concatenate([np.arange(n_shared_inputs), len(scales) - n_outputs + np.arange(n_outputs)])
-        if not np.array_equal(scales[old], self.scales):
-            return None
-        return _hankel.extend_lagged_products(self.lagged, stack, old)
-
-
-def correlation_key(n_samples, block_rows, input_hold, velocity_method, upsample, stiffness=0.0) -> tuple:
-    """Settings that must agree for :class:`HankelCorrelations` to be reused.
-
-    Parameters
-    ----------
-    n_samples, block_rows : int
-        Record length on the identification grid and i.
-    input_hold, velocity_method : str
-        Resolved input hold and differentiator.
-    upsample : int
-        Identification-grid factor.
-    stiffness : float
-        Virtual stiffness on the input (free bodies).
-
-    Returns
-    -------
-    tuple
-    """
-    return (int(n_samples), int(block_rows), input_hold, velocity_method, int(upsample), float(stiffness))

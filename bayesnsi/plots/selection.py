@@ -118,7 +118,7 @@ def plot_posterior_pairs(posterior, max_params: int = 4, units=None):
     size = 2.4 * len(terms) + 0.6
     common: dict = dict(var_names=["coefficient"], coords={"term": terms}, backend="matplotlib")
     if len(terms) == 1:  # a pair plot needs two variables
-        stats = {"point_estimate": {"round_to": _significant_digits(posterior, terms)}}
+        stats: dict = {"point_estimate": {"round_to": _significant_digits(posterior, terms)}}
         plot = arviz_plots.plot_dist(posterior.to_datatree(), figure_kwargs=_figure_kwargs(5.0, 3.4), stats=stats,
                                      **common)
     else:

@@ -16,8 +16,10 @@ from .sections import ANSWER, BEFORE, LOOP
 from .tables import errors_frame
 from .text import format_interval, term_label
 
-__all__ = ["added_channel", "added_sentence", "diagnosis_sections", "loop_frame", "nothing_added_note", "step_number",
-           "tried_with", "unexamined_note", "where"]
+__all__ = [
+    "added_channel", "added_sentence", "diagnosis_sections", "friction_sentence", "loop_frame", "nothing_added_note",
+    "step_number", "tried_with", "unexamined_note", "where",
+]
 
 
 def step_number(step, start) -> int:
@@ -67,6 +69,28 @@ def where(effect) -> str:
     """
     location = tuple(effect.location)
     return f"at DOF {location[0]}" if len(location) == 1 else f"between DOFs {location[0]} and {location[1]}"
+
+
+def friction_sentence(friction) -> str:
+    """The physical reading of a friction law: mass, viscous coefficients by direction, Coulomb level, offset.
+
+    Parameters
+    ----------
+    friction : FrictionReading
+        :attr:`bayesnsi.loop.LoopResult.friction`.
+
+    Returns
+    -------
+    str
+    """
+    parts = [(name, getattr(friction, name), friction.intervals[name], unit) for name, unit in (
+        ("mass", "kg"), ("viscous_forward", "N s/m"), ("viscous_backward", "N s/m"), ("coulomb", "N"),
+        ("offset", "N"))]
+    words = {"mass": "mass", "viscous_forward": "viscous forwards", "viscous_backward": "viscous backwards",
+             "coulomb": "Coulomb level", "offset": "offset"}
+    listed = "; ".join(f"{words[n]} {v:.4g} {u} {format_interval(ci)}" for n, v, ci, u in parts)
+    return (f"Friction law of the final model at DOF {friction.dof}, read in the force view with 95 % intervals: "
+            f"{listed} (force-prediction rms error {friction.force_rmse:.3g} N).")
 
 
 def added_channel(signals, added) -> int:
@@ -256,6 +280,8 @@ def _answer(report: Report, diagnosis, units: ChannelUnits) -> None:
     sentence = coefficient_sentence("the final model", final.intervals, units)
     if sentence:
         answer.append(sentence)
+    if loop.friction is not None:
+        answer.append(friction_sentence(loop.friction))
     modes = mode_sentence(final.intervals)
     answer.append(modes or "Natural frequencies and damping ratios of the final model: "
                   + "; ".join(f"{m.frequency_hz:.4g} Hz, ζ {100 * m.damping_ratio:.3g} %" for m in final.result.modes)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 
 from ..io.units import ChannelUnits
-from .loop import added_sentence, nothing_added_note, unexamined_note
+from .loop import added_sentence, friction_sentence, nothing_added_note, unexamined_note
 from .text import format_interval, probability_text, term_label, value_with_error
 
 __all__ = ["diagnosis_lines", "outcome_line", "selection_lines", "step_line"]
@@ -122,6 +122,8 @@ def diagnosis_lines(diagnosis, units: ChannelUnits | None = None) -> list[str]:
         word = "adequate" if final.check.adequate else "NOT adequate"
         lines.append(f"  final model {word}: open-loop residual {final.check.noise_ratio:.2f}x the noise it passes on")
     lines += _coefficient_lines(final.intervals, final.result, units)
+    if diagnosis.loop.friction is not None:
+        lines.append("  " + friction_sentence(diagnosis.loop.friction))
     signals = diagnosis.selection.signals
     if signals is not None:
         try:

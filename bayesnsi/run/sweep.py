@@ -69,16 +69,16 @@ def subset_candidates(
         For an empty dictionary, repeated terms, bad sizes, or more than
         :data:`MAX_CANDIDATES` candidates.
     """
-    terms = [t if isinstance(t, Term) else Term(*t) for t in terms]
-    if not terms:
+    dictionary: list[Term] = [t if isinstance(t, Term) else Term(*t) for t in terms]
+    if not dictionary:
         raise ConfigError("the term dictionary is empty; give at least one term to build candidates from")
-    names = [t.name for t in terms]
+    names = [t.name for t in dictionary]
     if len(set(names)) != len(names):
         raise ConfigError(f"the term dictionary repeats a term ({sorted({n for n in names if names.count(n) > 1})})")
-    _check_sizes(min_terms, max_terms, len(terms))
+    _check_sizes(min_terms, max_terms, len(dictionary))
     models = []
-    for size in range(min_terms, min(max_terms, len(terms)) + 1):
-        for subset in itertools.combinations(terms, size):
+    for size in range(min_terms, min(max_terms, len(dictionary)) + 1):
+        for subset in itertools.combinations(dictionary, size):
             name = " + ".join(t.name for t in subset) or "linear"
             models.append(CandidateModel(name=name, terms=subset, prior=prior))
     return tuple(models)

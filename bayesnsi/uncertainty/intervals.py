@@ -243,9 +243,9 @@ def candidate_intervals(result, signals, evidence_result, options=None, nsi_opti
             f"({failures[0] if failures else 'none tried'}); the intervals are the posterior's alone, conditional on "
             "the identified linear part, and too narrow: use a longer record or a larger segment_fraction"
         )
-        found = _fallback(note)
-        emit([found], IntervalWarning, stacklevel=2)
-        return _posterior_only(names, draws, centres, (found,))
+        fallback = _fallback(note)
+        emit([fallback], IntervalWarning, stacklevel=2)
+        return _posterior_only(names, draws, centres, (fallback,))
     coef_sd = scatter_sd(coefs, result.coefficient_values, samples, n)
     f_full = np.array([m.frequency_hz for m in result.modes])
     z_full = np.array([m.damping_ratio for m in result.modes])

@@ -185,11 +185,10 @@ _STYLES = ("-", "--", "-.", ":")
 
 
 def _phase_degrees(h: np.ndarray) -> np.ndarray:
-    """Unwrapped phase [deg], shifted by whole turns so that it starts in (-180, 180]."""
-    angle = np.degrees(np.unwrap(np.angle(h)))
-    if not len(angle) or not np.isfinite(angle[0]):
-        return angle
-    return angle - 360.0 * np.ceil((angle[0] - 180.0) / 360.0)
+    """Phase [deg] in (-180, 180]; NaN just before each wrap, so that no line jumps across the axis."""
+    angle = np.degrees(np.angle(h))
+    angle[np.flatnonzero(np.abs(np.diff(angle)) > 180.0)] = np.nan  # the line breaks where the phase wraps
+    return angle
 
 
 def plot_coefficient_spectrum(result, freqs_hz=None, axes=None, units=None):

@@ -227,9 +227,10 @@ def plot_effect_force(step, signals, max_points: int = 4000, units=None):
     With the step's :class:`~bayesnsi.loop.forces.ResidualForce` (accepted steps of
     :func:`bayesnsi.loop.close_the_loop`): top row, the residual of the model without the
     effect as a force at the location; bottom row, the residual after (blue), the effect's force
-    λ·n through the same filter (black) and their sum, the component-plus-residual (red),
-    against the displacement and the velocity at the location. Without it, λ·n(x, v) alone
-    (:func:`bayesnsi.curves.effect_curve`).
+    λ·n through the same filter (black), their sum, the component-plus-residual (red), and the
+    effect's own law λ·n(x, v) on the measured states (orange: the step of a Coulomb friction, the
+    stiffening of a cubic spring), against the displacement and the velocity at the location.
+    Without it, λ·n(x, v) alone (:func:`bayesnsi.curves.effect_curve`).
 
     Parameters
     ----------
@@ -255,6 +256,7 @@ def plot_effect_force(step, signals, max_points: int = 4000, units=None):
     j = rf.location[0]
     names = (f"x{j} - x{rf.location[1]}", f"v{j} - v{rf.location[1]}") if pair else (f"x{j}", f"v{j}")
     labels = (f"{names[0]} {units.label('displacement')}", f"{names[1]} {units.label('velocity')}")
+    law = _effect_law(step, signals, max_points)
     fig, axes = plt.subplots(2, 2, figsize=(8.0, 6.0), layout="constrained", sharey="row")
     for col, abscissa in enumerate((rf.displacement, rf.velocity)):
         top, bottom = axes[0, col], axes[1, col]
@@ -263,12 +265,25 @@ def plot_effect_force(step, signals, max_points: int = 4000, units=None):
                     label="effect + residual after")
         bottom.plot(abscissa[pick], rf.effect[pick], ".", ms=1.5, color="k", label="effect λ·n (filtered)")
         bottom.plot(abscissa[pick], rf.after[pick], ".", ms=2, color="C0", alpha=0.6, label="residual after")
+        if law is not None:
+            states = law.displacement if col == 0 else law.velocity
+            bottom.plot(states, law.force, ".", ms=1.5, color="C1", label="effect law λ·n(x, v)")
         bottom.set_xlabel(labels[col])
     axes[0, 0].set_ylabel(f"residual force before {units.label('force')}")
     axes[1, 0].set_ylabel(f"force after {units.label('force')}")
     axes[1, 0].legend(fontsize=7, markerscale=4, loc="best")
     fig.suptitle(f"{step.term.name}: λ = {step.coefficient:.4g}; residual as a force at the location", fontsize=10)
     return fig
+
+
+def _effect_law(step, signals, max_points: int):
+    """λ·n(x, v) on the measured states at the effect's location (None where the location is not measured)."""
+    from ..exceptions import InputDataError
+
+    try:
+        return effect_curve(step, signals, max_points)
+    except InputDataError:
+        return None
 
 
 def _plot_effect_curve(step, signals, max_points, units):

@@ -150,9 +150,9 @@ def simulate_response(
     is about (ωh)⁴/120 (:func:`rk4_modal_error`). A non-smooth term such as sign(ẇ) makes
     the method first-order accurate across its switches.
 
-    Cost (one core, numpy only): about 10 µs per step for the two-DOF case (one term),
-    18 µs for the 16-DOF beam (two terms), 33 µs for the one-DOF twin (four terms); a batch
-    of 20 realisations costs about 1.6 times one. ``Response.time_per_step_s`` reports it.
+    Cost (one core, numpy only): products in a fixed order (``_fixed_order.py``, a record the same on
+    every CPU) cost 2x BLAS's for the two-DOF case and the beam, 1.2x for the twin (10, 18, 33 µs per
+    step with BLAS); a batch of 20 costs 2.3 times one. ``Response.time_per_step_s`` reports it.
     """
     M, C, K = (np.atleast_2d(np.asarray(a, dtype=float)) for a in (M, C, K))
     n = M.shape[0]

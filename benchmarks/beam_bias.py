@@ -24,9 +24,11 @@ error| over the identified modes between 1 and 80 Hz; identify() wall time [s].
         --c-methods subspace prediction-error --refine-poles 1.5 85 --only-refined
 
 Measured (last command; issue 2 criterion, SPEC 8.2): with refine_poles=(1.5, 85),
-bd_method="prediction-error" and c_method="prediction-error", k2, k3 within 0.49 %, damping of
-every identified 1-80 Hz mode within 3.6 %, frequencies within 0.099 % (seeds 0-7); with the
-subspace C k2, k3 are off by +1.3..+3.7 %. The 10.55 Hz mode is missed on every seed.
+bd_method="prediction-error" and c_method="prediction-error", k2, k3 within 0.45 %, damping of
+every identified 1-80 Hz mode within 2.7-5.4 % (over 5 % on seeds 2 and 6: the 4.31 Hz mode),
+frequencies within 0.048-0.102 % (the 10.1 Hz mode; over 0.1 % on seed 0) (seeds 0-7, records of
+the fixed-order simulator, the same on every CPU: docs/method.md §8); with the subspace C k2, k3
+are off by +1.3..+3.7 %. The 10.55 Hz mode is missed on every seed.
 """
 
 import os

@@ -17,6 +17,7 @@ from bayesnsi.evidence import (
     Priors,
     closed_form_log_evidence,
     evidence_from_statistics,
+    posterior_summary,
     sufficient_statistics,
 )
 from bayesnsi.evidence._target import Target
@@ -149,7 +150,15 @@ def test_emcee_samples_the_collapsed_posterior_when_asked():
 
 def test_noise_below_the_prior_floor_draws_rho_like_the_joint_sampler():
     """σ̂ = 0.5 under a prior starting at 1.0: σ sits at the floor and ρ's posterior widens (sd ≈ 0.04 instead
-    of 0.02); the collapsed draws (inverse CDF on a grid, the t proposal misses) match the joint emcee run."""
+    of 0.02); the collapsed draws (inverse CDF on a grid, the t proposal misses) match the joint emcee run.
+
+    Both runs are Monte-Carlo estimates from 32 x 500 draws, so their posterior means and sds are compared
+    within 4 Monte-Carlo standard errors of the difference, sqrt(mcse_new² + mcse_old²) (arviz's mcse of the
+    mean and of the sd, which account for the chains' autocorrelation; the collapsed run's σ, ρ draws follow
+    its coefficient chain, so their mcse comes from the same chains). σ's sd at the floor is 5.7e-4 with an
+    mcse of 5e-5 in the joint run: a fixed 15 % bound on it was under 2 standard errors and failed on some
+    BLAS kernels. The collapsed 6.6e-4 is the truncated Gamma(n/2)'s exponential tail at the floor
+    (sd ≈ 6.7e-4 for σ̂ = 0.5, n = 2000); the joint run comes up to it slowly (6.15e-4 at 3000 steps)."""
     rng = np.random.default_rng(base_seed() + 306)
     affine = make_affine(2000, 1, 1, rng, sigma=0.5, rho=0.3, smooth=True)
     priors = Priors(coefficients=CoefficientPrior(affine.names, np.full(1, 3.0)),
@@ -159,9 +168,12 @@ def test_noise_below_the_prior_floor_draws_rho_like_the_joint_sampler():
     old = evidence_from_statistics(stats, priors, "ar1", rng=1, warn=False, closed_form=False, collapse=False,
                                    **QUICK)
     assert abs(new.log_evidence - old.log_evidence) <= max(0.02, 4 * np.hypot(new.log_evidence_se, old.log_evidence_se))
+    new_mc = posterior_summary(new.posterior.to_datatree())  # the collapsed summary leaves σ's, ρ's mcse out
     for row in ("rho[y0]", "sigma[y0]"):
-        assert new.summary.loc[row, "sd"] == pytest.approx(old.summary.loc[row, "sd"], rel=0.15)
-        assert abs(new.summary.loc[row, "mean"] - old.summary.loc[row, "mean"]) < 0.2 * old.summary.loc[row, "sd"]
+        for stat in ("sd", "mean"):
+            se = np.hypot(new_mc.loc[row, f"mcse_{stat}"], old.summary.loc[row, f"mcse_{stat}"])
+            assert abs(new.summary.loc[row, stat] - old.summary.loc[row, stat]) <= 4 * se, (row, stat, se)
+    assert new.summary.loc["rho[y0]", "sd"] > 0.03  # widened: sqrt((1 - ρ²) / n) = 0.021 with σ free
 
 
 def test_rho_quadrature_over_many_draws_is_blockwise_and_small():

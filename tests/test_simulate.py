@@ -402,13 +402,9 @@ def test_cases_are_reproducible_and_batched_runs_equal_single_runs():
         single = two_dof(seed)
         assert case.seed == seed
         np.testing.assert_array_equal(case.signals.force, single.signals.force)
-        # equal to rounding (the batched matrix products may round differently)
-        pairs = (
-            (case.clean.displacement, single.clean.displacement),
-            (case.signals.velocity, single.signals.velocity),
-        )
-        for got, want in pairs:
-            np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())
+        # equal to the bit: the products sum in a fixed order whatever the batch (simulate/_fixed_order.py)
+        np.testing.assert_array_equal(case.clean.displacement, single.clean.displacement)
+        np.testing.assert_array_equal(case.signals.velocity, single.signals.velocity)
 
 
 def test_registry_and_noise_override():

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..exceptions import InputDataError, ShapeError, UnstableModelError
 from ..models.terms import Term, nonlinear_force
+from ._fixed_order import inverse, product, product_into
 
 __all__ = ["Response", "simulate_response", "add_output_noise", "rk4_modal_error"]
 
@@ -154,9 +155,9 @@ def simulate_response(
     is about (ωh)⁴/120 (:func:`rk4_modal_error`). A non-smooth term such as sign(ẇ) makes
     the method first-order accurate across its switches.
 
-    Cost (one core, numpy only): about 10 µs per step for the two-DOF case (one term),
-    18 µs for the 16-DOF beam (two terms), 33 µs for the one-DOF twin (four terms); a batch
-    of 20 realisations costs about 1.6 times one. ``Response.time_per_step_s`` reports it.
+    Cost (one core, numpy only): products in a fixed order (``_fixed_order.py``, a record the same on
+    every CPU) cost 2x BLAS's for the two-DOF case and the beam, 1.2x for the twin (10, 18, 33 µs per
+    step with BLAS); a batch of 20 costs 2.3 times one. ``Response.time_per_step_s`` reports it.
     """
     M, C, K = (np.atleast_2d(np.asarray(a, dtype=float)) for a in (M, C, K))
     n = M.shape[0]
@@ -192,29 +193,29 @@ def simulate_response(
 
     # --- matrices of the first-order system ------------------------------------------
     try:
-        m_inv = np.linalg.inv(M)
+        m_inv = inverse(M)
     except np.linalg.LinAlgError:
         raise InputDataError("M is singular; every DOF needs mass (or inertia)") from None
     A = np.zeros((2 * n, 2 * n))
     A[:n, n:] = np.eye(n)
-    A[n:, :n] = -m_inv @ K
-    A[n:, n:] = -m_inv @ C
+    A[n:, :n] = -product(m_inv, K)
+    A[n:, n:] = -product(m_inv, C)
     F = np.zeros((n, m))
     F[np.array(dofs) - 1, np.arange(m)] = 1.0
-    B = np.vstack([np.zeros((n, m)), m_inv @ F])  # (2n, m)
+    B = np.vstack([np.zeros((n, m)), product(m_inv, F)])  # (2n, m)
     q = len(terms)
     L = np.stack([t.location_vector(n) for t in terms], axis=1) if q else np.zeros((n, 0))
-    G = np.vstack([np.zeros((n, q)), -m_inv @ L * coefs])  # (2n, q)
+    G = np.vstack([np.zeros((n, q)), -product(m_inv, L) * coefs])  # (2n, q)
 
     stage_z, stage_u, final_z, final_u = _rk4_maps(A, h)
     # rows: [final (2n); stage 1 (2n); stage 2; stage 3; stage 4]
     omega = np.vstack([final_z] + stage_z)  # (10n, 2n)
     maps_u = [final_u] + stage_u  # each: list of 4 (2n, 2n) blocks (inputs u1..u4)
-    r_0 = np.vstack([mu[0] @ B for mu in maps_u])  # force at t
-    r_h = np.vstack([(mu[1] + mu[2]) @ B for mu in maps_u])  # force at t + h/2
-    r_1 = np.vstack([mu[3] @ B for mu in maps_u])  # force at t + h
-    H = [None] + [np.hstack([stage_u[s][j] @ G for j in range(s)]) for s in (1, 2, 3)]
-    W = np.hstack([final_u[j] @ G for j in range(4)])  # (2n, 4q)
+    r_0 = np.vstack([product(mu[0], B) for mu in maps_u])  # force at t
+    r_h = np.vstack([product(mu[1] + mu[2], B) for mu in maps_u])  # force at t + h/2
+    r_1 = np.vstack([product(mu[3], B) for mu in maps_u])  # force at t + h
+    H = [None] + [np.hstack([product(stage_u[s][j], G) for j in range(s)]) for s in (1, 2, 3)]
+    W = np.hstack([product(final_u[j], G) for j in range(4)])  # (2n, 4q)
     functions = [_evaluator(t) for t in terms]
 
     # --- initial state --------------------------------------------------------------
@@ -280,6 +281,9 @@ def _march(states, force, maps, functions, n, steps_per_out, limit, dt_out) -> N
     tmp = np.empty((rows, n_batch))
     work = (np.empty((rows, n_batch)), np.empty((rows, n_batch)))  # states between outputs
     final_z = omega[:rows]
+    # scratch of the fixed-order products (_fixed_order.py: the same bits on every CPU)
+    scratch_final, scratch_omega, scratch_w, *scratch_h = (
+        np.empty((n_batch, *a.shape)) for a in (final_z, omega, W, *H[1:]))
     z = states[0]
     chunk = int(max(1, min(_CHUNK_OUTPUTS, _CHUNK_FLOATS // (steps_per_out * 5 * rows * n_batch))))
     out = 1
@@ -298,21 +302,21 @@ def _march(states, force, maps, functions, n, steps_per_out, limit, dt_out) -> N
             for sub in range(steps_per_out):
                 target = states[idx] if sub == steps_per_out - 1 else work[sub % 2]
                 if q == 0:
-                    np.matmul(final_z, z, out=target)
+                    product_into(final_z, z, target, scratch_final)
                     target += pre[k, :rows]
                 else:
-                    np.matmul(omega, z, out=ybuf)
+                    product_into(omega, z, ybuf, scratch_omega)
                     ybuf += pre[k]
                     x_s, v_s = xv[0]
                     for j, fn in enumerate(functions):
                         n_stack[j] = fn(x_s, v_s)
                     for s in (1, 2, 3):
-                        np.matmul(H[s], n_prev[s], out=tmp)
+                        product_into(H[s], n_prev[s], tmp, scratch_h[s - 1])
                         np.add(y_stage[s], tmp, out=z_stage[s])
                         x_s, v_s = xv[s]
                         for j, fn in enumerate(functions):
                             n_stack[s * q + j] = fn(x_s, v_s)
-                    np.matmul(W, n_stack, out=tmp)
+                    product_into(W, n_stack, tmp, scratch_w)
                     np.add(y_final, tmp, out=target)
                 z = target
                 k += 1
@@ -394,9 +398,9 @@ def _rk4_maps(A: np.ndarray, h: float):
         return [a[0] + cb * b[0], [ua + cb * ub for ua, ub in zip(a[1], b[1])]]
 
     def slope(state, s):  # k_s = A z_s + u_s
-        upart = [A @ u for u in state[1]]
+        upart = [product(A, u) for u in state[1]]
         upart[s] = upart[s] + eye
-        return [A @ state[0], upart]
+        return [product(A, state[0]), upart]
 
     z = lin(eye, [zero] * 4)
     stages, ks = [z], []

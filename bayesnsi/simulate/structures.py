@@ -8,9 +8,9 @@ matrices; masses in kg, stiffnesses in N/m, dampings in N s/m, frequencies in Hz
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg
 
 from ..exceptions import InputDataError, ShapeError, UnstableModelError
+from ._fixed_order import generalized_eigh, product
 
 __all__ = ["chain_system", "cantilever_beam", "modal_damping", "modal_parameters", "state_matrix", "underlying_frf"]
 
@@ -173,7 +173,8 @@ def modal_damping(M, K, damping_ratios):
     M, K = _square("M", M), _square("K", K)
     if M.shape != K.shape:
         raise ShapeError(f"M and K must have the same shape, got {M.shape} and {K.shape}")
-    omega_sq, phi = scipy.linalg.eigh(K, M)
+    # in a fixed order of operations: a chaotic case's record must not depend on the CPU (_fixed_order.py)
+    omega_sq, phi = generalized_eigh(K, M)
     if np.any(omega_sq < -1e-9 * np.abs(omega_sq).max()):
         raise UnstableModelError(
             "K has negative eigenvalues relative to M (a statically unstable structure); "
@@ -181,8 +182,8 @@ def modal_damping(M, K, damping_ratios):
         )
     omega = np.sqrt(np.clip(omega_sq, 0.0, None))
     zeta = np.broadcast_to(np.asarray(damping_ratios, dtype=float), omega.shape)
-    mp = M @ phi
-    C = mp @ np.diag(2.0 * zeta * omega) @ mp.T
+    mp = product(M, phi)
+    C = product(mp * (2.0 * zeta * omega), mp.T)
     return 0.5 * (C + C.T)
 
 

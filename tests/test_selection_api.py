@@ -13,7 +13,7 @@ import pytest
 
 from bayesnsi import EvidenceOptions, NSIOptions, select, simulate_case
 from bayesnsi.evidence import candidate_evidence, compare_evidence
-from bayesnsi.exceptions import ArgumentTypeError, ConfigError, NotIdentifiableError
+from bayesnsi.exceptions import ArgumentTypeError, NotIdentifiableError
 from bayesnsi.io import selection_payload
 from bayesnsi.nsi import identify
 

@@ -10,11 +10,11 @@ arviz functions take the tree as it is (e.g. ``arviz_stats.summary(tree)``,
 
 from __future__ import annotations
 
-import os
 import re
 from pathlib import Path
 
 from ..exceptions import InputDataError
+from .results import atomic_open
 
 __all__ = ["POSTERIOR_DIRNAME", "NETCDF_ENGINE", "posterior_filename", "read_posterior", "write_posteriors"]
 
@@ -65,6 +65,12 @@ def write_posteriors(folder, evidences, likelihood: str) -> dict[str, str]:
     -------
     dict of str to str
         Candidate name -> file path relative to ``folder`` (candidates without an evidence are left out).
+
+    Notes
+    -----
+    Each file is built in memory first, then written by :func:`bayesnsi.io.results.atomic_open`
+    (the folder is created there; inside a locked output folder a ``posterior`` that is a link or
+    a file is refused, and a file bayesnsi did not write is replaced only with ``--force``).
     """
     target = Path(folder) / POSTERIOR_DIRNAME
     written: dict[str, str] = {}
@@ -72,17 +78,17 @@ def write_posteriors(folder, evidences, likelihood: str) -> dict[str, str]:
         evidence = (by_likelihood or {}).get(likelihood)
         if evidence is None:
             continue
-        target.mkdir(exist_ok=True)
         filename = posterior_filename(name, {Path(p).name for p in written.values()})
         tree = evidence.posterior.to_datatree()
         tree.attrs.update(
             candidate=name, likelihood=likelihood, log_evidence=float(evidence.log_evidence),
             log_evidence_se=float(evidence.log_evidence_se), written_by=_written_by(),
         )
-        path = target / filename
-        partial = path.with_name(f".{filename}.partial")
-        tree.to_netcdf(partial, engine=NETCDF_ENGINE)
-        os.replace(partial, path)  # a complete file or none
+        if not target.is_symlink():
+            target.mkdir(exist_ok=True)
+        data = tree.to_netcdf(engine=NETCDF_ENGINE)  # in memory: HDF5 never writes to disk (a full disk cannot crash it)
+        with atomic_open(target / filename, "wb") as fh:  # a complete file or none, never through a link
+            fh.write(data)
         written[name] = f"{POSTERIOR_DIRNAME}/{filename}"
     return written
 

@@ -18,6 +18,7 @@ __all__ = [
     "OutputExistsError",
     "SchedulerError",
     "LoopError",
+    "CandidatesFailedError",
     "BayesNSIWarning",
     "SpuriousPoleWarning",
     "ConvergenceWarning",
@@ -76,6 +77,10 @@ class SchedulerError(BayesNSIError, RuntimeError):
 
 class LoopError(BayesNSIError, RuntimeError):
     """Closing the loop cannot score its starting model or any effect (the reason is in the message)."""
+
+
+class CandidatesFailedError(BayesNSIError, RuntimeError):
+    """Every candidate of a run failed (the message sums up each one's error)."""
 
 
 class BayesNSIWarning(UserWarning):

@@ -54,7 +54,7 @@ def run(args) -> int:
             progress(f"wrote {report.write(out / 'report.html')}", args.quiet)
     path = atomic_write_json(out / RESULTS_FILENAME, payload)  # last: a complete folder, or a rerun resumes
     progress(f"wrote {path}", args.quiet)
-    refuse_if_nothing_identified(selection.outcomes, path)
+    refuse_if_nothing_identified(selection.outcomes, path, evidence=True)
     progress(f"selected: {selection.selected}{_adequacy_text(selection)}", args.quiet)
     print_selection_warnings(selection)
     return 0

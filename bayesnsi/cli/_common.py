@@ -151,7 +151,9 @@ def progress(message: str, quiet: bool) -> None:
     if not quiet:
         from tqdm import tqdm
 
-        tqdm.write(message, file=sys.stderr)
+        from .._text import printable
+
+        tqdm.write(printable(message), file=sys.stderr)
 
 
 def progress_bar(total: int, description: str, quiet: bool):

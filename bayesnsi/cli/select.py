@@ -73,8 +73,10 @@ def print_selection_warnings(selection) -> None:
         print(f"warning: the selected model fails a physical check (warnings below); the most probable candidate "
               f"that passes every check: {selection.plausible or 'none'}"
               f"{inadequacy_note(selection.checks.get(selection.plausible))}", file=sys.stderr)
+    from .._text import printable
+
     for message in selection.warnings:
-        print(f"warning: {message}", file=sys.stderr)
+        print(f"warning: {printable(message)}", file=sys.stderr)
 
 
 def run_selection(config, signals, args, out):

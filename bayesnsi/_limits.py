@@ -1,4 +1,4 @@
-"""Memory limit of what bayesnsi reads from files it does not trust (cache entries, data files), and of what a run builds.
+"""Memory limits: of what bayesnsi reads from files it does not trust (cache entries, data files), of what a run builds.
 
 A reader states how many bytes it is about to allocate and calls :func:`check_allocation` before
 allocating them, so that a small file claiming a huge array (or a huge file) is refused with a

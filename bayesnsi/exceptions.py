@@ -28,6 +28,7 @@ __all__ = [
     "PeriodicityWarning",
     "IntegrationWarning",
     "OrderWarning",
+    "FreeBodyWarning",
 ]
 
 
@@ -118,3 +119,7 @@ class OrderWarning(BayesNSIWarning):
 
 class IntegrationWarning(BayesNSIWarning):
     """``[data] integrate`` removes motion the force drives below the band (e.g. a free body's rigid-body motion)."""
+
+
+class FreeBodyWarning(BayesNSIWarning):
+    """A fixed ``[nsi] virtual_stiffness`` (a spring for a free body) on a record whose structure looks grounded."""

@@ -108,7 +108,7 @@ def test_a_stale_lock_is_taken_over_and_released(tmp_path):
 
 
 def _taker(folder, barrier, gate, holders, most, trials):
-    for trial in range(trials):
+    for _ in range(trials):
         barrier.wait()
         try:
             with folder_lock(folder):

@@ -1,4 +1,4 @@
-"""Limits that bound what a run holds: workers per task and memory, sampler chains, orphaned workers, all-failed runs."""
+"""Limits that bound what a run holds: workers per task and memory, sampler chains, orphans, all-failed runs."""
 
 from __future__ import annotations
 

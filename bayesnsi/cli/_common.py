@@ -227,7 +227,7 @@ def _outcome_text(outcome, likelihood) -> str:
 
 
 def refuse_if_nothing_identified(outcomes, results_path, evidence: bool = False) -> None:
-    """Exit 2 (one line) when no candidate could be identified (or, with ``evidence``, scored); results.json holds every error.
+    """Exit 2 (one line) when no candidate was identified (or, with ``evidence``, scored); results.json has every error.
 
     Parameters
     ----------

@@ -165,7 +165,9 @@ def _take_over(path: Path, text: bytes) -> int | None:
     except FileNotFoundError:
         return None
     except OSError as exc:  # replaced by a link or a FIFO in the meantime, or not writable
-        raise OutputExistsError(f"{path} cannot be opened as a lock ({exc.strerror}); remove it or choose another --out")
+        raise OutputExistsError(
+            f"{path} cannot be opened as a lock ({exc.strerror}); remove it or choose another --out"
+        ) from None
     try:
         if not stat.S_ISREG(os.fstat(fd).st_mode):
             raise OutputExistsError(f"{path} is not a regular file; remove it or choose another --out")

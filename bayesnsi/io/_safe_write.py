@@ -35,8 +35,8 @@ from typing import IO
 
 from ..exceptions import OutputExistsError
 
-__all__ = ["FILE_MODE", "MANIFEST_FILENAME", "owned_by_bayesnsi", "read_bounded", "register_root", "safe_open",
-           "unregister_root"]
+__all__ = ["FILE_MODE", "MANIFEST_FILENAME", "create_temporary", "owned_by_bayesnsi", "read_bounded", "register_root",
+           "safe_open", "unregister_root"]
 
 FILE_MODE = 0o644
 """Mode of every file written (less the umask)."""
@@ -52,7 +52,7 @@ _UNTRACKED = (".cache", ".bayesnsi.lock", MANIFEST_FILENAME)
 
 _DIR_FLAGS = os.O_RDONLY | getattr(os, "O_DIRECTORY", 0) | getattr(os, "O_CLOEXEC", 0)
 _NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
-_DIR_FD = os.open in os.supports_dir_fd and os.replace in os.supports_dir_fd if hasattr(os, "supports_dir_fd") else False
+_DIR_FD = os.open in os.supports_dir_fd and os.replace in os.supports_dir_fd
 
 
 @dataclass
@@ -182,7 +182,8 @@ def create_temporary(name: str, dir_fd: int | None, folder: Path, readable: bool
     (str, int)
         The temporary file's name (relative to the folder) and a descriptor open for writing.
     """
-    flags = (os.O_RDWR if readable else os.O_WRONLY) | os.O_CREAT | os.O_EXCL | _NOFOLLOW | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_BINARY", 0)
+    access = os.O_RDWR if readable else os.O_WRONLY
+    flags = access | os.O_CREAT | os.O_EXCL | _NOFOLLOW | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_BINARY", 0)
     for _ in range(100):
         tmp = f".{name[:200]}.{secrets.token_hex(8)}.tmp"
         try:
@@ -195,7 +196,7 @@ def create_temporary(name: str, dir_fd: int | None, folder: Path, readable: bool
 
 
 def read_bounded(path: Path, limit: int, dir_fd: int | None = None) -> bytes | None:
-    """The bytes of a regular file (never through a link), or None when it is absent, larger than ``limit`` or not regular.
+    """The bytes of a regular file (never through a link); None when absent, larger than ``limit`` or not regular.
 
     Parameters
     ----------

@@ -86,7 +86,7 @@ def write_posteriors(folder, evidences, likelihood: str) -> dict[str, str]:
         )
         if not target.is_symlink():
             target.mkdir(exist_ok=True)
-        data = tree.to_netcdf(engine=NETCDF_ENGINE)  # in memory: HDF5 never writes to disk (a full disk cannot crash it)
+        data = tree.to_netcdf(engine=NETCDF_ENGINE)  # in memory: HDF5 never writes to disk (no crash on a full one)
         with atomic_open(target / filename, "wb") as fh:  # a complete file or none, never through a link
             fh.write(data)
         written[name] = f"{POSTERIOR_DIRNAME}/{filename}"

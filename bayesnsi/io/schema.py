@@ -94,7 +94,8 @@ def _identification(result) -> dict[str, Any]:
         "band_hz": list(result.band_hz),
         "singular_values": [float(s) for s in result.singular_values[: 2 * result.order + 10]],
         # frequency route: fitted lines, noise-weighted misfit on them (≈ 1: down to the noise), reflected poles
-        "periodic": {k: result.settings[k] for k in ("domain", "fit_band_hz", "n_lines", "n_periods", "period",
+        "periodic": {k: result.settings[k] for k in ("domain", "requested_block_rows", "fit_band_hz", "n_lines",
+                                                     "n_periods", "period",
                                                      "n_realisations", "line_misfit", "unexcited_ratio",
                                                      "reflected_poles_hz")
                  if k in result.settings}

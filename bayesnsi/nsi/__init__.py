@@ -1,5 +1,6 @@
 """Nonlinear subspace identification (docs/method.md §2-5); numpy/scipy only."""
 
+from ._grounded import grounded_modes
 from .feedback import extended_input
 from .free_body import PhysicalParameters, is_free_body, physical_parameters
 from .identify import hankel_correlations, identify
@@ -28,6 +29,7 @@ from .result import HankelCorrelations, NSIResult
 from .statespace import StateSpaceModel
 
 __all__ = [
+    "grounded_modes",
     "identify",
     "PhysicalParameters",
     "is_free_body",

@@ -124,6 +124,7 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
     settings = dict(
         domain="frequency",
         block_rows=block_rows,
+        requested_block_rows=int(options.block_rows),  # above M/(m+q+l) lines the route uses fewer: both recorded
         order=order,
         band_hz=list(band),
         fit_band_hz=list(fit_band),

@@ -169,3 +169,27 @@ def test_a_run_in_which_every_candidate_failed_exits_2_with_a_summary(tmp_path, 
     line = capsys.readouterr().err.strip().splitlines()[-1]
     assert "every candidate failed (1 of 1)" in line and "model 1: evidence" in line and "more memory" in line
     assert (tmp_path / "out" / "results.json").exists()
+
+
+# ---------------------------------------------------------------- identification settings
+
+
+def test_block_rows_and_upsample_are_estimated_against_the_limit(monkeypatch):
+    from bayesnsi import CandidateModel, identify
+    from bayesnsi.options import NSIOptions
+    from bayesnsi.simulate import simulate_case
+
+    signals = simulate_case("two-dof", seed=0, duration=10.0).signals  # 1000 samples; the cubic adds a 4th channel
+    cubic = CandidateModel.from_terms("cubic", [("x1**3", 1)])
+    monkeypatch.setenv("BAYESNSI_MAX_MEMORY", "10M")
+    start = time.monotonic()
+    with pytest.raises(InputDataError, match="Hankel Gram matrix of block_rows = 100"):
+        identify(signals, cubic, NSIOptions(block_rows=100, order=4))
+    with pytest.raises(InputDataError, match="explicit Hankel matrix of block_rows = 100"):
+        identify(signals, cubic, NSIOptions(block_rows=100, order=4, route="lq"))
+    monkeypatch.setenv("BAYESNSI_MAX_MEMORY", "4M")
+    with pytest.raises(InputDataError, match=r"\[nsi\] upsample = 64"):
+        identify(signals, cubic, NSIOptions(block_rows=20, order=4, upsample=64))
+    assert time.monotonic() - start < 10.0
+    monkeypatch.delenv("BAYESNSI_MAX_MEMORY")
+    assert identify(signals, cubic, NSIOptions(block_rows=40, order=4)).order == 4  # the defaults fit

@@ -145,7 +145,8 @@ def safe_open(path: str | os.PathLike, mode: str = "wb", encoding: str = "utf-8"
             _check_replaceable(root, target, dir_fd)
         tmp_name, fd = create_temporary(target.name, dir_fd, target.parent)
         try:
-            with os.fdopen(fd, mode, **({} if "b" in mode else {"encoding": encoding, "newline": ""})) as fh:
+            opened: IO = os.fdopen(fd, "wb") if "b" in mode else os.fdopen(fd, "w", encoding=encoding, newline="")
+            with opened as fh:
                 yield fh
                 fh.flush()
                 os.fsync(fh.fileno())
@@ -256,12 +257,12 @@ def _open_folder(folder: Path, root: _Root | None) -> int | None:
     fd = os.open(root.folder, _DIR_FLAGS | _NOFOLLOW)
     current = root.folder
     try:
-        for part in folder.relative_to(root.folder).parts:
-            current = current / part
+        for step in folder.relative_to(root.folder).parts:
+            current = current / step
             with contextlib.suppress(FileExistsError):
-                os.mkdir(part, 0o755, dir_fd=fd)
+                os.mkdir(step, 0o755, dir_fd=fd)
             try:
-                child = os.open(part, _DIR_FLAGS | _NOFOLLOW, dir_fd=fd)
+                child = os.open(step, _DIR_FLAGS | _NOFOLLOW, dir_fd=fd)
             except OSError as exc:
                 if exc.errno in (getattr(os, "ELOOP", -1), getattr(os, "ENOTDIR", -1)):
                     raise _not_a_folder(current, root) from None

@@ -121,7 +121,8 @@ def dispatch(
         return iter(())
     if backend == "loky":
         jobs = worker_count(jobs, len(tasks), task_bytes)
-    if backend == "serial" or jobs == 1:
+        backend = "loky" if jobs > 1 else "serial"
+    if backend == "serial":
         return _serial(function, tasks, context)
     if backend == "loky":
         return _loky(function, tasks, context, jobs)

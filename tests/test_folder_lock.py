@@ -152,3 +152,22 @@ def test_concurrent_takers_of_a_stale_lock_never_both_hold_it(tmp_path):
             if worker.is_alive():
                 worker.kill()
     assert most.value == 1
+
+
+def test_a_file_system_without_hard_links_still_gets_an_exclusive_lock(tmp_path, monkeypatch):
+    import errno
+
+    def no_links(*args, **kwargs):
+        raise OSError(errno.EPERM, "Operation not permitted")
+
+    monkeypatch.setattr(os, "link", no_links)
+    out = tmp_path / "out"
+    out.mkdir()
+    with folder_lock(out) as path:
+        assert json.loads(path.read_text())["pid"] == os.getpid()
+        assert [p.name for p in out.iterdir()] == [LOCK_FILENAME]  # no temporary file left
+        other = subprocess.run([sys.executable, "-c", f"from bayesnsi.io._lock import folder_lock\n"
+                                f"with folder_lock({str(out)!r}): pass"], capture_output=True, text=True,
+                               env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+        assert other.returncode != 0 and "is in use by another bayesnsi run" in other.stderr  # a second holder
+    assert not os.path.lexists(out / LOCK_FILENAME)

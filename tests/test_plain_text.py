@@ -66,11 +66,11 @@ def test_a_planted_cache_entry_cannot_print_escape_sequences(tmp_path):
 
     config = _experiment(tmp_path)
     out = tmp_path / "out"
-    assert main(["identify", str(config), "--out", str(out), "--quiet"]) == 0
+    assert main(["identify", str(config), "--out", str(out), "--quiet", "--no-figures"]) == 0
     [entry] = list((out / ".cache").glob("*.npz"))
     with open(entry, "wb") as fh:
         write_container(fh, {"format": "\x1b[2J\x1b]0;owned\x07", "key": "k", "outcome": {}}, {})
-    done = _run("identify", config, "--out", out, "--quiet", "--force")
+    done = _run("identify", config, "--out", out, "--quiet", "--force", "--no-figures")
     assert done.returncode == 0, done.stderr[-2000:]
     assert "ignoring cache entry" in done.stderr
     _no_raw_controls(done.stderr)

@@ -125,9 +125,7 @@ def _create(path: Path, text: bytes) -> int | None:
         except FileExistsError:
             os.close(fd)
             return None
-        except OSError:
-            if fcntl is not None:  # no hard links (e.g. some network file systems): an exclusive create
-                raise
+        except OSError:  # no hard links here (e.g. some network or FAT file systems): an exclusive create
             os.close(fd)
             return _create_exclusive(path, text)
         return fd
@@ -141,11 +139,20 @@ def _create(path: Path, text: bytes) -> int | None:
 
 
 def _create_exclusive(path: Path, text: bytes) -> int | None:
+    """Create the lock in place (a taker that sees it empty waits out the grace of an unreadable lock)."""
     try:
-        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o644)
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o644)
     except FileExistsError:
         return None
-    os.write(fd, text)
+    try:
+        if fcntl is not None:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        os.write(fd, text)
+    except BaseException:
+        os.close(fd)
+        with contextlib.suppress(OSError):
+            path.unlink()
+        raise
     return fd
 
 

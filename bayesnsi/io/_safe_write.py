@@ -35,8 +35,8 @@ from typing import IO
 
 from ..exceptions import OutputExistsError
 
-__all__ = ["FILE_MODE", "MANIFEST_FILENAME", "create_temporary", "owned_by_bayesnsi", "read_bounded", "register_root",
-           "safe_open", "unregister_root"]
+__all__ = ["FILE_MODE", "MANIFEST_FILENAME", "create_temporary", "owned_by_bayesnsi", "read_bounded", "read_manifest",
+           "register_root", "safe_open", "unregister_root"]
 
 FILE_MODE = 0o644
 """Mode of every file written (less the umask)."""
@@ -76,7 +76,7 @@ def register_root(folder: Path, force: bool) -> None:
     force : bool
         Whether files not written by bayesnsi may be replaced.
     """
-    _ROOTS[folder] = _Root(folder, force, _read_manifest(folder))
+    _ROOTS[folder] = _Root(folder, force, read_manifest(folder))
 
 
 def unregister_root(folder: Path) -> None:
@@ -89,7 +89,7 @@ def unregister_root(folder: Path) -> None:
     _ROOTS.pop(folder, None)
 
 
-def owned_by_bayesnsi(folder: Path, relative: str) -> bool:
+def owned_by_bayesnsi(folder: Path, relative: str, manifest: dict[str, str] | None = None) -> bool:
     """True when ``folder/relative`` is a regular file that the folder's manifest records with its content.
 
     Parameters
@@ -98,12 +98,14 @@ def owned_by_bayesnsi(folder: Path, relative: str) -> bool:
         An output folder.
     relative : str
         Path inside it, with ``/``.
+    manifest : dict, optional
+        The folder's manifest when already read (:func:`read_manifest`).
 
     Returns
     -------
     bool
     """
-    recorded = _read_manifest(folder).get(relative)
+    recorded = (read_manifest(folder) if manifest is None else manifest).get(relative)
     return recorded is not None and _digest(folder / relative) == recorded
 
 
@@ -309,7 +311,17 @@ def _record(root: _Root, target: Path, digest: str) -> None:
         json.dump(document, fh, indent=1)
 
 
-def _read_manifest(folder: Path) -> dict[str, str]:
+def read_manifest(folder: Path) -> dict[str, str]:
+    """The files the manifest of ``folder`` records (relative path -> SHA-256); empty when absent or not valid.
+
+    Parameters
+    ----------
+    folder : Path
+
+    Returns
+    -------
+    dict of str to str
+    """
     data = read_bounded(folder / MANIFEST_FILENAME, MAX_MANIFEST_BYTES)
     if data is None:
         return {}

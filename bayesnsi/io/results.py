@@ -30,7 +30,7 @@ from typing import IO, Any
 import numpy as np
 
 from ..exceptions import ConfigError, OutputExistsError
-from ._safe_write import owned_by_bayesnsi, register_root, safe_open, unregister_root
+from ._safe_write import owned_by_bayesnsi, read_manifest, register_root, safe_open, unregister_root
 
 __all__ = [
     "RESULTS_FILENAME",
@@ -330,12 +330,13 @@ def _check_outputs(folder: Path, force: bool) -> None:
                 f"output directory {folder} already holds {name}; pass --force to overwrite it, "
                 "or choose another directory with --out"
             )
+    manifest = read_manifest(folder)
     for name in _OUTPUT_SUBFOLDERS:
         if not (folder / name).is_dir():
             continue
         for entry in sorted((folder / name).iterdir()):
             relative = f"{name}/{entry.name}"
-            if not owned_by_bayesnsi(folder, relative):
+            if not owned_by_bayesnsi(folder, relative, manifest):
                 raise OutputExistsError(
                     f"output directory {folder} holds {relative}, not written by bayesnsi; pass --force to "
                     "overwrite it, or choose another directory with --out"

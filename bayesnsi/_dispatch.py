@@ -10,7 +10,10 @@ Backends
     ``jobs == 1`` and no scheduler: tasks run one after the other in this process.
 ``loky``
     ``jobs > 1``: joblib's loky process pool on this machine (workers are reused between
-    calls; large arrays are memory-mapped, not copied).
+    calls; large arrays are memory-mapped, not copied). At most one worker per task and as
+    many as the memory limit allows (:func:`worker_count`); every worker watches its parent
+    and exits within :data:`PARENT_CHECK_S` when the parent is gone, ``kill -9`` included
+    (:func:`_watch_parent`), so no worker outlives the command.
 ``dask``
     ``scheduler`` given: a :class:`dask.distributed.Client` connected to that address
     (``tcp://host:8786``), or an existing Client. The shared context (e.g. the datasets) is
@@ -21,14 +24,25 @@ Backends
 from __future__ import annotations
 
 import contextlib
+import os
+import threading
+import time
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from ._fingerprint import code_fingerprint
+from ._limits import DEFAULT_RUN_MEMORY, max_memory_bytes
 from .exceptions import ConfigError, SchedulerError
 from .options import MAX_JOBS
 
-__all__ = ["backend_name", "chunks", "connect", "dispatch", "shutdown_workers"]
+__all__ = ["PARENT_CHECK_S", "WORKER_BYTES", "backend_name", "chunks", "connect", "dispatch", "shutdown_workers",
+           "worker_count"]
+
+WORKER_BYTES = 256 * 2**20
+"""Memory counted for one local worker process besides its task (the numerical stack imported: about 120 MiB)."""
+
+PARENT_CHECK_S = 0.5
+"""Seconds between a worker's checks that its parent process is alive."""
 
 CONNECT_TIMEOUT_S = 10.0
 """Seconds to wait for a Dask scheduler before giving up."""
@@ -70,6 +84,7 @@ def dispatch(
     context: Any = None,
     jobs: int = 1,
     scheduler=None,
+    task_bytes: int = 0,
 ) -> Iterator[tuple[int, Any]]:
     """Run ``function(context, *task)`` for every task; yield ``(index, value)`` as each finishes.
 
@@ -86,6 +101,9 @@ def dispatch(
     scheduler : str or dask.distributed.Client, optional
         Address of a Dask scheduler (e.g. ``"tcp://127.0.0.1:8786"``) or a connected Client;
         overrides ``jobs``.
+    task_bytes : int
+        Estimated memory of one task [bytes]; with :data:`WORKER_BYTES` it caps the local
+        workers (:func:`worker_count`).
 
     Yields
     ------
@@ -101,11 +119,42 @@ def dispatch(
     backend = backend_name(jobs, scheduler)
     if not tasks:
         return iter(())
+    if backend == "loky":
+        jobs = worker_count(jobs, len(tasks), task_bytes)
+        backend = "loky" if jobs > 1 else "serial"
     if backend == "serial":
         return _serial(function, tasks, context)
     if backend == "loky":
         return _loky(function, tasks, context, jobs)
     return _dask(function, tasks, context, scheduler)
+
+
+def worker_count(jobs: int, n_tasks: int, task_bytes: int = 0) -> int:
+    """Local worker processes to start: ``jobs``, at most one per task and as many as memory allows.
+
+    Parameters
+    ----------
+    jobs : int
+        Requested workers (``--jobs``).
+    n_tasks : int
+        Tasks to run (a worker without a task would only cost memory).
+    task_bytes : int
+        Estimated memory of one task [bytes].
+
+    Returns
+    -------
+    int
+        ``min(jobs, n_tasks, limit // (WORKER_BYTES + task_bytes))``, at least 1; the limit is
+        :func:`bayesnsi._limits.max_memory_bytes` with the default :data:`bayesnsi._limits.DEFAULT_RUN_MEMORY`.
+
+    Examples
+    --------
+    >>> worker_count(256, 3)
+    3
+    """
+    limit = max_memory_bytes(DEFAULT_RUN_MEMORY)
+    by_memory = limit // (WORKER_BYTES + max(int(task_bytes), 0))
+    return max(1, min(int(jobs), int(n_tasks), by_memory))
 
 
 def connect(scheduler):
@@ -237,10 +286,38 @@ def _run_chunk(function, context, indexed_tasks):
 def _loky(function, tasks, context, jobs):
     from joblib import Parallel, delayed
 
-    parallel = Parallel(n_jobs=jobs, backend="loky", return_as="generator_unordered")
+    parallel = Parallel(
+        n_jobs=jobs, backend="loky", return_as="generator_unordered", initializer=_watch_parent, initargs=(os.getpid(),)
+    )
     groups = [[(i, tasks[i]) for i in chunk] for chunk in chunks(len(tasks), jobs)]
     for results in parallel(delayed(_run_chunk)(function, context, group) for group in groups):
         yield from results
+
+
+def _watch_parent(parent_pid: int) -> None:
+    """In a worker: exit at once when ``parent_pid`` is no longer this process's parent (it died).
+
+    A daemon thread compares :func:`os.getppid` with the pid of the process that started the
+    pool every :data:`PARENT_CHECK_S`; an orphaned worker is re-parented (to init or a
+    sub-reaper), so the comparison fails within that time after the parent's death, whatever
+    killed it. The worker then kills itself (``SIGKILL``: no clean-up that could hang).
+    """
+    if os.getppid() != parent_pid:
+        _die()
+
+    def watch():
+        while True:
+            time.sleep(PARENT_CHECK_S)
+            if os.getppid() != parent_pid:
+                _die()
+
+    threading.Thread(target=watch, name="bayesnsi-parent-watch", daemon=True).start()
+
+
+def _die() -> None:
+    import signal
+
+    os.kill(os.getpid(), getattr(signal, "SIGKILL", signal.SIGTERM))
 
 
 def _dask(function, tasks, context, scheduler):

@@ -1,4 +1,4 @@
-"""Memory limit of what bayesnsi reads from files it does not trust (cache entries, data files).
+"""Memory limits: of what bayesnsi reads from files it does not trust (cache entries, data files), of what a run builds.
 
 A reader states how many bytes it is about to allocate and calls :func:`check_allocation` before
 allocating them, so that a small file claiming a huge array (or a huge file) is refused with a
@@ -13,10 +13,15 @@ import os
 
 from .exceptions import InputDataError
 
-__all__ = ["DEFAULT_MAX_MEMORY", "MEMORY_ENV", "check_allocation", "max_memory_bytes"]
+__all__ = ["DEFAULT_MAX_MEMORY", "DEFAULT_RUN_MEMORY", "MEMORY_ENV", "check_allocation", "max_memory_bytes"]
 
 DEFAULT_MAX_MEMORY = 512 * 2**20
 """Default largest allocation [bytes] a reader of an untrusted file may make (512 MiB)."""
+
+DEFAULT_RUN_MEMORY = 8 * 2**30
+"""Default limit [bytes] of what a run builds (8 GiB): the sampler's chains and the local workers
+together (:func:`bayesnsi._dispatch.worker_count`, :func:`bayesnsi.evidence.sampling.chain_bytes`), as
+for a simulation (:data:`bayesnsi.simulate.MAX_SIMULATION_BYTES`)."""
 
 MEMORY_ENV = "BAYESNSI_MAX_MEMORY"
 """Environment variable that overrides :data:`DEFAULT_MAX_MEMORY`."""

@@ -13,11 +13,60 @@ import numpy as np
 from .exceptions import InputDataError
 
 
+def real_array(values, name: str) -> np.ndarray:
+    """A new float64 array of ``values``, refusing what a float conversion would silently change.
+
+    Refused with :class:`~bayesnsi.exceptions.InputDataError` naming ``name``: complex values
+    (their imaginary part would be dropped), booleans, text and other objects, a masked array
+    with masked samples (the mask would be ignored), and an array with no samples.
+
+    Parameters
+    ----------
+    values : array_like
+        Real numbers (integers or floats, any shape).
+    name : str
+        The argument's name, for messages.
+
+    Returns
+    -------
+    ndarray of float64
+        A copy (the input is never modified).
+    """
+    if np.ma.isMaskedArray(values):
+        masked = int(np.ma.getmaskarray(values).sum())
+        if masked:
+            raise InputDataError(
+                f"{name} is a masked array with {masked} masked value(s); bayesnsi does not skip masked samples - "
+                "fill or cut them out first (e.g. values.filled(...) on a clean segment)"
+            )
+        values = np.ma.getdata(values)
+    try:
+        found = np.asarray(values)
+    except (TypeError, ValueError) as err:
+        raise InputDataError(f"{name} is not an array of numbers ({err})") from None
+    kind = found.dtype.kind
+    if kind == "c":
+        raise InputDataError(f"{name} holds complex numbers; give real values (e.g. the real part, if that is meant)")
+    if kind == "b":
+        raise InputDataError(f"{name} holds booleans, not numbers")
+    if kind not in "fiu":
+        try:
+            converted = np.array(found, dtype=float, copy=True)
+        except (TypeError, ValueError):
+            raise InputDataError(f"{name} must hold real numbers, got an array of {found.dtype}") from None
+        if kind == "O" and any(isinstance(v, (bool, complex, np.bool_, np.complexfloating)) for v in found.flat):
+            raise InputDataError(f"{name} must hold real numbers (it holds booleans or complex numbers)")
+        found = converted
+    if found.size == 0 or (found.ndim >= 1 and found.shape[0] == 0):
+        raise InputDataError(f"{name} holds no samples (shape {found.shape})")
+    return np.array(found, dtype=float, copy=True)
+
+
 class Columns:
     """An input array as float (n, c) plus how to give results back the same shape."""
 
     def __init__(self, values, name: str):
-        arr = np.array(values, dtype=float, copy=True)
+        arr = real_array(values, name)
         if arr.ndim not in (1, 2):
             raise InputDataError(f"{name} must have shape (n_samples,) or (n_samples, n_channels), got {arr.shape}")
         self.squeeze = arr.ndim == 1

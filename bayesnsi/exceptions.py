@@ -19,6 +19,7 @@ __all__ = [
     "OutputExistsError",
     "SchedulerError",
     "LoopError",
+    "CandidatesFailedError",
     "BayesNSIWarning",
     "SpuriousPoleWarning",
     "ConvergenceWarning",
@@ -28,6 +29,7 @@ __all__ = [
     "PeriodicityWarning",
     "IntegrationWarning",
     "OrderWarning",
+    "FreeBodyWarning",
 ]
 
 
@@ -104,6 +106,10 @@ class LoopError(BayesNSIError, RuntimeError):
     """Closing the loop cannot score its starting model or any effect (the reason is in the message)."""
 
 
+class CandidatesFailedError(BayesNSIError, RuntimeError):
+    """Every candidate of a run failed (the message sums up each one's error)."""
+
+
 class BayesNSIWarning(UserWarning):
     """Base class of bayesnsi warnings: a result was computed but deserves a second look."""
 
@@ -139,3 +145,7 @@ class OrderWarning(BayesNSIWarning):
 
 class IntegrationWarning(BayesNSIWarning):
     """``[data] integrate`` removes motion the force drives below the band (e.g. a free body's rigid-body motion)."""
+
+
+class FreeBodyWarning(BayesNSIWarning):
+    """A fixed ``[nsi] virtual_stiffness`` (a spring for a free body) on a record whose structure looks grounded."""

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ._sampled import real_array
 from .exceptions import InputDataError, ShapeError
 
 if TYPE_CHECKING:
@@ -77,7 +78,7 @@ def differentiate(signal, fs: float, method: str = "fourth") -> np.ndarray:
 
 
 def _as_matrix(name: str, values, n_samples: int | None) -> np.ndarray:
-    arr = np.array(values, dtype=float, copy=True)
+    arr = real_array(values, name)
     if arr.ndim == 1:
         arr = arr[:, None]
     if arr.ndim != 2:
@@ -188,7 +189,12 @@ def join_realisations(records, drop: int = 0) -> Signals:
 
 
 def _as_dofs(name: str, dofs, n_channels: int) -> tuple[int, ...]:
-    dofs = tuple(int(d) for d in np.atleast_1d(dofs))
+    given = np.atleast_1d(np.asarray(dofs, dtype=object)).ravel()
+    for d in given:
+        integral = isinstance(d, (int, np.integer)) or (isinstance(d, (float, np.floating)) and float(d).is_integer())
+        if isinstance(d, (bool, np.bool_)) or not integral:
+            raise InputDataError(f"{name}: DOFs are whole numbers from 1, got {d!r} in {tuple(given)!r}")
+    dofs = tuple(int(d) for d in given)
     if len(dofs) != n_channels:
         raise ShapeError(f"{name}: {len(dofs)} DOFs given for {n_channels} channels")
     if any(d < 1 for d in dofs):

@@ -18,6 +18,7 @@ import signal
 import sys
 import traceback
 
+from .._text import printable
 from .._version import __version__
 from ..exceptions import BayesNSIError
 from ._warnings import plain_warnings
@@ -108,7 +109,7 @@ def _report_error(args, err: Exception) -> int:
             "(rerun with --debug for the traceback and please report it)",
             1,
         )
-    print(f"bayesnsi {args.command}: {' '.join(text.split())}", file=sys.stderr)
+    print(f"bayesnsi {args.command}: {printable(' '.join(text.split()), keep_newlines=False)}", file=sys.stderr)
     return code
 
 

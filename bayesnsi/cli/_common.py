@@ -196,7 +196,9 @@ def progress(message: str, quiet: bool) -> None:
     if not quiet:
         from tqdm import tqdm
 
-        tqdm.write(message, file=sys.stderr)
+        from .._text import printable
+
+        tqdm.write(printable(message), file=sys.stderr)
 
 
 def progress_bar(total: int, description: str, quiet: bool):
@@ -255,25 +257,33 @@ def _backend_text(options) -> str:
     return f"{options.jobs} local worker processes" if options.jobs > 1 else "serially"
 
 
-def refuse_if_nothing_identified(outcomes, results_path) -> None:
-    """Exit 2 (one line) when no candidate could be identified; results.json holds every error.
+def refuse_if_nothing_identified(outcomes, results_path, evidence: bool = False) -> None:
+    """Exit 2 (one line) when no candidate was identified (or, with ``evidence``, scored); results.json has every error.
 
     Parameters
     ----------
     outcomes : sequence of CandidateOutcome
     results_path : Path
         Where the errors were written.
+    evidence : bool
+        A candidate whose evidence failed counts as failed (``select``).
 
     Raises
     ------
     NotIdentifiableError
         When every candidate failed its identification.
+    CandidatesFailedError
+        With ``evidence``, when every candidate failed its identification or its evidence.
     """
-    from ..exceptions import NotIdentifiableError
+    from ..exceptions import CandidatesFailedError, NotIdentifiableError
+    from ..run.batch import failure_summary
 
     if outcomes and all(o.result is None for o in outcomes):
         raise NotIdentifiableError(
             f"no candidate could be identified (first error: {outcomes[0].error}); "
             f"every candidate's error is in {results_path}"
         )
+    summary = failure_summary(outcomes, evidence=evidence)
+    if summary is not None:
+        raise CandidatesFailedError(f"{summary}; every error is in {results_path}")
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import warnings
 
+from .._text import printable
 from ..exceptions import BayesNSIWarning
 
 __all__ = ["plain_warnings"]
@@ -26,8 +27,8 @@ def plain_warnings():
 
     def plain(message, category, filename, lineno, line=None):
         if issubclass(category, BayesNSIWarning):
-            return f"warning: {' '.join(str(message).split())}\n"
-        return previous(message, category, filename, lineno, line)
+            return f"warning: {printable(' '.join(str(message).split()), keep_newlines=False)}\n"
+        return printable(previous(message, category, filename, lineno, line))  # e.g. a glyph named in a unit
 
     # the format, not warnings.showwarning: warnings.catch_warnings(record=True) (pytest.warns, callers
     # that collect the warnings) only keeps recording while showwarning is Python's own

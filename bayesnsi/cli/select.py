@@ -37,7 +37,7 @@ def run(args) -> int:
                          lambda: _report().selection_report(
                              selection, config, f"bayesnsi select - {config.path.name}",
                              data_findings=data_findings))
-    refuse_if_nothing_identified(selection.outcomes, path)
+    refuse_if_nothing_identified(selection.outcomes, path, evidence=True)
     for line in selection_lines(selection):
         progress(line, args.quiet)
     print_findings(selection)
@@ -72,8 +72,10 @@ def print_findings(selection) -> None:
         print(f"warning: the selected model fails a physical check (warnings below); the most probable candidate "
               f"that passes every check: {selection.plausible or 'none'}"
               f"{inadequacy_note(selection.checks.get(selection.plausible))}", file=sys.stderr)
+    from .._text import printable
+
     for finding in selection.findings:
-        print(f"{finding.severity}: {' '.join(finding.message.split())}", file=sys.stderr)
+        print(f"{finding.severity}: {printable(' '.join(finding.message.split()))}", file=sys.stderr)
 
 
 def run_selection(config, signals, args, out):

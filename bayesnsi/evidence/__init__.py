@@ -31,7 +31,7 @@ from .marginal import EvidenceResult, evidence_from_statistics, marginal_evidenc
 from .prior_defaults import coefficient_prior, default_coefficient_scales, default_priors
 from .priors import ARPrior, CoefficientPrior, NoisePrior, Priors
 from .ranking import ModelProbabilities, compare_evidence, plain_ranking, posterior_probabilities, ranking_table
-from .sampling import PosteriorSamples, sample_posterior
+from .sampling import PosteriorSamples, chain_bytes, check_chain_memory, sample_posterior
 
 __all__ = [
     # candidates
@@ -62,6 +62,8 @@ __all__ = [
     "marginal_evidence",
     "evidence_from_statistics",
     "bridge_sampling",
+    "chain_bytes",
+    "check_chain_memory",
     "laplace_log_evidence",
     "closed_form_log_evidence",
     # ranking

@@ -43,6 +43,7 @@ def sample_collapsed(target: Target, rng, n_walkers: int, n_steps: int, n_burn: 
         _inside_support,
         _laplace_covariance,
         _moves,
+        check_chain_memory,
     )
 
     collapsed = CollapsedTarget(target)
@@ -50,6 +51,7 @@ def sample_collapsed(target: Target, rng, n_walkers: int, n_steps: int, n_burn: 
     q = target.q
     minimum = max(2 * q, 4)
     n_walkers, n_steps, n_burn = _chain_settings(n_walkers, n_steps, n_burn, minimum, f"2 x {q} coefficients (and 4)")
+    check_chain_memory(n_walkers, n_steps, max(q, 1))
     theta0 = target.initial_theta(start)
     mode, _, hess, _ = found if found is not None else target.find_mode(theta0)
     mode = _inside_support(target, mode, theta0)

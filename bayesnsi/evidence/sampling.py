@@ -17,12 +17,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._interrupt import interrupt_after
+from .._limits import DEFAULT_RUN_MEMORY, check_allocation
 from ..exceptions import InputDataError
 from ._target import Target
 from .likelihood import SufficientStatistics
 from .priors import Priors
 
-__all__ = ["PosteriorSamples", "sample_posterior"]
+__all__ = ["PosteriorSamples", "chain_bytes", "check_chain_memory", "sample_posterior"]
 
 
 @dataclass(frozen=True)
@@ -236,6 +237,57 @@ def _chain_settings(n_walkers, n_steps, n_burn, minimum: int, what: str) -> tupl
         raise InputDataError(f"need 0 <= n_burn < n_steps, got n_burn = {n_burn}, n_steps = {n_steps}")
     return n_walkers, n_steps, n_burn
 
+def chain_bytes(n_walkers: int, n_steps: int, ndim: int) -> int:
+    """Peak memory [bytes] of one emcee run: its stored chain and log posterior, and their copies.
+
+    emcee allocates the whole chain, ``n_steps x n_walkers x ndim``, and the log posterior,
+    ``n_steps x n_walkers``, before the first step; the kept draws are copied once more into
+    :class:`PosteriorSamples`, and the autocorrelation time works on a few rows of the same size.
+
+    Parameters
+    ----------
+    n_walkers, n_steps, ndim : int
+        Walkers, steps per walker, parameters.
+
+    Returns
+    -------
+    int
+        ``8 x n_steps x n_walkers x (2 (ndim + 1) + 4)``.
+
+    Examples
+    --------
+    >>> chain_bytes(32, 1500, 4)
+    5376000
+    """
+    return 8 * int(n_steps) * int(n_walkers) * (2 * (int(ndim) + 1) + 4)
+
+
+def check_chain_memory(n_walkers: int, n_steps: int, ndim: int, what: str = "the sampler", runs: int = 1) -> None:
+    """Refuse, before anything is allocated, a sampler whose chains would pass the memory limit.
+
+    Parameters
+    ----------
+    n_walkers, n_steps, ndim : int
+        Walkers, steps per walker, parameters (a lower bound is enough to refuse).
+    what : str
+        What runs, for the message.
+    runs : int
+        Samplers held at once (e.g. one per worker process).
+
+    Raises
+    ------
+    InputDataError
+        When ``runs x chain_bytes(...)`` exceeds :func:`bayesnsi._limits.max_memory_bytes` (default
+        :data:`bayesnsi._limits.DEFAULT_RUN_MEMORY`); the message names n_walkers and n_steps.
+    """
+    check_allocation(
+        int(runs) * chain_bytes(n_walkers, n_steps, ndim),
+        f"{what} ([evidence] n_walkers = {int(n_walkers)} x n_steps = {int(n_steps)} x at least {int(ndim)} "
+        "parameters; lower n_walkers or n_steps)",
+        default=DEFAULT_RUN_MEMORY,
+    )
+
+
 def _sample(
     target: Target, rng, n_walkers: int, n_steps: int, n_burn: int, start, moves: str = "mixed"
 ) -> PosteriorSamples:
@@ -245,6 +297,7 @@ def _sample(
     rng = np.random.default_rng(rng)
     ndim = target.ndim
     n_walkers, n_steps, n_burn = _chain_settings(n_walkers, n_steps, n_burn, 2 * ndim, f"2 x {ndim} parameters")
+    check_chain_memory(n_walkers, n_steps, ndim)
 
     theta0 = target.initial_theta(start)
     mode, _, hess, _ = target.find_mode(theta0)

@@ -231,6 +231,10 @@ def _check_nsi(result: NSIResult) -> str | None:
         return f"{len(result.coefficients)} coefficients and {m} inputs for {result.candidate.n_terms} terms"
     if n_out != len(result.output_dofs) or len(result.band_hz) != 2:
         return f"{n_out} outputs for output DOFs {result.output_dofs}, band {result.band_hz}"
+    if result.order != n or result.block_rows < 1:
+        return f"order {result.order} for a {n}x{n} A (block rows {result.block_rows})"
+    if not all(np.all(np.isfinite(M)) for M in (A, B, C, D)) or not np.isfinite(result.model.dt):
+        return "a state-space matrix holding NaN or Inf"
     return None
 
 

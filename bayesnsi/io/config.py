@@ -60,6 +60,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from .._text import check_path_text
 from ..exceptions import ConfigError
 from ..options import EvidenceOptions, LoopOptions, NSIOptions
 from . import _toml
@@ -116,6 +117,7 @@ def load_config(path: str | os.PathLike, check_files: bool = True) -> Experiment
         validation segments, missing files; also a file over 8 MiB, tables nested deeper than 32
         levels or more than :data:`MAX_CONFIG_CANDIDATES` candidates.
     """
+    check_path_text(path, "config file")
     try:
         path = Path(path).expanduser().resolve()
     except RuntimeError as exc:  # "~user" that names no user

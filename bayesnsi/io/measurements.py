@@ -69,6 +69,7 @@ from ..exceptions import InputDataError
 from ..signals import Signals
 from ._columns import FORMATS, FS_TOLERANCE, TIME_TOLERANCE, MeasurementColumns, file_format
 from ._csv import CSVColumns, read_csv_columns
+from ._load_checks import check_loaded
 from ._realisations import Split
 from ._record import Record, read_any
 from ._specs import DataSpec, ExperimentConfig
@@ -173,13 +174,21 @@ def load_signals(config: ExperimentConfig) -> Signals:
     ConfigError
         If the estimation window reaches past the end of the record.
     InputDataError
-        As :func:`read_signals`, for the samples inside the window.
+        As :func:`read_signals`, for the samples inside the window; or when two mapped channels
+        hold the same samples (one channel mapped twice, :mod:`bayesnsi.io._load_checks`).
+
+    Warns
+    -----
+    FreeBodyWarning
+        When ``[nsi] virtual_stiffness`` is a number and the record's structure looks grounded.
     """
     record = Record(config.data.file, config.data, config.data.files)
     start, stop = record.window(config.data.estimation, "[data] estimation", config.path)
     split = _estimation_split(config)
     means = record.means(start, stop, split) if config.data.remove_mean else None
-    return record.signals(start, stop, means, split)
+    signals = record.signals(start, stop, means, split)
+    check_loaded(config, signals)
+    return signals
 
 
 def load_validation(config: ExperimentConfig) -> list[tuple[str, Signals]]:

@@ -19,11 +19,11 @@ back with :func:`read_posterior` or ``xarray.open_datatree(path, engine="h5netcd
 
 from __future__ import annotations
 
-import os
 import re
 from pathlib import Path
 
 from ..exceptions import InputDataError
+from .results import atomic_open
 
 __all__ = ["POSTERIOR_DIRNAME", "NETCDF_ENGINE", "posterior_filename", "posterior_tree", "read_posterior",
            "write_posteriors"]
@@ -145,20 +145,26 @@ def write_posteriors(folder, evidences, intervals=None, units=None) -> dict[str,
     Returns
     -------
     dict of str to str
-        Model name -> file path relative to ``folder``.
+        Model name -> file path relative to ``folder`` (models without an evidence are left out).
+
+    Notes
+    -----
+    Each file is built in memory first, then written by :func:`bayesnsi.io.results.atomic_open`
+    (the folder is created there; inside a locked output folder a ``posterior`` that is a link or
+    a file is refused, and a file bayesnsi did not write is replaced only with ``--force``).
     """
     target = Path(folder) / POSTERIOR_DIRNAME
     written: dict[str, str] = {}
     for name, evidence in evidences.items():
         if evidence is None:
             continue
-        target.mkdir(exist_ok=True)
         filename = posterior_filename(name, {Path(p).name for p in written.values()})
         tree = posterior_tree(name, evidence, (intervals or {}).get(name), units)
-        path = target / filename
-        partial = path.with_name(f".{filename}.partial")
-        tree.to_netcdf(partial, engine=NETCDF_ENGINE)
-        os.replace(partial, path)  # a complete file or none
+        if not target.is_symlink():
+            target.mkdir(exist_ok=True)
+        data = tree.to_netcdf(engine=NETCDF_ENGINE)  # in memory: HDF5 never writes to disk (no crash on a full one)
+        with atomic_open(target / filename, "wb") as fh:  # a complete file or none, never through a link
+            fh.write(data)
         written[name] = f"{POSTERIOR_DIRNAME}/{filename}"
     return written
 

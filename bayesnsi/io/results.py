@@ -1,9 +1,12 @@
 """Writing results safely: atomic files, JSON conversion, version records, output folders.
 
-Every file bayesnsi writes goes through :func:`atomic_open` (or the two helpers built on it):
-the content is written to a temporary file in the target's folder, flushed to disk and then
-renamed over the target with :func:`os.replace`, so a reader never sees a half-written file
-and an interrupted run leaves the previous file intact (STYLE section 3, item 14).
+Every file bayesnsi writes goes through :func:`atomic_open` (or the two helpers built on it),
+that is :func:`bayesnsi.io._safe_write.safe_open`: the content is written to a new temporary file
+with a random name in the target's folder (created exclusively, never through a link, mode 0644
+less the umask), flushed to disk and then renamed over the target with :func:`os.replace`, so a
+reader never sees a half-written file and an interrupted run leaves the previous file intact
+(STYLE section 3, item 14). Inside an output folder held by :func:`output_folder`, linked
+sub-folders are refused and only files bayesnsi wrote (its manifest) are replaced without ``force``.
 
 ``results.json`` (docs/method.md §9) holds plain JSON only: :func:`to_jsonable` converts numpy
 scalars and arrays, tuples, paths and dataclasses, and writes NaN and ±Inf as ``null``
@@ -20,7 +23,6 @@ import json
 import math
 import os
 import platform
-import secrets
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import IO, Any
@@ -28,6 +30,7 @@ from typing import IO, Any
 import numpy as np
 
 from ..exceptions import ConfigError, OutputExistsError
+from ._safe_write import owned_by_bayesnsi, read_manifest, register_root, safe_open, unregister_root
 
 __all__ = [
     "RESULTS_FILENAME",
@@ -46,8 +49,8 @@ RESULTS_FILENAME = "results.json"
 _OUTPUT_FILENAMES = (RESULTS_FILENAME, "report.html")
 """Files whose presence marks a folder as holding the outputs of an earlier run."""
 
-_REPORT_MARK = b"<meta name='generator' content='bayesnsi'>"
-"""Marks a report written by bayesnsi (:class:`bayesnsi.io.report.Report`), in its first bytes."""
+_OUTPUT_SUBFOLDERS = ("posterior",)
+"""Folders inside an output folder that bayesnsi writes files into (:data:`bayesnsi.io.posterior.POSTERIOR_DIRNAME`)."""
 
 _CACHE_DIRNAME = ".cache"
 """Folder of the candidate cache (:data:`bayesnsi.io.cache.CACHE_DIRNAME`, which imports this module)."""
@@ -97,26 +100,8 @@ def atomic_open(path: str | os.PathLike, mode: str = "w", encoding: str = "utf-8
     >>> target.read_text()
     'done'
     """
-    if mode not in ("w", "wb"):
-        raise ValueError(f"mode must be 'w' or 'wb', got {mode!r}")
-    target = Path(path)
-    folder = target.parent
-    if not folder.is_dir():
-        raise FileNotFoundError(f"cannot write {target}: folder {folder} does not exist; create it first")
-    tmp_name, fd = _create_temporary(target)
-    try:
-        with os.fdopen(fd, mode, **({} if "b" in mode else {"encoding": encoding, "newline": ""})) as fh:
-            yield fh
-            fh.flush()
-            os.fsync(fh.fileno())
-        with contextlib.suppress(FileNotFoundError):
-            os.chmod(tmp_name, target.stat().st_mode & 0o7777)
-        os.replace(tmp_name, target)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp_name)
-        raise
-    _fsync_folder(folder)
+    with safe_open(path, mode, encoding) as fh:
+        yield fh
 
 
 def atomic_write_text(path: str | os.PathLike, text: str, encoding: str = "utf-8") -> Path:
@@ -242,9 +227,11 @@ def prepare_output_dir(path: str | os.PathLike, force: bool = False) -> Path:
     ------
     OutputExistsError
         If ``path`` (or one of its parents, or ``path/.cache``) is a file, or ``path`` already
-        holds ``results.json`` or ``report.html`` and ``force`` is False. A ``report.html``
-        written by bayesnsi without a ``results.json`` beside it (a run that failed before its
-        last file, which is ``results.json``) does not count: such a folder is resumed.
+        holds ``results.json``, ``report.html`` or posterior files and ``force`` is False, or
+        ``path/posterior`` is a file or a symbolic link. A ``report.html`` and posterior files
+        that the folder's manifest records as written by bayesnsi, without a ``results.json``
+        beside them (a run that failed before its last file, which is ``results.json``), do not
+        count: such a folder is resumed.
     ConfigError
         If ``path`` starts with ``~user`` for a user that does not exist.
     """
@@ -298,10 +285,19 @@ def output_folder(
     _make_folder(folder)
     with folder_lock(folder, config):
         _check_outputs(folder, force)
-        yield folder
+        register_root(folder, force)
+        try:
+            yield folder
+        finally:
+            unregister_root(folder)
 
 
 def _resolve_output(path: str | os.PathLike) -> Path:
+    from .._text import check_path_text
+
+    if not str(path).strip():
+        raise ConfigError("the output folder is an empty path; give a folder with --out (e.g. --out results)")
+    check_path_text(path, "output folder")
     try:
         folder = Path(path).expanduser().resolve()
     except RuntimeError as exc:  # "~user" that names no user
@@ -319,26 +315,39 @@ def _check_outputs(folder: Path, force: bool) -> None:
             f"{cache} is a file, but bayesnsi keeps its candidate cache in a folder of that name; "
             "move the file away or choose another --out"
         )
+    for name in _OUTPUT_SUBFOLDERS:
+        sub = folder / name
+        if sub.is_symlink() or (sub.exists() and not sub.is_dir()):
+            raise OutputExistsError(
+                f"{sub} is a symbolic link or a file, but bayesnsi writes its {name} files into a real folder of "
+                "that name; move it away or choose another --out"
+            )
     if force:
         return
     for name in _OUTPUT_FILENAMES:
-        if (folder / name).exists() and not _resumable(folder, name):
+        if os.path.lexists(folder / name) and not _resumable(folder, name):
             raise OutputExistsError(
                 f"output directory {folder} already holds {name}; pass --force to overwrite it, "
                 "or choose another directory with --out"
             )
+    manifest = read_manifest(folder)
+    for name in _OUTPUT_SUBFOLDERS:
+        if not (folder / name).is_dir():
+            continue
+        for entry in sorted((folder / name).iterdir()):
+            relative = f"{name}/{entry.name}"
+            if not owned_by_bayesnsi(folder, relative, manifest):
+                raise OutputExistsError(
+                    f"output directory {folder} holds {relative}, not written by bayesnsi; pass --force to "
+                    "overwrite it, or choose another directory with --out"
+                )
 
 
 def _resumable(folder: Path, name: str) -> bool:
-    """True for a bayesnsi report without results.json: a run that failed before its last file."""
-    if name != "report.html" or (folder / RESULTS_FILENAME).exists():
+    """True for a report bayesnsi wrote (its manifest says so) without results.json: a run that failed at the end."""
+    if name != "report.html" or os.path.lexists(folder / RESULTS_FILENAME):
         return False
-    try:
-        with open(folder / name, "rb") as fh:
-            head = fh.read(512)
-    except OSError:
-        return False
-    return _REPORT_MARK in head
+    return owned_by_bayesnsi(folder, name)
 
 
 def _make_folder(folder: Path) -> None:
@@ -398,27 +407,3 @@ def _distribution_version(name: str) -> str | None:
         return importlib.metadata.version(name)
     except importlib.metadata.PackageNotFoundError:
         return None
-
-
-def _create_temporary(target: Path) -> tuple[Path, int]:
-    """Create a new hidden file beside ``target`` (mode 0o666 less the umask, like ``open``)."""
-    for _ in range(100):
-        name = target.with_name(f".{target.name}.{secrets.token_hex(4)}.tmp")
-        try:
-            return name, os.open(name, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
-        except FileExistsError:
-            continue
-    raise FileExistsError(f"could not create a temporary file beside {target}")
-
-
-def _fsync_folder(folder: Path) -> None:
-    """Make the rename durable where the platform allows fsync on a directory."""
-    if os.name != "posix":
-        return
-    fd = os.open(folder, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)

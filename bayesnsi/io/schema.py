@@ -96,7 +96,8 @@ def _identification(result) -> dict[str, Any]:
         # frequency route: fitted lines, noise-weighted misfit on them (≈ 1: down to the noise), reflected poles
         "periodic": None if result.options.domain != "frequency" else {
             k: result.settings[k] for k in ("domain", "fit_band_hz", "n_lines", "n_periods", "period",
-                                            "n_realisations", "line_misfit", "unexcited_ratio", "reflected_poles_hz")},
+                                            "requested_block_rows", "n_realisations", "line_misfit",
+                                            "unexcited_ratio", "reflected_poles_hz")},
         "settings": result.settings,
     }
 

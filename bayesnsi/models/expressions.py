@@ -46,7 +46,8 @@ _TOKEN = re.compile(
     r"|(?P<state>[xv])(?P<dof>\d+)(?![A-Za-z_0-9])"
     r"|(?P<name>[A-Za-z_][A-Za-z_0-9]*)"
     r"|(?P<op>\*\*|[-+*/()])"
-    r")"
+    r")",
+    re.ASCII,  # digits and names in ASCII only: x١**3 (an Arabic-Indic one) is refused
 )
 _HELP = (
     "allowed: x<k>, v<k> (k >= 1), numbers, + - * / **, abs(), sign(), tanh(), parentheses; "
@@ -181,6 +182,12 @@ def parse_expression(text: str) -> Expression:
         raise ExpressionError(f"expression is {len(text)} characters long, at most {MAX_LENGTH} allowed")
     if not text.strip():
         raise ExpressionError(f"empty term expression; {_HELP}")
+    foreign = next((c for c in text if not c.isascii() and (c.isdigit() or c.isnumeric())), None)
+    if foreign is not None:
+        raise ExpressionError(
+            f"expression {text!r} holds the digit {foreign!r} (U+{ord(foreign):04X}), not one of 0-9; write DOFs and "
+            "numbers with ASCII digits"
+        )
     parser = _Parser(text)
     tree = parser.parse()
     xs: set[int] = set()

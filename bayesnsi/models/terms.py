@@ -135,6 +135,13 @@ class CandidateModel:
                 f"candidate {self.name!r}: terms {pair[0].name} and {pair[1].name} are the same function up to a "
                 "constant factor at the same location, so their coefficients cannot be separated; keep one of them"
             )
+        combination = _dependent_combination(self.terms)
+        if combination is not None:
+            raise ConfigError(
+                f"candidate {self.name!r}: its terms are linearly dependent, "
+                f"{_combination_text(self.terms, combination)} = 0 for every motion, so one force could be split "
+                "between them in any proportion; drop one of them"
+            )
         if not (np.isfinite(self.prior) and self.prior > 0):
             raise ConfigError(f"candidate {self.name!r}: prior must be a positive number, got {self.prior!r}")
         scales = tuple(self.coefficient_prior_scales) or (None,) * len(self.terms)
@@ -179,6 +186,53 @@ def _collinear_pair(terms: Sequence[Term]) -> tuple[Term, Term] | None:
             if _proportional(_probe_values(a.expr), _probe_values(b.expr)):
                 return a, b
     return None
+
+
+def _dependent_combination(terms: Sequence[Term]) -> np.ndarray | None:
+    """Weights ``c`` (largest 1) with ``sum_i c_i l_i n_i(x, v) = 0`` on the probe; None for independent forces.
+
+    The forces ``l_i n_i`` of the terms (location vector times basis function, :meth:`Term.location_vector`)
+    are evaluated on the probe of :func:`_collinear_pair`, each point scaled to its largest value so
+    that small and large arguments count alike; a singular value below ``_COLLINEAR_RTOL`` of the
+    largest (rounding only) is a linear dependence, e.g. ``x1**3``, ``v1*abs(v1)`` and their sum.
+    """
+    if len(terms) < 2:
+        return None
+    dofs = sorted({dof for term in terms for dof in term.at})
+    columns = []
+    for term in terms:
+        values = _probe_values(term.expr)
+        force = np.zeros((len(dofs), values.size))
+        force[dofs.index(term.at[0])] = values
+        if len(term.at) == 2:
+            force[dofs.index(term.at[1])] -= values
+        columns.append(force.ravel())
+    matrix = np.stack(columns, axis=1)
+    norms = np.linalg.norm(matrix, axis=0)
+    if not np.all(np.isfinite(matrix)) or np.any(norms == 0):
+        return None
+    matrix = matrix / norms
+    peak = np.max(np.abs(matrix), axis=1, keepdims=True)
+    matrix = matrix / np.where(peak > 0, peak, 1.0)
+    _, singular, vt = np.linalg.svd(matrix, full_matrices=False)
+    if singular[-1] > _COLLINEAR_RTOL * singular[0]:
+        return None
+    weights = vt[-1] / norms
+    weights = weights / weights[np.argmax(np.abs(weights))]
+    weights[np.abs(weights) < 1e-9] = 0.0
+    return weights
+
+
+def _combination_text(terms: Sequence[Term], weights: np.ndarray) -> str:
+    """``1·(x1**3 at 1) + 1·(v1*abs(v1) at 1) - 1·(...)``: the dependence, in the terms' own words."""
+    parts = []
+    for term, weight in zip(terms, weights):
+        if weight == 0:
+            continue
+        sign = "-" if weight < 0 else "+"
+        parts.append(f"{sign} {abs(weight):.3g}·({term.name})")
+    text = " ".join(parts)
+    return text[2:] if text.startswith("+ ") else text
 
 
 @functools.lru_cache(maxsize=4096)

@@ -1,5 +1,6 @@
 """Nonlinear subspace identification (docs/method.md §2-5); numpy/scipy only."""
 
+from ._grounded import grounded_modes
 from ._hankel import HankelCorrelations
 from .feedback import extended_input
 from .free_body import PhysicalParameters, is_free_body, physical_parameters
@@ -29,6 +30,7 @@ from .result import IdentificationFit, NSIResult
 from .statespace import StateSpaceModel
 
 __all__ = [
+    "grounded_modes",
     "identify",
     "PhysicalParameters",
     "is_free_body",

@@ -128,7 +128,8 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
     fit = IdentificationFit(
         n_samples=int(signals.n_samples), fs=signals.fs,
         reflected_poles_hz=tuple(float(abs(p.imag) / (2 * np.pi)) for p in reflected),
-        fit_band_hz=fit_band, period=int(signals.period or 0), n_periods=int(data.n_periods),
+        fit_band_hz=fit_band, requested_block_rows=int(options.block_rows),
+        period=int(signals.period or 0), n_periods=int(data.n_periods),
         n_realisations=int(data.n_realisations),  # their lines stacked: each count below is per realisation
         n_lines=int(len(excited.lines) // data.n_realisations),
         n_band_lines=int(len(data.lines) // data.n_realisations),

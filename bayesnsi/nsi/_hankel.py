@@ -15,6 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
+from .._limits import DEFAULT_RUN_MEMORY, check_allocation
+
 __all__ = [
     "ScaledStack",
     "extend_lagged_products",
@@ -199,6 +201,10 @@ def hankel_gram(z, block_rows: int, lagged: np.ndarray | None = None) -> np.ndar
     n, k = stack.shape
     two_i = 2 * block_rows
     j = n - two_i + 1
+    check_allocation(  # the (2i, 2i, k, k) blocks, their corrections and the assembled matrix
+        5 * 8 * (two_i * k) ** 2, f"the Hankel Gram matrix of block_rows = {block_rows} x {k} channels "
+        "(lower block_rows)", default=DEFAULT_RUN_MEMORY,
+    )
     base = lagged_products(stack, two_i) if lagged is None else lagged
     # Edge corrections for every (r, d) at once: S_{r,d} = T_d + Σ_{s<r} (tail_s,d - head_s,d).
     head_rows = stack.rows(0, 2 * two_i - 2)
@@ -244,10 +250,13 @@ def lq_factor(z: np.ndarray | ScaledStack, block_rows: int, n_inputs: int) -> np
 
     Memory and time grow with ``2i k × N``: for validating :func:`gram_factor` and small data.
     """
-    z = _as_stack(z).rows(0, z.shape[0])
     n, k = z.shape
     two_i = 2 * block_rows
     j = n - two_i + 1
+    check_allocation(3 * 8 * max(j, 0) * two_i * k, f"the explicit Hankel matrix of block_rows = {block_rows} x {k} "
+                     f"channels x {max(j, 0)} columns (lower block_rows, or use the correlation route)",
+                     default=DEFAULT_RUN_MEMORY)
+    z = _as_stack(z).rows(0, z.shape[0])
     windows = sliding_window_view(z, (two_i, k))[:, 0].reshape(j, two_i * k)
     perm = grouped_order(block_rows, n_inputs, k - n_inputs)
     r: np.ndarray = np.linalg.qr(windows[:, perm] / np.sqrt(j), mode="r")  # type: ignore[assignment]

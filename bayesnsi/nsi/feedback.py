@@ -147,7 +147,15 @@ def working_signals(signals: Signals, factor: int) -> Signals:
     """
     if factor == 1:
         return signals
+    from .._limits import DEFAULT_RUN_MEMORY, check_allocation
     from ..preprocess import upsample
+
+    channels = signals.force.shape[1] + signals.displacement.shape[1] * (2 if signals.velocity is not None else 1)
+    check_allocation(  # the upsampled record, its spectrum and the extended input built from it
+        4 * 8 * signals.n_samples * int(factor) * channels,
+        f"[nsi] upsample = {int(factor)} of {signals.n_samples} samples x {channels} channels (lower upsample)",
+        default=DEFAULT_RUN_MEMORY,
+    )
 
     return upsample(signals, factor)
 

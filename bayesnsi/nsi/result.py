@@ -35,6 +35,9 @@ class IdentificationFit:
         A free body's virtual-spring mode mirrored into the unit circle (time route).
     fit_band_hz : (float, float) or None
         Frequency route: the lines fitted (None on the time route).
+    requested_block_rows : int or None
+        Frequency route: the block rows asked for (above M/(m+q+l) lines the route uses fewer, in
+        ``options.block_rows``; None on the time route).
     period, n_periods, n_realisations : int
         Frequency route: samples per period, periods averaged, realisations stacked (0 on the time route).
     n_lines, n_band_lines : int
@@ -52,6 +55,7 @@ class IdentificationFit:
     reflected_poles_hz: tuple[float, ...] = ()
     virtual_mode_mirrored_hz: tuple[float, ...] = ()
     fit_band_hz: tuple[float, float] | None = None
+    requested_block_rows: int | None = None
     period: int = 0
     n_periods: int = 0
     n_realisations: int = 0

@@ -17,13 +17,15 @@ import html
 import io
 import math
 import numbers
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .._text import printable
 from ..io.results import atomic_write_text
 
-__all__ = ["FIGURE_DPI", "Report", "clipped_texts", "figure_png", "format_number"]
+__all__ = ["FIGURE_DPI", "Report", "clipped_texts", "figure_png", "format_number", "plain_texts"]
 
 FIGURE_DPI = 150
 """Resolution of the figures embedded in a report (dots per inch)."""
@@ -66,6 +68,7 @@ def figure_png(fig, dpi: int = FIGURE_DPI) -> bytes:
     """
     import matplotlib.pyplot as plt
 
+    plain_texts(fig)
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", dpi=dpi)
     plt.close(fig)
@@ -100,6 +103,33 @@ def clipped_texts(fig) -> list[str]:
             name = artist.get_title() if hasattr(artist, "get_title") else "legend"
             out.append(f"{name or artist.get_label() or type(artist).__name__}: {', '.join(sides)}")
     return out
+
+
+_MATH_DOLLAR = re.compile(r"(?<!\\)\$")
+
+
+def plain_texts(fig) -> None:
+    """Make every text of ``fig`` show as written: a ``$`` never starts mathtext, control characters escaped.
+
+    Units, channel and candidate names reach titles, axis labels and legends; matplotlib would
+    parse ``$x^$`` as (broken) mathtext and fail the whole report, and would warn about the
+    missing glyph of an escape character, quoting it raw to the terminal. Tick labels are
+    formatted again when the figure is drawn, so the formatter's own mathtext is kept.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        Changed in place.
+    """
+    def has_text(artist) -> bool:
+        return callable(getattr(artist, "get_text", None)) and callable(getattr(artist, "set_text", None))
+
+    for artist in fig.findobj(has_text):
+        text = artist.get_text()
+        if isinstance(text, str) and text:
+            plain = _MATH_DOLLAR.sub(r"\\$", printable(text))
+            if plain != text:
+                artist.set_text(plain)
 
 
 def format_number(value) -> str:

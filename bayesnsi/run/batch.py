@@ -37,7 +37,7 @@ from ..models import CandidateModel
 from ..nsi import identify
 from ..options import EvidenceOptions, ExecutionOptions, NSIOptions
 
-__all__ = ["CandidateOutcome", "candidate_seeds", "candidate_task", "run_candidates", "run_datasets"]
+__all__ = ["CandidateOutcome", "candidate_seeds", "candidate_task", "failure_summary", "run_candidates", "run_datasets"]
 
 FAILED_STAGES = ("identification", "evidence", "internal")
 """Stages a candidate can fail at (:attr:`CandidateOutcome.failed_stage`)."""
@@ -336,8 +336,10 @@ def run_datasets(
             if progress is not None:
                 progress(d, k, stored)
     tasks = [(d, candidates[k], nsi, evidence, seeds[k]) for d, k in pending]
+    task_bytes = _task_bytes(evidence, [candidates[k] for _, k in pending])
     for index, outcome in dispatch(
-        _dataset_task, tasks, context=tuple(datasets), jobs=execution.jobs, scheduler=execution.scheduler
+        _dataset_task, tasks, context=tuple(datasets), jobs=execution.jobs, scheduler=execution.scheduler,
+        task_bytes=task_bytes,
     ):
         d, k = pending[index]
         if cache is not None and outcome.failed_stage != "internal":
@@ -346,6 +348,49 @@ def run_datasets(
         if progress is not None:
             progress(d, k, outcome)
     return outcomes  # type: ignore[return-value]
+
+
+def failure_summary(outcomes: Sequence[CandidateOutcome], evidence: bool = False) -> str | None:
+    """One line summing up a run in which every candidate failed; None when one succeeded.
+
+    Parameters
+    ----------
+    outcomes : sequence of CandidateOutcome
+    evidence : bool
+        A candidate counts as failed when its evidence failed too (a selection needs it).
+
+    Returns
+    -------
+    str or None
+        ``"every candidate failed (3 of 3): a: <error>; b: <error>; ..."`` (errors shortened).
+    """
+    def failed(outcome: CandidateOutcome) -> bool:
+        return outcome.result is None or (evidence and not outcome.evidences)
+
+    if not outcomes or not all(failed(o) for o in outcomes):
+        return None
+    parts = []
+    for outcome in outcomes[:5]:
+        error = " ".join(str(outcome.error or "no evidence").split())
+        parts.append(f"{outcome.name}: {outcome.failed_stage or 'evidence'} - {error[:160]}")
+    more = f"; and {len(outcomes) - 5} more" if len(outcomes) > 5 else ""
+    return f"every candidate failed ({len(outcomes)} of {len(outcomes)}): {'; '.join(parts)}{more}"
+
+
+def _task_bytes(evidence: EvidenceOptions | None, candidates) -> int:
+    """Estimated memory of one candidate's evidence (its samplers' chains), refused above the limit before any run.
+
+    The parameters of the largest candidate are bounded below by its terms and one noise scale,
+    so a refusal never blames a run that would fit.
+    """
+    from ..evidence import chain_bytes, check_chain_memory
+
+    if evidence is None or not candidates:
+        return 0
+    ndim = max(len(c.terms) for c in candidates) + 1
+    runs = len(evidence.likelihoods)
+    check_chain_memory(evidence.n_walkers, evidence.n_steps, ndim, "one candidate's evidence", runs=runs)
+    return runs * chain_bytes(evidence.n_walkers, evidence.n_steps, ndim)
 
 
 def _dataset_task(datasets, d, candidate, nsi, evidence, seed_sequence) -> CandidateOutcome:

@@ -43,8 +43,10 @@ def select_config(tmp_path_factory):
 
 
 def _evidences():
-    evidence = SimpleNamespace(posterior=_posterior(1), log_evidence=-3.0, log_evidence_se=0.01)
-    return {"model 1": {"white": evidence}}
+    posterior = _posterior(1)
+    evidence = SimpleNamespace(posterior=posterior, likelihood=posterior.likelihood, log_evidence=-3.0,
+                               log_evidence_se=0.01, coefficient_names=posterior.coefficient_names, settings={})
+    return {"model 1": evidence}
 
 
 def _plant_everywhere(folder: Path, victim: Path, names) -> None:
@@ -71,7 +73,7 @@ def test_a_link_planted_under_a_temporary_name_leaves_its_target_untouched(tmp_p
         (out / "posterior").mkdir()
         _plant_everywhere(out / "posterior", victim, _hidden_names("model_1.nc"))
         _plant_everywhere(out, victim, [n for base in ("results.json", "report.html") for n in _hidden_names(base)])
-        files = write_posteriors(folder, _evidences(), "white")
+        files = write_posteriors(folder, _evidences())
         atomic_write_text(folder / "report.html", "<html></html>")
         atomic_write_text(folder / "results.json", "{}")
     assert victim.read_text() == "precious"
@@ -102,7 +104,7 @@ def test_a_posterior_link_made_during_the_run_is_not_followed(tmp_path):
     with output_folder(out) as folder:
         (folder / "posterior").symlink_to(elsewhere, target_is_directory=True)  # planted after the checks
         with pytest.raises(OutputExistsError, match="symbolic link"):
-            write_posteriors(folder, _evidences(), "white")
+            write_posteriors(folder, _evidences())
     assert list(elsewhere.iterdir()) == []
 
 

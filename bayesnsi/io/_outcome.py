@@ -271,6 +271,7 @@ def _check_outcome(outcome: CandidateOutcome) -> str | None:
 FLOAT = _Typed(float, int, np.floating, np.integer)
 OPTIONAL_FLOAT = _Typed(float, int, np.floating, np.integer, none=True)
 INT = _Typed(int, np.integer)
+OPTIONAL_INT = _Typed(int, np.integer, none=True)
 BOOL = _Typed(bool, np.bool_)
 STR = _Typed(str)
 OPTIONAL_STR = _Typed(str, none=True)
@@ -304,7 +305,8 @@ NSI_RESULT = _Struct(NSIResult, {
     "options": _OptionsKind(NSIOptions),
     "fit": _Struct(IdentificationFit, {
         "n_samples": INT, "fs": FLOAT, "reflected_poles_hz": FLOATS, "virtual_mode_mirrored_hz": FLOATS,
-        "fit_band_hz": _Typed(tuple, none=True), "period": INT, "n_periods": INT, "n_realisations": INT,
+        "fit_band_hz": _Typed(tuple, none=True), "requested_block_rows": OPTIONAL_INT,
+        "period": INT, "n_periods": INT, "n_realisations": INT,
         "n_lines": INT, "n_band_lines": INT, "line_misfit": OPTIONAL_FLOAT, "band_misfit": OPTIONAL_FLOAT,
         "unexcited_ratio": _Typed(tuple, none=True),
     }),

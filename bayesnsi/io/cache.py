@@ -46,8 +46,8 @@ __all__ = ["CACHE_DIRNAME", "CACHE_FORMAT", "ENTRY_SUFFIX", "ResultCache", "cand
 CACHE_DIRNAME = _CACHE_DIRNAME
 """Name of the cache folder inside an output directory."""
 
-CACHE_FORMAT = 2
-"""Layout version of a cache entry (1: the pickles of earlier versions, never read)."""
+CACHE_FORMAT = 3
+"""Layout version of a cache entry (entries of other versions are not read: 1 held pickles, 2 untyped settings)."""
 
 ENTRY_SUFFIX = ".npz"
 """File suffix of an entry."""

@@ -13,8 +13,8 @@ $(BIN)/bayesnsi: pyproject.toml
 
 venv: $(BIN)/bayesnsi
 
-# lint: ruff (style, imports, bugbear; [tool.ruff]) and mypy on the shared modules and the
-# public namespaces ([tool.mypy] files); docs/architecture.md lists the architecture tests.
+# lint: ruff (style, imports, bugbear; [tool.ruff]) and mypy on the whole package ([tool.mypy]);
+# docs/architecture.md lists the architecture tests.
 lint: venv
 	$(BIN)/ruff check bayesnsi tests
 	$(BIN)/mypy

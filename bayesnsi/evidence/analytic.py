@@ -108,7 +108,7 @@ def _gauss_legendre(target: Target, lo, hi, lower, upper):
     nodes = [0.5 * (b - a) * x + 0.5 * (b + a) for a, b in zip(lo, hi)]
     logw = [np.log(0.5 * (b - a) * w) for a, b in zip(lo, hi)]
     grid = np.stack(np.meshgrid(*nodes, indexing="ij"), axis=-1).reshape(-1, dim)
-    lw = sum(np.meshgrid(*logw, indexing="ij")).reshape(-1)
+    lw = np.sum(np.meshgrid(*logw, indexing="ij"), axis=0).reshape(-1)
     chunks = range(0, len(grid), _QUAD_CHUNK)
     h = np.concatenate([_lambda_integrated(target, grid[i : i + _QUAD_CHUNK]) for i in chunks])
     value = float(logsumexp(h + lw))

@@ -80,7 +80,7 @@ def default_priors(
     reference_force_rms,
     overrides: Mapping[str, float] | None = None,
     channel_names: Sequence[str] = (),
-    noise_factors: tuple[float, float] = (1e-4, 10.0),
+    noise_factors: tuple[float | np.ndarray, float] = (1e-4, 10.0),
     ar_bounds: tuple[float, float] = (-0.9999, 0.9999),
 ) -> Priors:
     """The default priors of docs/method.md §6 for an affine reconstruction.

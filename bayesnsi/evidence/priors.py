@@ -78,7 +78,7 @@ class CoefficientPrior:
         z = np.asarray(lam, dtype=float) / self.scale
         return np.sum(-0.5 * z**2 - np.log(self.scale) - 0.5 * _LOG_2PI, axis=-1)
 
-    def sample(self, size: int | tuple = (), rng=None) -> np.ndarray:
+    def sample(self, size: int | tuple[int, ...] = (), rng=None) -> np.ndarray:
         """Draw coefficients from the prior.
 
         Parameters
@@ -93,8 +93,8 @@ class CoefficientPrior:
         ndarray, shape ``size + (q,)``
         """
         rng = np.random.default_rng(rng)
-        size = (size,) if np.isscalar(size) else tuple(size)
-        return rng.normal(0.0, 1.0, size + (self.n_coefficients,)) * self.scale
+        shape = (size,) if isinstance(size, (int, np.integer)) else tuple(size)
+        return rng.normal(0.0, 1.0, shape + (self.n_coefficients,)) * self.scale
 
     def with_scales(self, overrides: Mapping[str, float]) -> CoefficientPrior:
         """A copy with the scales of the named terms replaced (user override per term).
@@ -163,7 +163,9 @@ class NoisePrior:
         object.__setattr__(self, "channel_names", names)
 
     @classmethod
-    def from_std(cls, measured_std, lower_factor: float = 1e-4, upper_factor: float = 10.0, channel_names=()):
+    def from_std(
+        cls, measured_std, lower_factor: float | np.ndarray = 1e-4, upper_factor: float = 10.0, channel_names=(),
+    ):
         """Default range ``[lower_factor, upper_factor] × std(y_j)`` (docs/method.md §6).
 
         Parameters
@@ -227,7 +229,7 @@ class NoisePrior:
             u = np.log(sigma)
         return self.log_pdf_log_sigma(u) - np.sum(np.where(np.isfinite(u), u, 0.0), axis=-1)
 
-    def sample(self, size: int | tuple = (), rng=None) -> np.ndarray:
+    def sample(self, size: int | tuple[int, ...] = (), rng=None) -> np.ndarray:
         """Draw noise standard deviations ``σ`` (log-uniform) from the prior.
 
         Parameters
@@ -240,8 +242,8 @@ class NoisePrior:
         ndarray, shape ``size + (l,)``
         """
         rng = np.random.default_rng(rng)
-        size = (size,) if np.isscalar(size) else tuple(size)
-        u = rng.uniform(np.log(self.lower), np.log(self.upper), size + (self.n_channels,))
+        shape = (size,) if isinstance(size, (int, np.integer)) else tuple(size)
+        u = rng.uniform(np.log(self.lower), np.log(self.upper), shape + (self.n_channels,))
         return np.exp(u)
 
     def describe(self) -> str:
@@ -290,7 +292,7 @@ class ARPrior:
         inside = (rho > self.lower) & (rho < self.upper)
         return np.where(inside, -np.log(self.upper - self.lower), -np.inf)
 
-    def sample(self, size: int | tuple = (), rng=None) -> np.ndarray:
+    def sample(self, size: int | tuple[int, ...] = (), rng=None) -> np.ndarray:
         """Draw AR coefficients (uniform) from the prior.
 
         Parameters

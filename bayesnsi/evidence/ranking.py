@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -93,7 +94,7 @@ def posterior_probabilities(
     -------
     ModelProbabilities
     """
-    log_z, prior, names = _normalise(log_evidences, priors, names)
+    log_z, prior, candidates = _normalise(log_evidences, priors, names)
     se = np.zeros_like(log_z) if log_evidence_se is None else np.asarray(log_evidence_se, dtype=float).reshape(-1)
     if se.shape != log_z.shape:
         raise ShapeError(f"log_evidence_se has shape {se.shape}, expected {log_z.shape}")
@@ -108,7 +109,7 @@ def posterior_probabilities(
     else:
         sd = np.zeros_like(prob)
     return ModelProbabilities(
-        names=names, probability=prob, probability_sd=sd, log_score=log_z, log_score_se=se, prior=prior,
+        names=candidates, probability=prob, probability_sd=sd, log_score=log_z, log_score_se=se, prior=prior,
         method="evidence",
     )
 
@@ -129,10 +130,10 @@ def plain_ranking(log_likelihoods, priors=None, names: Sequence[str] | None = No
     ModelProbabilities
         ``probability_sd`` is 0: the plain ranking has no Monte-Carlo error.
     """
-    log_l, prior, names = _normalise(log_likelihoods, priors, names)
+    log_l, prior, candidates = _normalise(log_likelihoods, priors, names)
     prob = _softmax(log_l + _log(prior))
     return ModelProbabilities(
-        names=names, probability=prob, probability_sd=np.zeros_like(prob), log_score=log_l,
+        names=candidates, probability=prob, probability_sd=np.zeros_like(prob), log_score=log_l,
         log_score_se=np.zeros_like(prob), prior=prior, method="plain",
     )
 
@@ -191,7 +192,7 @@ def ranking_table(
     return table
 
 
-def compare_evidence(results: Mapping[str, object], priors=None, rng=None, n_draws: int = 2000):
+def compare_evidence(results: Mapping[str, Any], priors=None, rng=None, n_draws: int = 2000):
     """:func:`ranking_table` from evidence results.
 
     Parameters
@@ -226,7 +227,7 @@ def compare_evidence(results: Mapping[str, object], priors=None, rng=None, n_dra
     return ranking_table(names, plain, evidence, priors, rng, n_draws)
 
 
-def _normalise(scores, priors, names):
+def _normalise(scores, priors, names) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
     scores = np.asarray(scores, dtype=float).reshape(-1)
     if scores.size == 0:
         raise InputDataError("no candidates to rank")

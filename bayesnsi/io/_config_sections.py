@@ -390,7 +390,7 @@ def parse_validation(items: Any, path: Path, data: DataSpec, check_files: bool) 
         if name in names:
             raise where.problem("name", f"validation name {name!r} is used twice; give each segment its own name")
         names.add(name)
-        files = parse_files(item, where, lambda text, key, at=where: _resolve_file(text, at, key, check_files))
+        files = parse_files(item, where, lambda text, key: _resolve_file(text, where, key, check_files))  # noqa: B023 - called at once
         if files:  # another record, one file per channel: the columns of [data]
             check_files_cover(files, [*data.inputs, *(data.outputs if data.integrate is None else {}),
                                       *(data.velocities or {}), *data.accelerations], where)

@@ -150,7 +150,7 @@ _FINDING_KEYS = ("kind", "subject", "severity", "values", "message")
 class _OptionsKind:
     """An options dataclass (:mod:`bayesnsi.options`): its plain record, validated again when read."""
 
-    def __init__(self, cls: type):
+    def __init__(self, cls: type[Any]):
         self.cls = cls
 
     def encode(self, value: Any, arrays: dict) -> Any:

@@ -21,9 +21,9 @@ __all__ = ["Split", "joined", "split_parts"]
 
 
 class Split(NamedTuple):
-    """How a window holds realisations: ``count`` equal parts, ``drop`` transient periods each, ``key`` for messages."""
+    """How a window holds realisations: ``n_parts`` equal parts, ``drop`` transient periods each, ``key`` names it."""
 
-    count: int
+    n_parts: int
     drop: int
     key: str
 
@@ -55,9 +55,9 @@ def split_parts(period: int | None, path: Path, start: int, stop: int, split: Sp
         When the window does not split into ``count`` equal parts of whole periods, or a part keeps
         fewer than two periods after its transient ones.
     """
-    if split is None or period is None or (split.count == 1 and split.drop == 0):
+    if split is None or period is None or (split.n_parts == 1 and split.drop == 0):
         return [(start, stop)]
-    count, drop = split.count, split.drop
+    count, drop = split.n_parts, split.drop
     length = (stop - start) // count
     if (stop - start) % count or length % period:
         raise ConfigError(

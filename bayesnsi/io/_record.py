@@ -54,7 +54,7 @@ class Record:
         self.data = data
         self.integrate = data.integrate
         if self.integrate is not None:
-            responses = {c: data.integrated for c in data.sensor_columns}
+            responses = {c: str(data.integrated) for c in data.sensor_columns}
         else:
             responses = {c: "displacement" for c in data.outputs}
             responses.update({c: "velocity" for c in data.velocities or {}})
@@ -143,9 +143,14 @@ class Record:
             input_dofs=tuple(self.data.inputs.values()), output_dofs=tuple(self.data.outputs.values()),
             input_names=tuple(self.data.inputs), output_names=tuple(self.data.outputs),
             period=period, realisations=len(parts),
-            measured=self.data.integrated or "displacement",
+            measured=self._measured,
             acceleration_noise=self._acceleration_noise(start, stop),
         )
+
+    @property
+    def _measured(self) -> str:
+        """What the response sensors measure: "displacement", or what ``integrate`` integrates."""
+        return self.data.integrated or "displacement"
 
     def _acceleration_noise(self, start: int, stop: int) -> AccelerationNoise | None:
         """The sensors' white noise and the recipe of a window integrated in time (None otherwise).
@@ -164,13 +169,13 @@ class Record:
             std = list(acceleration_noise_std(self.response[start:stop], self.fs, self.force[start:stop],
                                               spec.band_hz[0]))
         for message in noise_edge_messages(self.response[start:stop], std, self.fs, spec.band_hz,
-                                           self.response_columns, self.data.integrated):
+                                           self.response_columns, self._measured):
             warnings.warn(f"{self.path.name}: {message}", IntegrationWarning, stacklevel=3)
         return AccelerationNoise(
             acceleration_std=tuple(std), fs=self.fs, band_hz=spec.band_hz, method=spec.method, taper=spec.taper,
             filter_order=spec.filter_order, detrend_order=spec.detrend_order, decimate=self.data.decimate,
             source="estimated" if spec.noise_std is None else "declared",
-            trim=self._trimmed_edge(-(-(stop - start) // self.data.decimate)), measured=self.data.integrated,
+            trim=self._trimmed_edge(-(-(stop - start) // self.data.decimate)), measured=self._measured,
         )
 
     def _trimmed_edge(self, n_samples: int, where: str = "") -> int:
@@ -206,14 +211,14 @@ class Record:
         try:
             if spec is not None and self.data.period is not None:  # whole periods: exact line by line, in band
                 velocity, displacement = periodic_integration(
-                    self.response[start:stop], self.fs, self.data.period, spec.band_hz, self.data.integrated
+                    self.response[start:stop], self.fs, self.data.period, spec.band_hz, self._measured
                 )
             elif spec is not None:
                 for message in below_band_messages(force, self.response[start:stop], self.fs, spec.band_hz,
-                                                   self.response_columns, self.data.integrated):
+                                                   self.response_columns, self._measured):
                     warnings.warn(f"{self.path.name}: {message}", IntegrationWarning, stacklevel=2)
                 velocity, displacement = preprocess.integrate_measured(
-                    self.response[start:stop], self.data.integrated, self.fs, spec.band_hz, spec.method,
+                    self.response[start:stop], self._measured, self.fs, spec.band_hz, spec.method,
                     detrend_order=spec.detrend_order, taper=spec.taper, filter_order=spec.filter_order,
                 )
                 if spec.filter_inputs:

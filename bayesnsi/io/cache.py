@@ -33,6 +33,7 @@ import stat
 import time
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .._fingerprint import code_fingerprint, signals_fingerprint
 from .._limits import check_allocation
@@ -40,6 +41,9 @@ from ..exceptions import BayesNSIError, CacheWarning
 from ._outcome import outcome_from_plain, outcome_to_plain
 from ._store import EntryError, read_container, write_container
 from .results import _CACHE_DIRNAME, atomic_open, to_jsonable
+
+if TYPE_CHECKING:
+    from ..models import CandidateModel
 
 __all__ = ["CACHE_DIRNAME", "CACHE_FORMAT", "ENTRY_SUFFIX", "ResultCache", "candidate_key", "load_entry"]
 
@@ -122,7 +126,7 @@ class ResultCache:
     def __init__(self, folder: str | os.PathLike, read: bool = True):
         self.folder = Path(folder)
         self.read = read
-        self._expected: dict[str, object] = {}
+        self._expected: dict[str, CandidateModel] = {}
         self._fingerprints: dict[int, tuple[object, str]] = {}
         self._remove_stale_temporaries()
 

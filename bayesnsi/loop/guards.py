@@ -214,7 +214,7 @@ def check_effect(
     -------
     Verdict
     """
-    options, signals, trial = context.options, context.signals, entry.result
+    options, signals, trial = context.options, context.signals, entry.identified
     threshold = options.threshold
     log_bf = entry.log_evidence - baseline.log_evidence
     coef = trial.coefficients[-1]

@@ -18,7 +18,7 @@ multisine then tells that the nonlinearity is odd).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -26,6 +26,9 @@ from ..exceptions import BayesNSIError
 from ..nsi import best_linear_approximation
 from ..signals import Signals
 from .screen import screen_effects
+
+if TYPE_CHECKING:
+    from ..models.dictionary import Effect
 
 __all__ = ["EVEN_NOISE_RATIO", "location_distortion", "screen_effects_periodic"]
 
@@ -102,7 +105,7 @@ def _is_even(term, signals: Signals, velocity_method: str) -> bool:
 
 def screen_effects_periodic(
     signals: Signals, candidate, effects, *, max_frequency_hz: float | None = None, velocity_method: str = "fourth",
-) -> list[tuple[Any, float]]:
+) -> list[tuple[Effect, float]]:
     """Order effects by the data-only distortion level of their location (module notes).
 
     Parameters
@@ -130,7 +133,7 @@ def screen_effects_periodic(
     """
     if getattr(signals, "period", None) is None or signals.force.shape[1] != 1:
         raise BayesNSIError("the periodic screen needs a periodic record with one force")
-    within: list[tuple[Any, float]] = screen_effects(signals, candidate, effects, max_frequency_hz=max_frequency_hz,
+    within: list[tuple[Effect, float]] = screen_effects(signals, candidate, effects, max_frequency_hz=max_frequency_hz,
                             velocity_method=velocity_method)
     levels = location_distortion(signals, [e.location for e, _ in within])
     ranked = []

@@ -14,6 +14,7 @@ Each move changes the :class:`~bayesnsi.loop.state.LoopState` it is given.
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import replace
 
@@ -111,7 +112,8 @@ def look_ahead(context: LoopContext, state: LoopState, pending: tuple[Verdict, E
     verdict, entry = pending
     p_step = verdict.step
     max_imag_ratio = context.options.max_imag_ratio
-    scored = rank_effects(context, entry.result.candidate, [*state.added, (p_step.effect.base, p_step.effect.location)])
+    added = [*state.added, (p_step.effect.base, p_step.effect.location)]
+    scored = rank_effects(context, entry.identified.candidate, added)
     search = state.record_scores(scored, verdict.log_evidence)
     baseline = Baseline(verdict.log_evidence, p_step.nrmse_after)
     for trial in scored[: context.options.n_tries]:
@@ -120,7 +122,7 @@ def look_ahead(context: LoopContext, state: LoopState, pending: tuple[Verdict, E
         second = check_effect(
             context, trial, baseline, state.next_seed(), state.half_cache, _loop_added(state, entry), search=search
         )
-        first_coef = trial.result.coefficients[-2]
+        first_coef = trial.identified.coefficients[-2]
         step = second.step
         if step.accepted and first_coef.imag_ratio >= max_imag_ratio:
             # not a rejection of this effect (it failed none of its own checks): the pair is declined
@@ -139,7 +141,7 @@ def look_ahead(context: LoopContext, state: LoopState, pending: tuple[Verdict, E
                 f"{first_coef.imag_ratio:.2f} with it",
                 coefficient=first_coef.value,
                 imag_ratio=first_coef.imag_ratio,
-                ci95=tuple(float(c) for c in second.ci95[-2]),
+                ci95=_interval(second.ci95, -2),
             )
             return first, second, trial
     return None
@@ -235,3 +237,11 @@ def reexamine(context: LoopContext, state: LoopState, new_terms, examine) -> Non
             replace(step, accepted=False, reason=f"exchanged for {trial.term.name} once {_names(new_terms)} was added")
         )
         state.current, state.log_z = trial.result, new.log_evidence
+
+
+def _interval(intervals: np.ndarray | None, index: int) -> tuple[float, float]:
+    """Row ``index`` of a verdict's credible intervals (NaN when it was not sampled)."""
+    if intervals is None:
+        return (math.nan, math.nan)
+    low, high = intervals[index]
+    return (float(low), float(high))

@@ -71,6 +71,19 @@ class EffectScore:
         """True when the screen left the effect out (it was not re-identified)."""
         return math.isnan(self.log_evidence)
 
+    @property
+    def identified(self) -> NSIResult:
+        """The enlarged model's identification.
+
+        Raises
+        ------
+        ValueError
+            When the score keeps no identification (screened out, failed, or a kept score).
+        """
+        if self.result is None:
+            raise ValueError(f"{self.term.name}: this score keeps no identification ({self.error or 'not kept'})")
+        return self.result
+
 
 @dataclass(frozen=True)
 class Check:

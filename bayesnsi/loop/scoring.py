@@ -200,7 +200,7 @@ def refine_gap(
             trial = score_one(signals, candidate, clearance_effect(at, float(g)), nsi, evidence, correlations)
             if trial.log_evidence > best.log_evidence:
                 best = trial
-        centre, step = best.effect.gap, (upper - lower) / (points - 1)
+        centre, step = best.effect.gap or gap, (upper - lower) / (points - 1)
         lower, upper = max(centre - step, 0.5 * step), centre + step
     return best
 
@@ -212,8 +212,8 @@ def _screened(context: LoopContext, candidate, effects, exclude):
     of the rest, screen)``; the rest carry a NaN score (screened out, not re-identified), in screen
     order; ``screen`` maps each kept effect's term name to its ``(rank, score, view)``.
     """
-    count = context.options.screen
     effects = new_effects(candidate, effects, exclude)
+    count = len(effects) if context.options.screen is None else context.options.screen  # None: all
     try:
         if context.nsi.virtual_stiffness not in ("auto", 0.0, 0):  # a free body: screen in the force view
             view, ranked = "force", screen_effects_force(context.signals, candidate, effects)

@@ -39,11 +39,16 @@ the cubic 1st, v1|v1| 5th).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..exceptions import BayesNSIError
 from ..noise import period_blocks
 from ..nsi import extended_input
+
+if TYPE_CHECKING:
+    from ..models.dictionary import Effect
 
 __all__ = ["screen_effects"]
 
@@ -93,7 +98,7 @@ def screen_effects(
     max_frequency_hz: float | None = None,
     group_bins: int = 8,
     velocity_method: str = "fourth",
-) -> list[tuple[object, float]]:
+) -> list[tuple[Effect, float]]:
     """Rank effects by how much of the outputs their nonlinear input explains (see module notes).
 
     Parameters

@@ -18,15 +18,20 @@ evidence decides.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..exceptions import NotIdentifiableError
 from ..nsi.inverse import edge_samples, filtered_kinematics, parallel_filter
 
+if TYPE_CHECKING:
+    from ..models.dictionary import Effect
+
 __all__ = ["screen_effects_force"]
 
 
-def screen_effects_force(signals, candidate, effects, *, cutoff_hz: float | None = None) -> list[tuple[object, float]]:
+def screen_effects_force(signals, candidate, effects, *, cutoff_hz: float | None = None) -> list[tuple[Effect, float]]:
     """Rank effects by how much of a one-DOF free body's force residual they explain (module notes).
 
     Parameters

@@ -111,7 +111,7 @@ def input_noise(
     x_dofs = sorted({d for t in terms for d in t.expr.displacement_dofs})
     v_dofs = sorted({d for t in terms for d in t.expr.velocity_dofs})
     x, v = signals.state_rows(x_dofs, v_dofs, velocity_method)
-    channels = [("x", d, column[d], disp_std[column[d]]) for d in x_dofs]
+    channels: list[tuple[str, int, int | None, float]] = [("x", d, column[d], disp_std[column[d]]) for d in x_dofs]
     channels += [("v", d, None, vel_std[column[d]]) for d in v_dofs]
     n, q = signals.n_samples, len(terms)
     jac, bias = [], np.zeros((n, q))
@@ -175,7 +175,7 @@ def _riccati_iteration(A, C, Q, R, S, max_iter: int = 200_000, rtol: float = 1e-
         gain = np.linalg.solve(C @ P @ C.T + R, (A @ P @ C.T + S).T).T
         new = A @ P @ A.T + Q - gain @ (A @ P @ C.T + S).T
         new = 0.5 * (new + new.T)
-        if np.linalg.norm(new - P) <= rtol * max(np.linalg.norm(new), 1e-300):
+        if np.linalg.norm(new - P) <= rtol * max(float(np.linalg.norm(new)), 1e-300):
             return new
         P = new
     raise np.linalg.LinAlgError("the Riccati recursion did not converge")

@@ -11,6 +11,8 @@ independent of N.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from scipy.linalg import blas as _blas
 
@@ -285,7 +287,7 @@ def refine_poles(
         s_cont = np.log(lam) / dt
     freq = np.abs(s_cont) / (2 * np.pi)
     refine = (np.abs(lam.imag) > 0) & (freq > lo / 1.5) & (freq < 1.5 * hi) & (np.abs(lam) < 1)
-    info = {"refined": int(refine.sum()), "iterations": 0}
+    info: dict[str, Any] = {"refined": int(refine.sum()), "iterations": 0}
     if not refine.any():
         info.update(cost_initial=np.nan, cost=np.nan)
         return np.array(A, dtype=float), info
@@ -345,12 +347,12 @@ def refine_poles(
     info["cost"] = cost
     beta, s_cols = state[5], state[2]
     residues = np.zeros((len(lam), y.shape[1], m + 1), dtype=complex)
-    for p, (first, width) in enumerate(s_cols):
+    for pole, (first, width) in enumerate(s_cols):
         for c in range(m + 1):
             if width == 2:
-                residues[p, :, c] = (beta[first + 2 * c] - 1j * beta[first + 2 * c + 1]) * sigma
+                residues[pole, :, c] = (beta[first + 2 * c] - 1j * beta[first + 2 * c + 1]) * sigma
             else:
-                residues[p, :, c] = beta[first + c] * sigma
+                residues[pole, :, c] = beta[first + c] * sigma
     info.update(eigenvalue_index=index, eigenvalues=lam, residues=residues, refined_mask=refine)
     new_all = lam_all.astype(complex).copy()
     new_all[index] = lam

@@ -199,14 +199,14 @@ def _interval_mean(term: Term, x: dict, v: dict, dt: float, subsamples: int) -> 
     """Mean of n(x(t), v(t)) over each sampling interval (midpoint rule, Hermite interpolation)."""
     shift = {k: np.concatenate([a[1:], a[-1:]]) for k, a in x.items()}
     vshift = {k: np.concatenate([a[1:], a[-1:]]) for k, a in v.items()}
-    total = None
+    total: np.ndarray | float = 0.0
     for s in (np.arange(subsamples) + 0.5) / subsamples:
         h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
         h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
         xs = {k: h00 * x[k] + h10 * dt * v[k] + h01 * shift[k] + h11 * dt * vshift[k] for k in x}
         vs = {k: (1 - s) * v[k] + s * vshift[k] for k in v}
         value = term.evaluate(xs, vs)
-        total = value if total is None else total + value
-    mean = total / subsamples
+        total = total + value
+    mean = np.asarray(total, dtype=float) / subsamples
     mean[-1] = term.evaluate({k: a[-1:] for k, a in x.items()}, {k: a[-1:] for k, a in v.items()})[0]
     return mean

@@ -277,7 +277,7 @@ def _march(states, force, maps, functions, n, steps_per_out, limit, dt_out) -> N
     z_stage = [y_stage[0]] + [np.empty((rows, n_batch)) for _ in range(3)]
     xv = [(zb[:n], zb[n:]) for zb in z_stage]
     n_stack = np.zeros((4 * q, n_batch))
-    n_prev = [None] + [n_stack[: s * q] for s in (1, 2, 3)]
+    n_prev = [n_stack[:0]] + [n_stack[: s * q] for s in (1, 2, 3)]  # terms of the stages before stage s
     tmp = np.empty((rows, n_batch))
     work = (np.empty((rows, n_batch)), np.empty((rows, n_batch)))  # states between outputs
     final_z = omega[:rows]

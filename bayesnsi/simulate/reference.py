@@ -16,6 +16,7 @@ import functools
 import inspect
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -104,7 +105,7 @@ def reference_case(name: str, noise_percent: float):
             seed, noise = values.pop("seed"), values.pop("noise_percent")
             return simulate_cases(name, [seed], noise, **values)[0]
 
-        case.__signature__ = signature
+        case.__signature__ = signature  # type: ignore[attr-defined]  # what help() and inspect show
         case.__doc__ = (setup.__doc__ or "").replace(_PARAMETERS, _PARAMETERS + _COMMON_PARAMETERS, 1)
         _REGISTRY[name] = _Entry(setup, float(noise_percent))
         CASES[name] = case
@@ -288,7 +289,7 @@ def run_setup(setup: CaseSetup, seeds: list, noise_percent: float) -> tuple[Refe
         disp, vel = single.displacement[:, cols], single.velocity[:, cols]
         noisy_disp = add_output_noise(disp, noise_percent, rng)
         noisy_vel = add_output_noise(vel, noise_percent, rng)
-        common = dict(fs=setup.fs, input_dofs=setup.force_dofs, output_dofs=setup.output_dofs)
+        common: dict[str, Any] = dict(fs=setup.fs, input_dofs=setup.force_dofs, output_dofs=setup.output_dofs)
         cases.append(
             ReferenceCase(
                 name=setup.name,

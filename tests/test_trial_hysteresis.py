@@ -125,7 +125,7 @@ def _fake_diagnosis(steps, checks, scores=(), added=(), validation=((), ())):
 
     from bayesnsi.options import LoopOptions
 
-    loop = SimpleNamespace(steps=tuple(steps), scores=tuple(scores), options=LoopOptions(),
+    loop = SimpleNamespace(steps=tuple(steps), scores=tuple(scores), options=LoopOptions(), friction=None,
                            unexamined=lambda: (), start=SimpleNamespace(reconstruct=None),
                            final=SimpleNamespace(coefficients=()), final_nsi=SimpleNamespace(upsample=1))
     final = SimpleNamespace(check=None, intervals=None, result=SimpleNamespace(coefficients=()),

@@ -236,8 +236,8 @@ def plot_effect_force(step, signals, max_points: int = 4000, units=None):
     ----------
     step : loop step
         Has ``term``, ``coefficient`` and optionally ``residual_force``.
-    signals : Signals
-        The measured signals.
+    signals : Signals or None
+        The measured signals (None with a ``residual_force``: the effect's law is not drawn).
     max_points : int
         At most this many points per scatter.
     units : ChannelUnits, optional
@@ -280,6 +280,8 @@ def _effect_law(step, signals, max_points: int):
     """λ·n(x, v) on the measured states at the effect's location (None where the location is not measured)."""
     from ..exceptions import InputDataError
 
+    if signals is None:
+        return None
     try:
         return effect_curve(step, signals, max_points)
     except InputDataError:

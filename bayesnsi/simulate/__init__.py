@@ -17,10 +17,11 @@ from .cases import (
 )
 from .excitation import Excitation, band_limited_gaussian, fft_interpolate, from_samples
 from .gvt import GVT_BAND_HZ, GVT_JOINT, GVT_SENSORS, GVT_SHAKER, GVTRecord, gvt_records, gvt_structure
-from .integrate import Response, add_output_noise, rk4_modal_error, simulate_response
+from .integrate import Response, add_output_noise, simulate_response
 from .multisine import multisine, multisine_lines
 from .records import CaseSetup
 from .reference import MAX_SIMULATION_BYTES, case_setup, simulation_bytes
+from .rk4 import rk4_modal_error
 from .structures import cantilever_beam, chain_system, modal_damping, modal_parameters, state_matrix, underlying_frf
 from .undeclared import UNDECLARED_CASES, MissingEffect, UndeclaredCase, effect_sizes, undeclared_case, undeclared_cases
 

@@ -18,8 +18,9 @@ import numpy as np
 from ..exceptions import InputDataError, ShapeError, UnstableModelError
 from ..models.terms import Term, nonlinear_force
 from ._fixed_order import inverse, product, product_into
+from .rk4 import rk4_maps
 
-__all__ = ["Response", "simulate_response", "add_output_noise", "rk4_modal_error"]
+__all__ = ["Response", "simulate_response", "add_output_noise"]
 
 _CHUNK_OUTPUTS = 2048  # output samples per chunk of precomputed force terms ...
 _CHUNK_FLOATS = 2**22  # ... but at most this many floats (32 MiB) of them
@@ -207,7 +208,7 @@ def simulate_response(
     L = np.stack([t.location_vector(n) for t in terms], axis=1) if q else np.zeros((n, 0))
     G = np.vstack([np.zeros((n, q)), -product(m_inv, L) * coefs])  # (2n, q)
 
-    stage_z, stage_u, final_z, final_u = _rk4_maps(A, h)
+    stage_z, stage_u, final_z, final_u = rk4_maps(A, h)
     # rows: [final (2n); stage 1 (2n); stage 2; stage 3; stage 4]
     omega = np.vstack([final_z] + stage_z)  # (10n, 2n)
     maps_u = [final_u] + stage_u  # each: list of 4 (2n, 2n) blocks (inputs u1..u4)
@@ -352,66 +353,6 @@ def add_output_noise(signal, percent: float, rng=None) -> np.ndarray:
     std = arr.std(axis=axis, keepdims=True)
     noise = np.random.default_rng(rng).standard_normal(arr.shape)
     return arr + noise * std * (percent / 100.0)
-
-
-def rk4_modal_error(frequencies_hz, damping_ratios, step: float):
-    """Frequency and damping errors RK4 makes on linear modes.
-
-    Parameters
-    ----------
-    frequencies_hz : array_like
-        Natural frequencies [Hz].
-    damping_ratios : array_like
-        Damping ratios (broadcast against ``frequencies_hz``).
-    step : float
-        RK4 step h [s].
-
-    Returns
-    -------
-    relative_frequency_error : ndarray
-        (f_RK4 - f) / f, where f_RK4 is the natural frequency of the continuous pole
-        equivalent to the RK4 amplification factor R(hs) = 1 + hs + (hs)²/2 + (hs)³/6 +
-        (hs)⁴/24, i.e. ``log(R(hs)) / h``. About -(ωh)⁴/120 for light damping.
-    damping_ratio_error : ndarray
-        ζ_RK4 - ζ, of order (ωh)⁵/144 (positive, i.e. numerical damping, for an undamped mode).
-    """
-    f = np.asarray(frequencies_hz, dtype=float)
-    zeta = np.asarray(damping_ratios, dtype=float)
-    w = 2 * np.pi * f
-    s = w * (-zeta + 1j * np.sqrt(1 - zeta**2 + 0j))
-    hs = step * s
-    R = 1 + hs + hs**2 / 2 + hs**3 / 6 + hs**4 / 24
-    s_eq = np.log(R) / step
-    w_eq = np.abs(s_eq)
-    return w_eq / w - 1.0, -s_eq.real / w_eq - zeta
-
-
-def _rk4_maps(A: np.ndarray, h: float):
-    """RK4 stages and update as linear maps of (z, u1, u2, u3, u4), with k_s = A z_s + u_s."""
-    size = A.shape[0]
-    eye, zero = np.eye(size), np.zeros((size, size))
-
-    def lin(zpart, upart):
-        return [zpart, list(upart)]
-
-    def add(a, b, cb=1.0):
-        return [a[0] + cb * b[0], [ua + cb * ub for ua, ub in zip(a[1], b[1])]]
-
-    def slope(state, s):  # k_s = A z_s + u_s
-        upart = [product(A, u) for u in state[1]]
-        upart[s] = upart[s] + eye
-        return [product(A, state[0]), upart]
-
-    z = lin(eye, [zero] * 4)
-    stages, ks = [z], []
-    for s, frac in enumerate((0.5, 0.5, 1.0)):
-        ks.append(slope(stages[-1], s))
-        stages.append(add(z, ks[-1], frac * h))
-    ks.append(slope(stages[-1], 3))
-    final = z
-    for weight, k in zip((1.0, 2.0, 2.0, 1.0), ks):
-        final = add(final, k, weight * h / 6.0)
-    return [st[0] for st in stages], [st[1] for st in stages], final[0], final[1]
 
 
 def _evaluator(term: Term):

@@ -132,16 +132,25 @@ def test_linear_candidate_has_nothing_to_sample():
     assert result.posterior.samples.shape == (32, 500, 2)
 
 
-def test_emcee_samples_the_collapsed_posterior_when_asked():
-    """moves = "de": emcee over λ alone gives the evidence of the independence chain."""
+def test_emcee_samples_the_collapsed_posterior_with_any_moves():
+    """moves = "de" (emcee's DE moves alone, the full run) gives the evidence of the default mixed moves."""
     rng = np.random.default_rng(base_seed() + 305)
     affine = make_affine(5000, 2, 2, rng, rho=0.3, smooth=True)
     priors = make_priors(affine)
     stats = sufficient_statistics(affine, ar_order=1)
     de = evidence_from_statistics(stats, priors, "ar1", rng=3, warn=False, moves="de", **QUICK)
     chain = evidence_from_statistics(stats, priors, "ar1", rng=3, warn=False, **QUICK)
-    assert de.settings["sampler"] == "collapsed: emcee (de moves)"
-    assert chain.settings["sampler"] == "collapsed: independence Metropolis-Hastings"
+    assert de.sampler.name == chain.sampler.name == "emcee"
+    assert de.sampler.moves == ("differential evolution", "differential evolution snooker")
+    assert (de.sampler.n_walkers, de.sampler.n_steps, de.sampler.n_burn) == (32, 600, 100)
+    assert chain.sampler.moves[0].startswith("independence") and chain.sampler.moves[1] == "stretch"
+    assert chain.sampler.weights == (0.9, 0.1)
+    # the independence move mixes well here: a wide ensemble, a shortened run, recorded as it ran
+    assert chain.sampler.n_walkers == 128 and chain.sampler.n_steps < 600 and chain.sampler.n_burn == 25
+    assert chain.posterior.samples.shape[:2] == (128, chain.sampler.n_steps - 25)
+    assert chain.settings["sampler"] == chain.sampler.describe()
+    assert chain.posterior.to_datatree()["posterior"].attrs["sampler"].startswith("emcee 3")
+    assert chain.to_dict()["sampler"]["n_walkers"] == 128
     assert chain.settings["acceptance_mean"] > 0.5
     tolerance = max(0.01, 4 * np.hypot(de.log_evidence_se, chain.log_evidence_se))
     assert abs(de.log_evidence - chain.log_evidence) <= tolerance

@@ -16,7 +16,16 @@ from typing import Any
 
 import numpy as np
 
-from ..evidence import BridgeEstimate, ConvergenceReport, EvidenceResult, Intervals, ParameterInterval, PosteriorSamples
+from ..evidence import (
+    BridgeEstimate,
+    ConvergenceReport,
+    EvidenceResult,
+    Intervals,
+    ParameterInterval,
+    PosteriorSamples,
+    QuadratureEvidence,
+    SamplerRecord,
+)
 from ..exceptions import BayesNSIError
 from ..models import CandidateModel, Term
 from ..nsi import CoefficientEstimate, Mode, NSIResult, StateSpaceModel
@@ -277,6 +286,10 @@ EVIDENCE_RESULT = _Struct(EvidenceResult, {
         "mode": _Array("float64", 1),
         "mode_covariance": _Array("float64", 2),
         "settings": _Typed(dict),
+        "sampler": _Struct(SamplerRecord, {
+            "name": STR, "version": STR, "moves": STRS, "weights": FLOATS, "n_walkers": INT, "n_steps": INT,
+            "n_burn": INT, "parameters": STR,
+        }, none=True),
     }, check=_check_posterior),
     "summary": _Frame(),
     "convergence": _Struct(ConvergenceReport, {
@@ -293,6 +306,8 @@ EVIDENCE_RESULT = _Struct(EvidenceResult, {
     "settings": _Typed(dict),
     "priors_text": STR,
     "warnings": STRS,
+    "quadrature": _Struct(QuadratureEvidence, {"log_evidence": FLOAT, "error": FLOAT, "n_nodes": INT, "n_passes": INT},
+                          none=True),
 }, check=_check_evidence)
 
 _PARAMETER_INTERVALS = _Sequence(_Struct(ParameterInterval, {

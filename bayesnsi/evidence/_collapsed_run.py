@@ -66,7 +66,6 @@ def sample_collapsed(target: Target, rng, n_walkers: int, n_steps: int, n_burn: 
     mode = _inside_support(target, mode, theta0)
     cov = _laplace_covariance(hess, target, mode)
     seed = int(rng.integers(0, 2**32 - 1))
-    parameters = "coefficients (noise parameters integrated out)"
     if q:
         p0 = _initial_walkers(collapsed, mode[:q], cov[:q, :q], n_walkers, rng)  # type: ignore[arg-type]
         lam, acceptance, record = _run_emcee(collapsed, p0, mode[:q], cov[:q, :q], moves, n_steps, n_burn, seed, rng)
@@ -122,7 +121,7 @@ def _run_emcee(collapsed: CollapsedTarget, p0, mode, cov, moves: str, n_steps: i
     with interrupt_after():
         if shortened:  # a wide ensemble and a short run, while the independence move mixes well
             wide = max(n_walkers, ENSEMBLE_WALKERS)
-            start = np.concatenate([p0, _initial_walkers(collapsed, mode, cov, wide - n_walkers, rng)])
+            start = np.concatenate([p0, _initial_walkers(collapsed, mode, cov, wide - n_walkers, rng)])  # type: ignore[arg-type]
             move_objects, move_names, move_weights = move_list(moves, mode, cov, "collapsed")
             sampler = emcee.EnsembleSampler(wide, q, collapsed.log_posterior, vectorize=True, moves=move_objects)
             state = sampler.run_mcmc(emcee.State(start, random_state=random_state), SHORT_BURN, **run)

@@ -97,6 +97,7 @@ def move_list(kind: str, mode, cov, estimator: str = "joint"):
     -------
     (list of (emcee.moves.Move, float), tuple of str, tuple of float)
     """
+    plan: tuple[tuple[str, float], ...]
     if kind == "stretch":
         plan = (("stretch", 1.0),)
     elif kind == "de":

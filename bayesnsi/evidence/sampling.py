@@ -207,10 +207,11 @@ class PosteriorSamples:
             posterior["rho"] = self.rho
             dims["rho"] = ["channel", "lag"]
             coords["lag"] = list(range(1, self.ar_order + 1))
+        sampler = self.sampler.describe() if self.sampler is not None else str(self.settings.get("sampler", ""))
         attrs = {
             "posterior": {
                 "likelihood": self.likelihood,
-                "sampler": self.sampler.describe() if self.sampler is not None else str(self.settings.get("sampler", "")),
+                "sampler": sampler,
                 "n_burn": int(self.settings.get("n_burn", 0)),
             }
         }

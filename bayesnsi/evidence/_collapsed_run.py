@@ -4,15 +4,17 @@
 the noise parameters integrated out. emcee samples it (``EnsembleSampler(..., vectorize=True)``: one
 call per step for all walkers) with the ``"mixed"`` moves of :func:`~bayesnsi.evidence._moves.move_list`:
 mostly an independence Metropolis-Hastings move whose multivariate-t proposal (5 degrees of freedom,
-1.2 x the Laplace covariance at the mode) is fixed before sampling, with emcee's differential-evolution
-moves. emcee's cost is mostly per step, whatever the number of walkers (one vectorised call), so the
-run is shortened where the independence move mixes well: :data:`ENSEMBLE_WALKERS` walkers, a burn-in
-of :data:`SHORT_BURN` steps, after which the independence move's acceptance must be at least
-:data:`MIN_ACCEPTANCE`, and a run that stops once every coefficient's effective sample size reaches
-:data:`TARGET_ESS` (and 50 autocorrelation times), within ``n_steps``. Otherwise (and for the
-``"stretch"`` and ``"de"`` moves) emcee runs ``n_walkers`` walkers for ``n_steps`` steps and discards
-``n_burn``. The run that happened is recorded (:class:`~bayesnsi.evidence.SamplerRecord`). ``σ`` and
-``ρ`` are then drawn exactly given each draw of ``λ``.
+1.2 x the Laplace covariance at the mode) is fixed before sampling, with emcee's stretch move
+(:data:`~bayesnsi.evidence._moves.MIXED_MOVES`). emcee's cost is mostly per step, whatever the number
+of walkers (one vectorised call), so the run is shortened where the independence move mixes well:
+:data:`ENSEMBLE_WALKERS` walkers, a burn-in of :data:`SHORT_BURN` steps after which the independence
+move's acceptance must be at least :data:`MIN_ACCEPTANCE`, and a run that stops once every
+coefficient's effective sample size reaches :data:`TARGET_ESS` (and 50 autocorrelation times),
+within ``n_steps``. Otherwise (and for the ``"stretch"`` and ``"de"`` moves) emcee runs
+``n_walkers`` walkers for ``n_steps`` steps and discards ``n_burn`` (the ``"mixed"`` moves then
+weighted as for the joint estimator: independence 0.5, DE 0.4, DE snooker 0.1). The run that
+happened is recorded (:class:`~bayesnsi.evidence.SamplerRecord`). ``σ`` and ``ρ`` are then drawn
+exactly given each draw of ``λ``.
 """
 
 from __future__ import annotations
@@ -122,7 +124,7 @@ def _run_emcee(collapsed: CollapsedTarget, p0, mode, cov, moves: str, n_steps: i
         if shortened:  # a wide ensemble and a short run, while the independence move mixes well
             wide = max(n_walkers, ENSEMBLE_WALKERS)
             start = np.concatenate([p0, _initial_walkers(collapsed, mode, cov, wide - n_walkers, rng)])  # type: ignore[arg-type]
-            move_objects, move_names, move_weights = move_list(moves, mode, cov, "collapsed")
+            move_objects, move_names, move_weights = move_list(moves, mode, cov, "independence")
             sampler = emcee.EnsembleSampler(wide, q, collapsed.log_posterior, vectorize=True, moves=move_objects)
             state = sampler.run_mcmc(emcee.State(start, random_state=random_state), SHORT_BURN, **run)
             independence = next(m for m, _ in move_objects if isinstance(m, IndependenceMove))
@@ -141,7 +143,7 @@ def _run_emcee(collapsed: CollapsedTarget, p0, mode, cov, moves: str, n_steps: i
                 random_state = state.random_state
                 p0 = state.coords[:n_walkers]
         if not shortened:
-            move_objects, move_names, move_weights = move_list(moves, mode, cov, "collapsed")
+            move_objects, move_names, move_weights = move_list(moves, mode, cov, "balanced")
             sampler = emcee.EnsembleSampler(n_walkers, q, collapsed.log_posterior, vectorize=True, moves=move_objects)
             sampler.run_mcmc(emcee.State(p0, random_state=random_state), n_steps, **run)
             burn, done = n_burn, n_steps - n_burn

@@ -14,15 +14,16 @@ import numpy as np
 from ..exceptions import InputDataError
 
 MIXED_MOVES = {
-    "joint": (("independence", 0.5), ("differential evolution", 0.4), ("differential evolution snooker", 0.1)),
-    "collapsed": (("independence", 0.9), ("stretch", 0.1)),
+    "balanced": (("independence", 0.5), ("differential evolution", 0.4), ("differential evolution snooker", 0.1)),
+    "independence": (("independence", 0.9), ("stretch", 0.1)),
 }
-"""The ``"mixed"`` moves and their probabilities per step, by estimator.
+"""The ``"mixed"`` moves and their probabilities per step.
 
-All parameters (joint): the t proposal fits the posterior of ``(λ, log σ, ρ)`` less well, DE moves
-carry more of the mixing. Coefficients alone (collapsed): the proposal's acceptance is 0.6-0.95 on
-the reference cases; the stretch move (vectorised in emcee, where the DE moves loop over the walkers
-in Python) keeps a local move in the mix at little cost on a wide ensemble.
+``"balanced"``: all parameters (the joint estimator), or the coefficients where the proposal misses
+their posterior: DE moves carry much of the mixing. ``"independence"``: the coefficients alone (the
+collapsed estimator) where the proposal fits them (acceptance 0.6-0.95 on the reference cases); the
+stretch move (vectorised in emcee, where the DE moves loop over the walkers in Python) keeps a local
+move in the mix at little cost on a wide ensemble.
 """
 
 
@@ -80,18 +81,19 @@ class IndependenceMove(emcee.moves.MHMove):
         return state, accepted
 
 
-def move_list(kind: str, mode, cov, estimator: str = "joint"):
+def move_list(kind: str, mode, cov, mix: str = "balanced"):
     """emcee's ``moves`` argument for ``kind``, the moves' names and their weights.
 
     Parameters
     ----------
     kind : {"mixed", "stretch", "de"}
         ``"mixed"``: :class:`IndependenceMove` with emcee's moves as :data:`MIXED_MOVES` lists them for
-        ``estimator``; ``"stretch"``: emcee's default ``StretchMove``; ``"de"``: ``DEMove`` 0.8,
+        ``mix``; ``"stretch"``: emcee's default ``StretchMove``; ``"de"``: ``DEMove`` 0.8,
         ``DESnookerMove`` 0.2.
     mode, cov : array_like
         Centre and covariance of the independence proposal.
-    estimator : {"joint", "collapsed"}
+    mix : {"balanced", "independence"}
+        Key of :data:`MIXED_MOVES`.
 
     Returns
     -------
@@ -103,7 +105,7 @@ def move_list(kind: str, mode, cov, estimator: str = "joint"):
     elif kind == "de":
         plan = (("differential evolution", 0.8), ("differential evolution snooker", 0.2))
     elif kind == "mixed":
-        plan = MIXED_MOVES[estimator]
+        plan = MIXED_MOVES[mix]
     else:
         raise InputDataError(f"moves must be 'mixed', 'stretch' or 'de', got {kind!r}")
     makers = {"independence": lambda: IndependenceMove(mode, cov), "stretch": emcee.moves.StretchMove,

@@ -321,7 +321,7 @@ def _sample(
 
     from ._moves import move_list
 
-    move_objects, move_names, move_weights = move_list(moves, mode, cov, "joint")
+    move_objects, move_names, move_weights = move_list(moves, mode, cov, "balanced")
     sampler = emcee.EnsembleSampler(n_walkers, ndim, target.log_posterior, vectorize=True, moves=move_objects)
     with interrupt_after():
         sampler.run_mcmc(

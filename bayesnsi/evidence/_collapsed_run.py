@@ -30,9 +30,9 @@ ENSEMBLE_WALKERS = 128
 """Walkers of the shortened run: emcee's cost is per step, so a wide ensemble reaches an ESS in fewer steps."""
 SHORT_BURN = 25
 """Burn-in steps of the shortened run (the walkers start from the Laplace approximation)."""
-TARGET_ESS = 20_000
-"""Effective sample size of every coefficient at which the shortened run stops (bridge error ≈ 1.5e-4 nat)."""
-FIRST_BLOCK = 150
+TARGET_ESS = 12_000
+"""Effective sample size of every coefficient at which the shortened run stops (bridge error ≈ 1e-4 nat)."""
+FIRST_BLOCK = 130
 """Steps after the burn-in before the autocorrelation time is first estimated (more draws than walkers)."""
 
 

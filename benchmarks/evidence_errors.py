@@ -93,8 +93,7 @@ def measure(stats, priors, likelihood: str, seed_sequence, rows: dict, label: st
         seconds = time.perf_counter() - t0
         rows.setdefault((label, likelihood, path), []).append(
             (result.log_evidence - exact.log_evidence, result.log_evidence_se, seconds))
-        if path == "collapsed":
-            laplace = result
+        laplace = result
     # the Laplace approximation: its error against the exact value
     rows.setdefault((label, likelihood, "laplace"), []).append(
         (laplace.laplace_log_evidence - exact.log_evidence, np.nan, 0.0))
@@ -105,7 +104,10 @@ def main(argv=None) -> int:
     parser.add_argument("--seeds", type=int, default=10)
     parser.add_argument("--duration", type=float, default=100.0, help="two-DOF record length [s] at 100 Hz")
     parser.add_argument("--channels", type=int, default=16, help="channels of the affine stand-in")
+    parser.add_argument("--paths", nargs="+", choices=sorted(PATHS), default=sorted(PATHS), help="sampled paths run")
     args = parser.parse_args(argv)
+    for path in set(PATHS) - set(args.paths):
+        del PATHS[path]
     print(f"python {platform.python_version()}, numpy {np.__version__}; {args.seeds} seeds; two-DOF "
           f"{args.duration:g} s at 100 Hz; stand-in {args.channels} channels, 1e4 samples")
     rows: dict = {}

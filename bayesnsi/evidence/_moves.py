@@ -51,6 +51,7 @@ class IndependenceMove(emcee.moves.MHMove):
     def __init__(self, mode, cov, df: float = 5.0, inflate: float = 1.2):
         self.mode = np.asarray(mode, dtype=float)
         self.chol = inflate * np.linalg.cholesky(np.atleast_2d(cov))
+        self._whiten = np.linalg.inv(self.chol).T  # rows x -> L⁻¹(x - mode) by one product per step
         self.df = float(df)
         self.inflate = float(inflate)
         self.n_proposed = 0
@@ -64,7 +65,7 @@ class IndependenceMove(emcee.moves.MHMove):
 
     def log_g(self, x) -> np.ndarray:
         """Unnormalised log density of the proposal at rows of ``x``."""
-        y = np.linalg.solve(self.chol, (np.asarray(x, dtype=float) - self.mode).T).T
+        y = (np.asarray(x, dtype=float) - self.mode) @ self._whiten
         return -0.5 * (self.df + self.mode.size) * np.log1p(np.sum(y**2, axis=-1) / self.df)
 
     def _proposal(self, coords, random):

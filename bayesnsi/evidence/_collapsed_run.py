@@ -33,7 +33,7 @@ SHORT_BURN = 25
 TARGET_ESS = 12_000
 """Effective sample size of every coefficient at which the shortened run stops (bridge error ≈ 1e-4 nat)."""
 FIRST_BLOCK = 130
-"""Steps after the burn-in before the autocorrelation time is first estimated (more draws than walkers)."""
+"""Steps after the burn-in before the autocorrelation time is first estimated (and more than the walkers)."""
 
 
 def sample_collapsed(target: Target, rng, n_walkers: int, n_steps: int, n_burn: int, start, moves: str = "mixed",
@@ -130,7 +130,9 @@ def _run_emcee(collapsed: CollapsedTarget, p0, mode, cov, moves: str, n_steps: i
             independence = next(m for m, _ in move_objects if isinstance(m, IndependenceMove))
             shortened = independence.acceptance >= MIN_ACCEPTANCE
             if shortened:
-                burn, budget, done, block = SHORT_BURN, n_steps - SHORT_BURN, 0, FIRST_BLOCK
+                # more draws than walkers: arviz reads (chain, draw) arrays the other way round otherwise
+                burn, budget, done = SHORT_BURN, n_steps - SHORT_BURN, 0
+                block = min(max(FIRST_BLOCK, wide + 2), budget)
                 sampler.reset()
                 while block > 0:
                     state = sampler.run_mcmc(state, block, **run)

@@ -48,3 +48,20 @@ def test_posterior_file_names_are_safe_and_distinct():
 def test_reading_a_missing_posterior_is_bad_input(tmp_path):
     with pytest.raises(InputDataError, match="not found"):
         read_posterior(tmp_path / "nope.nc")
+
+
+def test_posterior_file_names_the_sampler_that_ran(tmp_path):
+    from bayesnsi.evidence import evidence_from_statistics, sufficient_statistics
+
+    from .test_evidence import make_affine, make_priors
+
+    affine = make_affine(2000, 2, 1, np.random.default_rng(5), smooth=True)
+    stats = sufficient_statistics(affine, ar_order=1)
+    evidences = {"cubic": {"white": evidence_from_statistics(stats, make_priors(affine), "white", rng=3, warn=False,
+                                                            n_steps=400, n_burn=50)}}
+    files = write_posteriors(tmp_path, evidences, "white")
+    attrs = read_posterior(tmp_path / files["cubic"])["posterior"].attrs
+    record = evidences["cubic"]["white"].sampler
+    assert attrs["sampler"] == record.describe()
+    assert attrs["sampler"].startswith("emcee ") and f"{record.n_walkers} walkers x {record.n_steps} steps" in attrs[
+        "sampler"]

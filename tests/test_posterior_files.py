@@ -74,3 +74,20 @@ def test_posterior_group_carries_the_honest_intervals_and_the_given_linear_part_
     assert np.all(given["sd"].to_numpy(dtype=float) < summary["sd"].to_numpy(dtype=float))
     assert tree["posterior"]["coefficient"].attrs["units"] == ["", ""]  # the data state no units here
     assert "honest intervals" in tree["posterior"]["coefficient"].attrs["description"]
+
+
+def test_posterior_file_names_the_sampler_that_ran(tmp_path):
+    from bayesnsi.evidence import evidence_from_statistics, sufficient_statistics
+
+    from .test_evidence import make_affine, make_priors
+
+    affine = make_affine(2000, 2, 1, np.random.default_rng(5), smooth=True)
+    stats = sufficient_statistics(affine, ar_order=1)
+    evidences = {"cubic": evidence_from_statistics(stats, make_priors(affine), "white", rng=3, warn=False,
+                                                  n_steps=400, n_burn=50)}
+    files = write_posteriors(tmp_path, evidences)
+    attrs = read_posterior(tmp_path / files["cubic"])["posterior"].attrs
+    record = evidences["cubic"].sampler
+    assert attrs["sampler"] == record.describe()
+    assert attrs["sampler"].startswith("emcee ") and f"{record.n_walkers} walkers x {record.n_steps} steps" in attrs[
+        "sampler"]

@@ -290,8 +290,9 @@ def test_diagnose_lines_name_a_free_bodys_validation_error_as_force_prediction()
     after = (SimpleNamespace(name="second record", nrmse=0.0957, quantity="force"),)
     step = SimpleNamespace(accepted=True, term=Term("sign(v1)", 1), reason="", imag_ratio=0.02, log_bayes_factor=9.0,
                            effect=SimpleNamespace(name="sign(v)", location=(1,)))
-    loop = SimpleNamespace(steps=(step,), scores=(), options=LoopOptions(), friction=None, final=SimpleNamespace(coefficients=()),
-                           final_nsi=SimpleNamespace(upsample=1), nsi=SimpleNamespace(upsample=1))
+    loop = SimpleNamespace(steps=(step,), scores=(), options=LoopOptions(), friction=None,
+                           final=SimpleNamespace(coefficients=()), final_nsi=SimpleNamespace(upsample=1),
+                           nsi=SimpleNamespace(upsample=1))
     final = SimpleNamespace(check=None, intervals=None, result=SimpleNamespace(coefficients=()),
                             validation_before=before, validation=after)
     diagnosis = SimpleNamespace(loop=loop, added=(step,), start="linear", final=final,

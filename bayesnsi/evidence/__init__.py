@@ -30,8 +30,9 @@ from .likelihood import (
 from .marginal import EvidenceResult, evidence_from_statistics, marginal_evidence
 from .prior_defaults import coefficient_prior, default_coefficient_scales, default_priors
 from .priors import ARPrior, CoefficientPrior, NoisePrior, Priors
+from .quadrature import QuadratureEvidence, quadrature_log_evidence
 from .ranking import ModelProbabilities, compare_evidence, plain_ranking, posterior_probabilities, ranking_table
-from .sampling import PosteriorSamples, chain_bytes, check_chain_memory, sample_posterior
+from .sampling import PosteriorSamples, SamplerRecord, chain_bytes, check_chain_memory, sample_posterior
 
 __all__ = [
     # candidates
@@ -55,6 +56,7 @@ __all__ = [
     "default_priors",
     # sampling
     "PosteriorSamples",
+    "SamplerRecord",
     "sample_posterior",
     # evidence
     "EvidenceResult",
@@ -66,6 +68,8 @@ __all__ = [
     "check_chain_memory",
     "laplace_log_evidence",
     "closed_form_log_evidence",
+    "QuadratureEvidence",
+    "quadrature_log_evidence",
     # ranking
     "ModelProbabilities",
     "posterior_probabilities",

@@ -1,15 +1,20 @@
-"""Sampling of the collapsed posterior of the coefficients, and its summary (docs/method.md §6, Eq. 6.4).
+"""Sampling of the collapsed posterior of the coefficients with emcee, and its summary (docs/method.md §6, Eq. 6.4).
 
 :class:`~bayesnsi.evidence.collapsed.CollapsedTarget` gives ``log p(λ | y)`` up to a constant with
-the noise parameters integrated out. It is sampled by an independence Metropolis-Hastings chain per
-walker whose proposal, a multivariate t (5 degrees of freedom) at the Laplace mode with 1.2 x its
-covariance, is fixed before sampling; every proposal of every walker is evaluated in one vectorised
-call, so the run costs milliseconds instead of emcee's per-step overhead (about 0.5 s for 1500 steps,
-more than the 1 s budget of issue 15 allows for 16 channels with the residual). Where the proposal
-does not fit the posterior (mean acceptance below 0.25: far from Gaussian, several modes), or when the
-``stretch`` or ``de`` moves are asked for, emcee runs instead with the moves of
-:func:`~bayesnsi.evidence.sample_posterior`. ``σ`` and ``ρ`` are then drawn exactly given each draw
-of ``λ``.
+the noise parameters integrated out. emcee samples it (``EnsembleSampler(..., vectorize=True)``: one
+call per step for all walkers) with the ``"mixed"`` moves of :func:`~bayesnsi.evidence._moves.move_list`:
+mostly an independence Metropolis-Hastings move whose multivariate-t proposal (5 degrees of freedom,
+1.2 x the Laplace covariance at the mode) is fixed before sampling, with emcee's stretch move
+(:data:`~bayesnsi.evidence._moves.MIXED_MOVES`). emcee's cost is mostly per step, whatever the number
+of walkers (one vectorised call), so the run is shortened where the independence move mixes well:
+:data:`ENSEMBLE_WALKERS` walkers, a burn-in of :data:`SHORT_BURN` steps after which the independence
+move's acceptance must be at least :data:`MIN_ACCEPTANCE`, and a run that stops once every
+coefficient's effective sample size reaches :data:`TARGET_ESS` (and 50 autocorrelation times),
+within ``n_steps``. Otherwise (and for the ``"stretch"`` and ``"de"`` moves) emcee runs
+``n_walkers`` walkers for ``n_steps`` steps and discards ``n_burn`` (the ``"mixed"`` moves then
+weighted as for the joint estimator: independence 0.5, DE 0.4, DE snooker 0.1). The run that
+happened is recorded (:class:`~bayesnsi.evidence.SamplerRecord`). ``σ`` and ``ρ`` are then drawn
+exactly given each draw of ``λ``.
 """
 
 from __future__ import annotations
@@ -20,29 +25,37 @@ from ._target import Target
 from .collapsed import CollapsedTarget
 
 MIN_ACCEPTANCE = 0.25
-"""Mean acceptance of the independence chain below which emcee samples instead."""
+"""Acceptance of the independence move during the burn-in above which the run is shortened (module notes)."""
+ENSEMBLE_WALKERS = 128
+"""Walkers of the shortened run: emcee's cost is per step, so a wide ensemble reaches an ESS in fewer steps."""
+SHORT_BURN = 25
+"""Burn-in steps of the shortened run (the walkers start from the Laplace approximation)."""
+TARGET_ESS = 12_000
+"""Effective sample size of every coefficient at which the shortened run stops (bridge error ≈ 1e-4 nat)."""
+FIRST_BLOCK = 130
+"""Steps after the burn-in before the autocorrelation time is first estimated (and more than the walkers)."""
 
 
 def sample_collapsed(target: Target, rng, n_walkers: int, n_steps: int, n_burn: int, start, moves: str = "mixed",
                      found=None):
-    """Draws of ``λ`` from the collapsed posterior (module notes), then ``σ`` and ``ρ`` given each draw.
+    """Draws of ``λ`` from the collapsed posterior by emcee (module notes), then ``σ`` and ``ρ`` given each draw.
 
     Returns ``(PosteriorSamples, CollapsedTarget)``; the draws hold ``θ = (λ, log σ, ρ)`` as those of
     :func:`~bayesnsi.evidence.sample_posterior`, and ``log_posterior`` is the joint one at ``θ``. The
     autocorrelation time is estimated for ``λ``; ``σ`` and ``ρ``, drawn afresh given each ``λ``, get the
-    largest of ``λ``'s (their chains move only with it).
+    largest of ``λ``'s (their chains move only with it). ``n_steps`` and ``n_burn`` are the longest run;
+    the run that really happened is in ``posterior.sampler``.
     ``found``: what ``target.find_mode(target.initial_theta(start))`` returned, when the caller has it.
     """
     import emcee
 
-    from .._interrupt import interrupt_after
     from .sampling import (
         PosteriorSamples,
+        SamplerRecord,
         _chain_settings,
         _initial_walkers,
         _inside_support,
         _laplace_covariance,
-        _moves,
         check_chain_memory,
     )
 
@@ -57,27 +70,17 @@ def sample_collapsed(target: Target, rng, n_walkers: int, n_steps: int, n_burn: 
     mode = _inside_support(target, mode, theta0)
     cov = _laplace_covariance(hess, target, mode)
     seed = int(rng.integers(0, 2**32 - 1))
-    n_draws = n_steps - n_burn
-    sampler_name = "independence Metropolis-Hastings"
     if q:
         p0 = _initial_walkers(collapsed, mode[:q], cov[:q, :q], n_walkers, rng)  # type: ignore[arg-type]
-        lam, acceptance = None, np.zeros(n_walkers)
-        if moves == "mixed":
-            lam, acceptance = _independence_chains(collapsed, p0, mode[:q], cov[:q, :q], n_steps, rng)
-        if lam is None or float(np.mean(acceptance)) < MIN_ACCEPTANCE:
-            sampler_name = f"emcee ({moves} moves)"
-            sampler = emcee.EnsembleSampler(n_walkers, q, collapsed.log_posterior, vectorize=True,
-                                            moves=_moves(moves, mode[:q], cov[:q, :q]))
-            with interrupt_after():
-                sampler.run_mcmc(emcee.State(p0, random_state=np.random.RandomState(seed).get_state()), n_steps,
-                                 progress=False, skip_initial_state_check=True)
-            lam = np.swapaxes(sampler.get_chain(), 0, 1)  # (walker, step, q)
-            acceptance = np.asarray(sampler.acceptance_fraction, dtype=float)
-        lam = lam[:, n_burn:]
+        lam, acceptance, record = _run_emcee(collapsed, p0, mode[:q], cov[:q, :q], moves, n_steps, n_burn, seed, rng)
     else:  # nothing to sample: independent draws of the noise parameters
-        lam = np.zeros((n_walkers, n_draws, 0))
+        lam = np.zeros((n_walkers, n_steps - n_burn, 0))
         acceptance = np.ones(n_walkers)
-        sampler_name = "independent draws"
+        from .._version import __version__
+
+        record = SamplerRecord("exact draws", __version__, (), (), n_walkers, n_steps - n_burn, 0,
+                               "noise parameters, independently given no coefficient")
+    n_walkers, n_draws = lam.shape[:2]
     flat = lam.reshape(n_walkers * n_draws, q)
     u, rho = collapsed.draw_noise(flat, rng)
     samples = np.concatenate([flat, u, rho.reshape(len(flat), -1)], axis=-1).reshape(n_walkers, n_draws, -1)
@@ -100,11 +103,59 @@ def sample_collapsed(target: Target, rng, n_walkers: int, n_steps: int, n_burn: 
         autocorr_reliable=reliable,
         mode=mode,
         mode_covariance=cov,
-        settings={"n_walkers": n_walkers, "n_steps": n_steps, "n_burn": n_burn, "seed": seed,
-                  "emcee_version": emcee.__version__, "moves": moves,
-                  "sampler": f"collapsed: {sampler_name}"},
+        settings={"n_walkers": n_walkers, "n_steps": record.n_steps, "n_burn": record.n_burn, "seed": seed,
+                  "emcee_version": emcee.__version__, "moves": moves, "sampler": record.describe()},
+        sampler=record,
     )
     return posterior, collapsed
+
+
+def _run_emcee(collapsed: CollapsedTarget, p0, mode, cov, moves: str, n_steps: int, n_burn: int, seed: int, rng):
+    """emcee over the coefficients (module notes): chains (walker, draw, q) after burn-in, acceptance, SamplerRecord."""
+    import emcee
+
+    from .._interrupt import interrupt_after
+    from ._moves import IndependenceMove, move_list
+    from .sampling import SamplerRecord, _initial_walkers
+
+    n_walkers, q = p0.shape
+    random_state = np.random.RandomState(seed).get_state()
+    run = {"progress": False, "skip_initial_state_check": True}
+    shortened = moves == "mixed" and n_burn >= SHORT_BURN and n_steps - n_burn >= FIRST_BLOCK
+    with interrupt_after():
+        if shortened:  # a wide ensemble and a short run, while the independence move mixes well
+            wide = max(n_walkers, ENSEMBLE_WALKERS)
+            start = np.concatenate([p0, _initial_walkers(collapsed, mode, cov, wide - n_walkers, rng)])  # type: ignore[arg-type]
+            move_objects, move_names, move_weights = move_list(moves, mode, cov, "independence")
+            sampler = emcee.EnsembleSampler(wide, q, collapsed.log_posterior, vectorize=True, moves=move_objects)
+            state = sampler.run_mcmc(emcee.State(start, random_state=random_state), SHORT_BURN, **run)
+            independence = next(m for m, _ in move_objects if isinstance(m, IndependenceMove))
+            shortened = independence.acceptance >= MIN_ACCEPTANCE
+            if shortened:
+                # more draws than walkers: arviz reads (chain, draw) arrays the other way round otherwise
+                burn, budget, done = SHORT_BURN, n_steps - SHORT_BURN, 0
+                block = min(max(FIRST_BLOCK, wide + 2), budget)
+                sampler.reset()
+                while block > 0:
+                    state = sampler.run_mcmc(state, block, **run)
+                    done += block
+                    tau = float(np.max(_integrated_time(np.swapaxes(sampler.get_chain(), 0, 1))[0]))
+                    needed = int(np.ceil(max(50.0 * tau, TARGET_ESS * tau / wide)))
+                    block = max(0, min(needed, budget) - done)
+                lam = np.swapaxes(sampler.get_chain(), 0, 1)
+            else:  # the proposal misses the posterior: the full run with the walkers asked for
+                random_state = state.random_state
+                p0 = state.coords[:n_walkers]
+        if not shortened:
+            move_objects, move_names, move_weights = move_list(moves, mode, cov, "balanced")
+            sampler = emcee.EnsembleSampler(n_walkers, q, collapsed.log_posterior, vectorize=True, moves=move_objects)
+            sampler.run_mcmc(emcee.State(p0, random_state=random_state), n_steps, **run)
+            burn, done = n_burn, n_steps - n_burn
+            lam = np.swapaxes(sampler.get_chain(discard=n_burn), 0, 1)  # (walker, draw, q)
+    acceptance = np.asarray(sampler.acceptance_fraction, dtype=float)
+    record = SamplerRecord("emcee", emcee.__version__, move_names, move_weights, int(lam.shape[0]), burn + done,
+                           burn, "coefficients (noise parameters integrated out)")
+    return lam, acceptance, record
 
 
 def _integrated_time(chains: np.ndarray, c: float = 5.0, tol: float = 50.0):
@@ -129,38 +180,6 @@ def _integrated_time(chains: np.ndarray, c: float = 5.0, tol: float = 50.0):
     window = np.where(np.any(inside, axis=0), np.argmin(inside, axis=0), n_t - 1)
     tau = taus[window, np.arange(taus.shape[1])]
     return tau, bool(np.all(tol * tau <= n_t))
-
-
-def _independence_chains(collapsed: CollapsedTarget, p0, mode, cov, n_steps: int, rng, df: float = 5.0,
-                         inflate: float = 1.2):
-    """Independence Metropolis-Hastings from ``p0`` (walker, q): chains (walker, step, q) and acceptance.
-
-    The proposal is the multivariate t of :class:`~bayesnsi.evidence.sampling._IndependenceProposal`
-    (the one emcee's mixed moves use half of the time); its draws do not depend on the state, so all
-    are drawn and evaluated at once and only the accept/reject recursion runs step by step.
-    """
-    n_walkers, q = p0.shape
-    chol = inflate * np.linalg.cholesky(cov)
-
-    def log_g(z):
-        return -0.5 * (df + q) * np.log1p(np.sum(z**2, axis=-1) / df)
-
-    z = rng.standard_normal((n_steps, n_walkers, q)) / np.sqrt(rng.chisquare(df, size=(n_steps, n_walkers, 1)) / df)
-    proposals = mode + z @ chol.T
-    with np.errstate(invalid="ignore", over="ignore"):
-        weight = collapsed.log_posterior(proposals.reshape(-1, q)).reshape(n_steps, n_walkers) - log_g(z)
-        current = p0.copy()
-        w_cur = collapsed.log_posterior(p0) - log_g(np.linalg.solve(chol, (p0 - mode).T).T)
-    log_u = np.log(rng.uniform(size=(n_steps, n_walkers)))
-    chain = np.empty((n_steps, n_walkers, q))
-    accepted = np.zeros(n_walkers)
-    for t in range(n_steps):
-        take = log_u[t] < weight[t] - w_cur
-        current = np.where(take[:, None], proposals[t], current)
-        w_cur = np.where(take, weight[t], w_cur)
-        accepted += take
-        chain[t] = current
-    return np.swapaxes(chain, 0, 1), accepted / n_steps
 
 
 def collapsed_summary(posterior, rhat_threshold: float, ess_threshold: float, ci_prob: float = 0.95):

@@ -45,8 +45,9 @@ def collapsible(target: Target) -> bool:
 class CollapsedTarget:
     """Log posterior of ``λ`` with ``σ`` (and ``ρ``) integrated out; duck-types :class:`Target` for sampling."""
 
-    def __init__(self, target: Target):
+    def __init__(self, target: Target, series: bool = True):
         self.target = target
+        self.series = series  # False: the ρ integral always by quadrature (exact references)
         self.priors = target.priors
         self.q = target.q
         self.ndim = target.q
@@ -98,7 +99,7 @@ class CollapsedTarget:
         sd = 1.0 / np.sqrt(curv)
         near = (rho_hat - _RHO_MARGIN_SD * sd < lower) | (rho_hat + _RHO_MARGIN_SD * sd > upper)
         a = 0.5 * self.n
-        if self.n >= _SERIES_MIN_N:
+        if self.n >= _SERIES_MIN_N and self.series:
             fast = ~near & _safe(a, 0.5 * m / self.hi2, 0.5 * m * (1.0 + 128.0 / self.n) / self.lo2)
             out = self._log_rho_series(m, C, rho_hat)
             if not np.all(fast):  # quadrature where ρ̂ lies near a bound or σ near its prior limits

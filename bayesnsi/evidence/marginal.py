@@ -7,7 +7,10 @@
   §6 Eq. 6.4) and only ``λ`` is sampled and bridged (Monte-Carlo error ≈ 1e-4 nat); for AR(P), P > 1,
   or with ``collapse=False`` emcee samples all of ``θ`` (RMSE ≈ 0.002 nat on affine stand-ins);
 * **Laplace** approximation at the posterior mode (:mod:`.analytic`), a free cross-check (a
-  disagreement > 0.1 nat is flagged);
+  disagreement > 0.1 nat is flagged); an approximation with no Monte-Carlo error: its error is
+  stated as its distance to the exact value, or to the sampled estimate (``laplace_error``);
+* **exact** by quadrature over the coefficients of the collapsed integrand (:mod:`.quadrature`):
+  white and AR(1) residuals, at most 3 coefficients, any number of channels; computed by default;
 * **exact** (:mod:`.analytic`): closed form in ``λ`` and quadrature over the noise parameters,
   where those have at most 4 dimensions; computed by default up to 3 dimensions.
 
@@ -34,7 +37,8 @@ from .collapsed import collapsible
 from .convergence import ConvergenceReport, convergence_report, posterior_summary
 from .likelihood import SufficientStatistics, _beta, sufficient_statistics
 from .priors import Priors
-from .sampling import PosteriorSamples, _sample
+from .quadrature import MAX_QUADRATURE_COEFFICIENTS, QuadratureEvidence, quadrature_log_evidence
+from .sampling import PosteriorSamples, SamplerRecord, _sample
 
 __all__ = ["EvidenceResult", "evidence_from_statistics", "marginal_evidence"]
 
@@ -53,9 +57,10 @@ class EvidenceResult:
     log_evidence_se : float
         Its Monte-Carlo standard error [nat].
     laplace_log_evidence : float
-        Laplace approximation (NaN when the mode's Hessian is not negative definite).
+        Laplace approximation, no Monte-Carlo estimate (NaN when the mode's Hessian is not negative
+        definite); its error is :attr:`laplace_error`.
     closed_form_log_evidence : float or None
-        Exact value by quadrature where available (see module notes), else None.
+        Exact value by quadrature over the noise parameters where available (see module notes), else None.
     plain_log_likelihood : float
         The paper's Eq. 4 at the NSI estimate, ``Σ_j -(N/2)(log 2πσ̂_j² + 1)``.
     likelihood : str
@@ -78,6 +83,9 @@ class EvidenceResult:
         :meth:`Priors.describe` of the priors used.
     warnings : tuple of str
         Messages of the warnings issued.
+    quadrature : QuadratureEvidence or None
+        Exact value by quadrature over the coefficients (:func:`~bayesnsi.evidence.quadrature_log_evidence`:
+        white or AR(1) residuals, at most 3 coefficients), else None.
     """
 
     log_evidence: float
@@ -97,6 +105,7 @@ class EvidenceResult:
     settings: Mapping = field(default_factory=dict)
     priors_text: str = ""
     warnings: tuple[str, ...] = ()
+    quadrature: QuadratureEvidence | None = None
 
     def __repr__(self) -> str:
         from .._repr import compact_repr
@@ -106,6 +115,28 @@ class EvidenceResult:
             coefficient_names=self.coefficient_names, rhat_max=self.rhat_max, ess_min=self.ess_min,
             posterior=self.posterior.samples, warnings=len(self.warnings),
         )
+
+    @property
+    def sampler(self) -> SamplerRecord | None:
+        """The sampler that drew :attr:`posterior` (name, version, moves, walkers, steps)."""
+        return self.posterior.sampler
+
+    @property
+    def exact_log_evidence(self) -> float | None:
+        """The exact value where one was computed: by quadrature over the coefficients, else the closed form."""
+        if self.quadrature is not None:
+            return self.quadrature.log_evidence
+        return self.closed_form_log_evidence
+
+    @property
+    def laplace_error(self) -> float:
+        """Error of the Laplace approximation [nat]: its distance to the exact value, else to the sampled estimate.
+
+        Against the sampled estimate the distance holds that estimate's Monte-Carlo error
+        (:attr:`log_evidence_se`, about 1e-4 nat) as well. NaN when the Laplace value is NaN.
+        """
+        reference = self.exact_log_evidence
+        return abs(self.laplace_log_evidence - (self.log_evidence if reference is None else reference))
 
     @property
     def coefficient_mean(self) -> np.ndarray:
@@ -118,14 +149,22 @@ class EvidenceResult:
         Returns
         -------
         dict
-            Evidence estimates, coefficient means and HDIs, diagnostics, settings, priors, warnings.
+            Evidence estimates (the Laplace one with ``laplace_error`` and ``laplace_is_approximation``),
+            exact values where computed, the sampler that ran (:meth:`SamplerRecord.to_dict`),
+            coefficient means and HDIs, diagnostics, settings, priors, warnings.
         """
+        quadrature = self.quadrature
         return {
             "likelihood": self.likelihood,
             "log_evidence": self.log_evidence,
             "log_evidence_se": self.log_evidence_se,
             "laplace_log_evidence": self.laplace_log_evidence,
+            "laplace_error": self.laplace_error,
+            "laplace_is_approximation": True,
+            "quadrature_log_evidence": None if quadrature is None else quadrature.log_evidence,
+            "quadrature_error": None if quadrature is None else quadrature.error,
             "closed_form_log_evidence": self.closed_form_log_evidence,
+            "sampler": None if self.sampler is None else self.sampler.to_dict(),
             "plain_log_likelihood": self.plain_log_likelihood,
             "coefficients": {
                 name: {"mean": float(m), "hdi95": [float(lo), float(hi)]}
@@ -216,14 +255,17 @@ def evidence_from_statistics(
         emcee settings (see :func:`~bayesnsi.evidence.sample_posterior`; defaults 32, 1500, 300).
     moves : {"mixed", "stretch", "de"}
         emcee moves (see :func:`~bayesnsi.evidence.sample_posterior`). With ``collapse``, ``"mixed"``
-        runs the independence chain of :mod:`bayesnsi.evidence._collapsed_run` (emcee's mixed moves
-        where its acceptance is below 0.25); the others run emcee over the coefficients.
+        is mostly emcee's independence move with the stretch move, on a wide ensemble and a run
+        shortened while the independence move mixes well (:mod:`bayesnsi.evidence._collapsed_run`);
+        the run that happened is ``result.sampler``.
     start : array_like, shape (q,), optional
         Coefficients where the mode search starts (default: NSI estimate).
     closed_form : {"auto", True, False}
-        Compute the exact evidence by quadrature: ``"auto"`` where it takes at most a 3-D
-        quadrature (white noise with l <= 3, AR(1) with l = 1), ``True`` wherever available
-        (raises elsewhere; AR(1) with l = 2 takes seconds), ``False`` never.
+        Compute the exact evidence by quadrature over the noise parameters: ``"auto"`` where it
+        takes at most a 3-D quadrature (white noise with l <= 3, AR(1) with l = 1), ``True``
+        wherever available (raises elsewhere; AR(1) with l = 2 takes seconds), ``False`` never.
+        The exact value by quadrature over the coefficients (``quadrature``) is computed with
+        ``"auto"`` and ``True`` wherever it is available (white and AR(1), at most 3 coefficients).
     proposal : {"normal", "t"}
         Bridge-sampling proposal.
     rhat_threshold, ess_threshold : float
@@ -238,7 +280,7 @@ def evidence_from_statistics(
         and by quadrature (docs/method.md §6, Eq. 6.4; :mod:`bayesnsi.evidence.collapsed`), sample ``λ``
         alone with emcee and bridge-sample its evidence; ``σ`` and ``ρ`` are drawn from their
         posterior given each draw. ``False``: emcee and bridge sampling over all of
-        ``θ = (λ, log σ[, ρ])`` (the estimator before issue 15; always used for AR(P), P > 1).
+        ``θ = (λ, log σ[, ρ])`` (the joint estimator; always used for AR(P), P > 1).
 
     Returns
     -------
@@ -266,6 +308,11 @@ def evidence_from_statistics(
         bridge = BridgeEstimate(float(reduced.log_posterior(np.zeros((1, 0)))[0]), 0.0, n_draws, 0, float(n_draws),
                                 0, True, "none (closed form)")
     laplace, _, _ = _laplace(target, start, found)
+    quadrature = None
+    if closed_form is not False and collapsible(target) and target.q <= MAX_QUADRATURE_COEFFICIENTS:
+        q = target.q
+        centre, cov = posterior.mode[:q], posterior.mode_covariance[:q, :q]
+        quadrature = quadrature_log_evidence(stats, priors, likelihood, centre=centre, covariance=cov)
     exact = None
     dim = target.l * (1 + target.order)
     if closed_form is True or (closed_form == "auto" and target.order <= 1 and dim <= _AUTO_QUAD_DIM):
@@ -345,4 +392,5 @@ def evidence_from_statistics(
         settings=settings,
         priors_text=priors.describe(include_ar=target.order > 0),
         warnings=tuple(messages),
+        quadrature=quadrature,
     )

@@ -23,7 +23,67 @@ from ._target import Target
 from .likelihood import SufficientStatistics
 from .priors import Priors
 
-__all__ = ["PosteriorSamples", "chain_bytes", "check_chain_memory", "sample_posterior"]
+__all__ = ["PosteriorSamples", "SamplerRecord", "chain_bytes", "check_chain_memory", "sample_posterior"]
+
+
+@dataclass(frozen=True)
+class SamplerRecord:
+    """What drew a posterior: the sampler that really ran, its moves and run length (docs/method.md §6).
+
+    Attributes
+    ----------
+    name : str
+        ``"emcee"``, or ``"exact draws"`` when nothing was left to sample (a linear candidate with the
+        noise parameters integrated out: they are drawn independently from their posterior).
+    version : str
+        The sampler's version (emcee's; the package's for exact draws).
+    moves : tuple of str
+        emcee's moves.
+    weights : tuple of float
+        Their probabilities per step.
+    n_walkers : int
+        Walkers (= chains).
+    n_steps : int
+        Steps run per walker, burn-in included.
+    n_burn : int
+        Steps discarded at the start.
+    parameters : str
+        What was sampled: ``"coefficients (noise parameters integrated out)"`` or ``"all parameters"``.
+    """
+
+    name: str
+    version: str
+    moves: tuple[str, ...]
+    weights: tuple[float, ...]
+    n_walkers: int
+    n_steps: int
+    n_burn: int
+    parameters: str
+
+    def describe(self) -> str:
+        """One line, e.g. ``"emcee 3.1.6: independence 0.8, ...; 32 walkers x 450 steps (50 burn-in); ..."``.
+
+        Returns
+        -------
+        str
+        """
+        if self.name != "emcee":
+            return f"{self.name}; {self.parameters}"
+        moves = ", ".join(f"{name} {weight:g}" for name, weight in zip(self.moves, self.weights))
+        return (f"emcee {self.version}: {moves}; {self.n_walkers} walkers x {self.n_steps} steps "
+                f"({self.n_burn} burn-in); {self.parameters}")
+
+    def to_dict(self) -> dict:
+        """JSON-ready fields.
+
+        Returns
+        -------
+        dict
+        """
+        return {"name": self.name, "version": self.version,
+                "moves": [{"move": name, "weight": weight} for name, weight in zip(self.moves, self.weights)],
+                "n_walkers": self.n_walkers, "n_steps": self.n_steps, "n_burn": self.n_burn,
+                "parameters": self.parameters, "description": self.describe()}
 
 
 @dataclass(frozen=True)
@@ -58,7 +118,10 @@ class PosteriorSamples:
     mode_covariance : ndarray, shape (n_params, n_params)
         Inverse negative Hessian at the mode (Laplace covariance).
     settings : mapping
-        ``n_walkers``, ``n_steps``, ``n_burn``, ``seed`` (of emcee's generator), versions.
+        ``n_walkers``, ``n_steps``, ``n_burn``, ``seed`` (of emcee's generator), versions, ``sampler``
+        (:meth:`SamplerRecord.describe`).
+    sampler : SamplerRecord, optional
+        The sampler that drew these samples.
     """
 
     samples: np.ndarray
@@ -74,6 +137,7 @@ class PosteriorSamples:
     mode: np.ndarray
     mode_covariance: np.ndarray
     settings: Mapping = field(default_factory=dict)
+    sampler: SamplerRecord | None = None
 
     def __repr__(self) -> str:
         from .._repr import compact_repr
@@ -144,10 +208,11 @@ class PosteriorSamples:
             posterior["rho"] = self.rho
             dims["rho"] = ["channel", "lag"]
             coords["lag"] = list(range(1, self.ar_order + 1))
+        sampler = self.sampler.describe() if self.sampler is not None else str(self.settings.get("sampler", ""))
         attrs = {
             "posterior": {
                 "likelihood": self.likelihood,
-                "sampler": f"emcee {self.settings.get('emcee_version', '')}".strip(),
+                "sampler": sampler,
                 "n_burn": int(self.settings.get("n_burn", 0)),
             }
         }
@@ -307,9 +372,10 @@ def _sample(
     seed = int(rng.integers(0, 2**32 - 1))
     random_state = np.random.RandomState(seed).get_state()
 
-    sampler = emcee.EnsembleSampler(
-        n_walkers, ndim, target.log_posterior, vectorize=True, moves=_moves(moves, mode, cov)
-    )
+    from ._moves import move_list
+
+    move_objects, move_names, move_weights = move_list(moves, mode, cov, "balanced")
+    sampler = emcee.EnsembleSampler(n_walkers, ndim, target.log_posterior, vectorize=True, moves=move_objects)
     with interrupt_after():
         sampler.run_mcmc(
             emcee.State(p0, random_state=random_state), n_steps, progress=False, skip_initial_state_check=True
@@ -317,6 +383,8 @@ def _sample(
     chain = sampler.get_chain(discard=n_burn)  # (draw, walker, param)
     log_post = sampler.get_log_prob(discard=n_burn)  # (draw, walker)
     tau, reliable = _autocorr(chain)
+    record = SamplerRecord("emcee", emcee.__version__, move_names, move_weights, n_walkers, n_steps, n_burn,
+                           "all parameters")
     return PosteriorSamples(
         samples=np.ascontiguousarray(np.swapaxes(chain, 0, 1)),
         log_posterior=np.ascontiguousarray(log_post.T),
@@ -337,47 +405,10 @@ def _sample(
             "seed": seed,
             "emcee_version": emcee.__version__,
             "moves": moves,
+            "sampler": record.describe(),
         },
+        sampler=record,
     )
-
-
-def _moves(kind: str, mode: np.ndarray, cov: np.ndarray):
-    """emcee move list for ``kind``."""
-    import emcee
-
-    if kind == "stretch":
-        return None
-    if kind == "de":
-        return [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
-    if kind == "mixed":
-        return [
-            (emcee.moves.MHMove(_IndependenceProposal(mode, cov)), 0.5),
-            (emcee.moves.DEMove(), 0.4),
-            (emcee.moves.DESnookerMove(), 0.1),
-        ]
-    raise InputDataError(f"moves must be 'mixed', 'stretch' or 'de', got {kind!r}")
-
-
-class _IndependenceProposal:
-    """Fixed multivariate-t proposal for :class:`emcee.moves.MHMove` (independence sampler).
-
-    Returns the proposal and ``log g(x) - log g(x')``, the Hastings correction emcee expects.
-    """
-
-    def __init__(self, mode, cov, df: float = 5.0, inflate: float = 1.2):
-        self.mode = np.asarray(mode, dtype=float)
-        self.chol = inflate * np.linalg.cholesky(cov)
-        self.df = float(df)
-
-    def _log_g(self, x):
-        y = np.linalg.solve(self.chol, (x - self.mode).T).T
-        return -0.5 * (self.df + self.mode.size) * np.log1p(np.sum(y**2, axis=-1) / self.df)
-
-    def __call__(self, coords, random):
-        n, d = coords.shape
-        z = random.randn(n, d) / np.sqrt(random.chisquare(self.df, size=(n, 1)) / self.df)
-        new = self.mode + z @ self.chol.T
-        return new, self._log_g(coords) - self._log_g(new)
 
 
 def _laplace_covariance(hess: np.ndarray, target: Target, mode: np.ndarray) -> np.ndarray:

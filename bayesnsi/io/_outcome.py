@@ -17,7 +17,14 @@ from typing import Any
 import numpy as np
 
 from ..checks.validation import Whiteness
-from ..evidence import BridgeEstimate, ConvergenceReport, EvidenceResult, PosteriorSamples
+from ..evidence import (
+    BridgeEstimate,
+    ConvergenceReport,
+    EvidenceResult,
+    PosteriorSamples,
+    QuadratureEvidence,
+    SamplerRecord,
+)
 from ..exceptions import BayesNSIError
 from ..findings import Finding, finding_from_dict
 from ..models import CandidateModel, Term
@@ -335,6 +342,10 @@ EVIDENCE_RESULT = _Struct(EvidenceResult, {
         "mode": _Array("float64", 1),
         "mode_covariance": _Array("float64", 2),
         "settings": _Typed(dict),
+        "sampler": _Struct(SamplerRecord, {
+            "name": STR, "version": STR, "moves": STRS, "weights": FLOATS, "n_walkers": INT, "n_steps": INT,
+            "n_burn": INT, "parameters": STR,
+        }, none=True),
     }, check=_check_posterior),
     "summary": _Frame(),
     "convergence": _Struct(ConvergenceReport, {
@@ -351,6 +362,8 @@ EVIDENCE_RESULT = _Struct(EvidenceResult, {
     "settings": _Typed(dict),
     "priors_text": STR,
     "warnings": STRS,
+    "quadrature": _Struct(QuadratureEvidence, {"log_evidence": FLOAT, "error": FLOAT, "n_nodes": INT, "n_passes": INT},
+                          none=True),
 }, check=_check_evidence)
 
 _PARAMETER_INTERVALS = _Sequence(_Struct(ParameterInterval, {

@@ -111,7 +111,10 @@ def posterior_tree(name: str, evidence, intervals=None, units=None):
         coords["term"] = sampled["term"].values
     if "frequency" in posterior:
         coords["mode"] = np.arange(1, len(intervals.frequencies) + 1)
-    groups = {"posterior": xr.Dataset(posterior, coords=coords),
+    sampler = evidence.sampler.describe() if getattr(evidence, "sampler", None) is not None else str(
+        sampled.attrs.get("sampler", "emcee"))
+    drawn = {**sampled.attrs, "sampler": sampler, "draws": "honest intervals" if honest else "the sampler's"}
+    groups = {"posterior": xr.Dataset(posterior, coords=coords, attrs=drawn),
               "posterior_given_linear_part": sampled, "sample_stats": given["sample_stats"].to_dataset()}
     if "coefficient" in sampled:
         sampled["coefficient"].attrs.update(units=term_units, description="coefficient λ given the linear part")
@@ -123,7 +126,7 @@ def posterior_tree(name: str, evidence, intervals=None, units=None):
     tree.attrs.update(
         model=name, likelihood=evidence.likelihood, log_evidence=float(evidence.log_evidence),
         log_evidence_se=float(evidence.log_evidence_se), interval=intervals.method if intervals is not None else "none",
-        sampler=str(evidence.settings.get("sampler", "emcee")), written_by=_written_by(),
+        sampler=sampler, written_by=_written_by(),
     )
     return tree
 

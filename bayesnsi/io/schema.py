@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from ..findings import messages
 from ..models import Term
 from .results import to_jsonable, versions
 
@@ -68,7 +69,8 @@ def candidate_record(outcome, row=None, likelihood: str | None = None) -> dict[s
         record["nrmse_per_channel"] = list(outcome.nrmse_per_channel)
     if row is not None:
         record.update(_evidence(outcome, row, likelihood))
-    record.update(findings=[f.to_dict() for f in outcome.findings], seconds=outcome.seconds, cached=outcome.cached)
+    record.update(findings=[f.to_dict() for f in outcome.findings], warnings=list(messages(outcome.findings)),
+                  seconds=outcome.seconds, cached=outcome.cached)
     return record
 
 
@@ -115,14 +117,16 @@ def _evidence(outcome, row, likelihood) -> dict[str, Any]:
     out.update(
         log_evidence=primary.log_evidence,
         log_evidence_se=primary.log_evidence_se,
-        log_evidence_laplace=primary.laplace_log_evidence,
+        log_evidence_laplace=primary.laplace_log_evidence,  # an approximation: its error beside it
+        log_evidence_laplace_error=_finite(primary.laplace_error),
         log_evidence_closed_form=primary.closed_form_log_evidence,
+        log_evidence_exact=primary.exact_log_evidence,
         posterior=float(row[f"p_{likelihood}"]),
         posterior_sd=float(row[f"p_{likelihood}_sd"]),
         rhat_max=primary.rhat_max,
         ess_min=primary.ess_min,
         likelihood=likelihood,
-        sampler=primary.settings.get("sampler"),
+        sampler=None if primary.sampler is None else primary.sampler.to_dict(),
         evidence_by_likelihood={
             name: {
                 "log_evidence": e.log_evidence,
@@ -210,6 +214,7 @@ def identification_payload(outcomes, command: str, config, data_findings=()) -> 
         "selected": None,
         "candidates": [candidate_record(o) for o in outcomes],
         "data_findings": [f.to_dict() for f in data_findings],
+        "data_warnings": list(messages(data_findings)),  # the findings' sentences (stable name)
         "settings": _settings(config, evidence=None),
         "versions": versions(),
     }
@@ -268,7 +273,9 @@ def selection_payload(selection, command: str, config, data_findings=(), **extra
         "ranking": [] if selection.table is None else selection.table.reset_index().to_dict(orient="records"),
         "comparison": _comparison(selection),
         "findings": [f.to_dict() for f in selection.findings],
+        "warnings": list(messages(selection.findings)),  # their sentences (stable name)
         "data_findings": [f.to_dict() for f in data_findings],
+        "data_warnings": list(messages(data_findings)),
         "settings": _settings(config, selection.evidence),
         "versions": versions(),
         **extra,

@@ -1,4 +1,4 @@
-"""The posterior draws written to DIR/posterior/<candidate>.nc load back as arviz DataTrees (issue 16)."""
+"""The posterior draws written to DIR/posterior/<candidate>.nc load back as arviz DataTrees."""
 
 from __future__ import annotations
 
@@ -7,15 +7,20 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from bayesnsi.evidence import SamplerRecord
 from bayesnsi.exceptions import InputDataError
 from bayesnsi.io.posterior import NETCDF_ENGINE, posterior_filename, read_posterior, write_posteriors
 
 from .test_plots import _posterior
 
 
+SAMPLER = SamplerRecord(name="emcee", version="3.1.6", moves=("StretchMove",), weights=(1.0,), n_walkers=4,
+                        n_steps=130, n_burn=10, parameters="all parameters")
+
+
 def _evidence(q, log_z):
     return SimpleNamespace(posterior=_posterior(q), log_evidence=log_z, log_evidence_se=0.01, likelihood="ar1",
-                           coefficient_names=[f"x1**{k + 2}@1" for k in range(q)], settings={"sampler": "emcee 3.1.6"})
+                           coefficient_names=[f"x1**{k + 2}@1" for k in range(q)], settings={}, sampler=SAMPLER)
 
 
 def test_posteriors_round_trip_through_netcdf(tmp_path):
@@ -32,7 +37,7 @@ def test_posteriors_round_trip_through_netcdf(tmp_path):
     np.testing.assert_array_equal(tree["sample_stats"]["lp"].to_numpy(), original.log_posterior)
     assert list(tree["posterior"]["coefficient"].dims) == ["chain", "draw", "term"]
     assert tree.attrs["model"] == "quadratic + cubic" and tree.attrs["log_evidence"] == -10.5
-    assert tree.attrs["interval"] == "none" and tree.attrs["sampler"] == "emcee 3.1.6"
+    assert tree.attrs["interval"] == "none" and tree.attrs["sampler"] == SAMPLER.describe()
     # what a notebook does: xarray opens it, arviz summarises it
     with xr.open_datatree(tmp_path / files["linear"], engine=NETCDF_ENGINE) as linear:
         assert "coefficient" not in linear["posterior"] and "sigma" in linear["posterior_given_linear_part"]

@@ -23,6 +23,7 @@ from ..models import CandidateModel
 from ..options import NSIOptions
 from ..signals import Signals
 from . import _fnsi
+from ._stabilised import stabilised_order, stable_modes
 from .order import auto_order
 from .periodic import best_linear_approximation
 from .physics import CoefficientEstimate, band_coefficients, coefficient_spectrum, default_band, split_poles
@@ -64,13 +65,22 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
     cap = len(excited.lines) // (data.inputs.shape[1] + n_out)
     block_rows = min(int(options.block_rows), cap)
     zf = options.zero_feedthrough
+    decompositions = {block_rows: _fnsi.subspace(excited, block_rows, points)}
+    left, values, (_, y_scale) = decompositions[block_rows]
+    modes_found: tuple = ()
+    if options.order == "auto":
+        order, modes_found = _auto_order(options, left, values, n_out, y_scale, omega0, block_rows, data)
+    else:
+        order = _order(options, values, n_out, block_rows)
     starts = [block_rows]
-    if not cand.terms and options.order != "auto":  # the linear model: every candidate is refined from it too
-        starts += [r for r in (int(1.25 * block_rows), int(1.5 * block_rows), 2 * block_rows) if r <= cap]
+    if not cand.terms:  # the linear model: every candidate is refined from it too
+        starts += [r for r in (int(1.25 * block_rows), int(1.5 * block_rows), 2 * block_rows)
+                   if r <= cap and order <= r * n_out - 1]
     best: tuple | None = None
     for rows in dict.fromkeys(starts):
-        left, values, (_, y_scale) = _fnsi.subspace(excited, rows, points)
-        order = _order(options, values, n_out, rows)
+        if rows not in decompositions:
+            decompositions[rows] = _fnsi.subspace(excited, rows, points)
+        left, values, (_, y_scale) = decompositions[rows]
         Ac, C = _fnsi.continuous_ac(*_fnsi.system_ac(left, order, n_out, y_scale), omega0)
         Ac, poles = _fnsi.stabilise_continuous(Ac)
         refined = _fnsi.refine(data, Ac, C, zf)
@@ -79,6 +89,7 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
             best = (cost, rows, values, order, poles, refined)
     assert best is not None  # starts is never empty
     _, block_rows, singular_values, order, reflected, refined = best
+    order = int(refined[0].shape[0])  # a lone real pole of the start becomes a pair (_modal_fit.modal_start)
     reflected = reflected[reflected.imag >= 0]  # one of each conjugate pair
     Ac, C, fit = _better_of_warm_start(signals, cand, options, data, refined)
     if cand.terms and _at_noise_level(fit[2]):  # the basis again from the model's (less noisy) output
@@ -137,6 +148,7 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
         n_lines=int(len(excited.lines) // data.n_realisations),
         n_band_lines=int(len(data.lines) // data.n_realisations),
         reflected_poles_hz=[float(abs(p.imag) / (2 * np.pi)) for p in reflected],
+        stable_modes_hz=[round(m.frequency_hz, 6) for m in modes_found],  # order "auto": the stabilisation diagram's
         line_misfit=float(np.sqrt(np.mean(np.abs(residual if data.excited is None else residual[data.excited]) ** 2))),
         band_misfit=float(np.sqrt(np.mean(np.abs(residual) ** 2))),  # the unexcited band lines included
         unexcited_ratio=_unexcited_ratio(signals),
@@ -216,6 +228,29 @@ def _unexcited_ratio(signals: Signals) -> dict | None:
     ratios = best_linear_approximation(signals.realisation_records()).unexcited_ratio()
     out = {k: [float(x) for x in v] for k, v in ratios.items() if np.all(np.isfinite(v))}
     return out or None
+
+
+def _auto_order(options: NSIOptions, left, singular_values, n_out: int, y_scale, omega0: float, block_rows: int,
+                data) -> tuple[int, tuple]:
+    """``order = "auto"`` on the frequency route: the stable modes of the band (:mod:`._stabilised`).
+
+    The subspace models of orders 2, 4, ... up to ``max_order`` (and the block rows' bound) are
+    read as a stabilisation diagram inside the fitted lines' band; the order is twice the number
+    of stable modes plus the residual pairs. Where no mode is stable (too few lines, or a record
+    of noise) the largest gap of the singular values decides, as on the time route.
+    """
+    limit = min(block_rows * n_out - 1, int(options.max_order))
+    band = (float(data.freqs_hz.min()), float(data.freqs_hz.max()))
+
+    def poles_at(n):
+        Ac, C = _fnsi.continuous_ac(*_fnsi.system_ac(left, n, n_out, y_scale), omega0)
+        lam, vec = np.linalg.eig(Ac)
+        return lam, C @ vec
+
+    modes = stable_modes(poles_at, range(2, limit + 1, 2), band)
+    if not modes:
+        return auto_order(singular_values, limit), ()
+    return stabilised_order(modes, limit), modes
 
 
 def _order(options: NSIOptions, singular_values: np.ndarray, n_out: int, block_rows: int) -> int:

@@ -403,10 +403,14 @@ def parse_validation(items: Any, path: Path, data: DataSpec, check_files: bool) 
             _check_no_overlap(where, name, start, stop, data.estimation)
         count, drop = get_int(item, "realisations", where, 1, minimum=1), get_int(item, "transient_periods", where, 0,
                                                                                     minimum=0)
-        if data.period is None and (count > 1 or drop):
-            raise where.problem("realisations", "needs the period of the test: add [data] period")
+        period = get_int(item, "period", where, None, minimum=0)
+        if period == 1 or (period and period % data.decimate):
+            raise where.error("period", f"0 (not periodic) or a multiple of decimate ({data.decimate}) samples >= 2",
+                              period)
+        if (data.period is None if period is None else period == 0) and (count > 1 or drop):
+            raise where.problem("realisations", "needs the period of the test: add [data] period (or period here)")
         segments.append(ValidationSegment(name=name, start=start, stop=stop, file=file, files=files,
-                                          realisations=count, transient_periods=drop))
+                                          realisations=count, transient_periods=drop, period=period))
     return tuple(segments)
 
 

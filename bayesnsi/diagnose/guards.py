@@ -192,7 +192,7 @@ def half_block_rows(n_half: int, block_rows: int, n_channels: int) -> int:
     return int(min(block_rows, (n_half + 1) // (2 * (n_channels + 1))))
 
 
-def half_coefficients(signals, candidate, nsi, cache=None) -> tuple[tuple[float, float], bool, int]:
+def half_coefficients(signals, candidate, nsi, cache=None, start=None) -> tuple[tuple[float, float], bool, int]:
     """The last coefficient of ``candidate`` identified on each half of the record.
 
     Parameters
@@ -203,6 +203,9 @@ def half_coefficients(signals, candidate, nsi, cache=None) -> tuple[tuple[float,
     cache : dict, optional
         Kept across calls; the Hankel products of each half for the candidate without its last
         term are stored in it, so that the effects checked against one model share them.
+    start : NSIResult, optional
+        The candidate identified on the whole record: on the frequency route each half is refined
+        from it (:func:`bayesnsi.nsi.identify`'s ``start``), a local re-identification.
 
     Returns
     -------
@@ -234,7 +237,8 @@ def half_coefficients(signals, candidate, nsi, cache=None) -> tuple[tuple[float,
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", BayesNSIWarning)
-                values.append(identify(part, candidate, nsi, correlations=correlations).coefficient_values[-1])
+                found = identify(part, candidate, nsi, correlations=correlations, start=start)
+                values.append(found.coefficient_values[-1])
         except BlockRowsError:
             values.append(np.nan)
             too_short = True
@@ -327,7 +331,7 @@ def check_effect(
     feeds_energy = injects_energy(entry.effect.term, float(np.real(coef.value)))
     overlap = half_overlap(signals) if log_bf > threshold else 1.0
     if log_bf > threshold and overlap >= MIN_HALF_OVERLAP:  # the halves cost two identifications
-        halves, too_short, rows = half_coefficients(signals, trial.candidate, context.nsi, half_cache)
+        halves, too_short, rows = half_coefficients(signals, trial.candidate, context.nsi, half_cache, trial)
         if rows != context.nsi.block_rows:
             note = (
                 f"{TOO_SHORT} at {context.nsi.block_rows} block rows ({signals.n_samples // 2} samples each): "

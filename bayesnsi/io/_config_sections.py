@@ -409,8 +409,14 @@ def parse_validation(items: Any, path: Path, data: DataSpec, check_files: bool) 
                               period)
         if (data.period is None if period is None else period == 0) and (count > 1 or drop):
             raise where.problem("realisations", "needs the period of the test: add [data] period (or period here)")
+        integrate = None
+        if "integrate" in item:
+            if data.integrate is None:
+                raise where.problem("integrate", "needs [data] integrate (the sensors this segment integrates)")
+            integrate = _parse_integrate(item, where, data.fs, data.accelerations, data.velocities)
         segments.append(ValidationSegment(name=name, start=start, stop=stop, file=file, files=files,
-                                          realisations=count, transient_periods=drop, period=period))
+                                          realisations=count, transient_periods=drop, period=period,
+                                          integrate=integrate))
     return tuple(segments)
 
 

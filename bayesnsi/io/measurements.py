@@ -218,6 +218,8 @@ def load_validation(config: ExperimentConfig) -> list[tuple[str, Signals]]:
         data = config.data
         if segment.period is not None:  # its own period, or 0: not periodic (a sweep)
             data = dataclasses.replace(data, period=segment.period or None)
+        if segment.integrate is not None:  # its own integration band
+            data = dataclasses.replace(data, integrate=segment.integrate)
         if segment.files:  # another record, one file per channel
             record = Record(next(iter(segment.files.values())), data, segment.files)
         else:

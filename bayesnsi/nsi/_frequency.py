@@ -33,7 +33,7 @@ from .statespace import StateSpaceModel
 _BAND_POINTS = 512
 
 
-def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult:
+def identify_frequency(signals: Signals, cand, options: NSIOptions, start=None) -> NSIResult:
     """Identify ``cand`` from periodic ``signals`` by frequency-domain subspace (see module doc).
 
     Parameters
@@ -51,6 +51,9 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
         ``max_order``, ``band_hz`` (fitted lines and λ band), ``zero_feedthrough``,
         ``velocity_method`` (only when the basis needs velocities and none are measured:
         spectral differentiation is used instead, exact for periodic data).
+    start : NSIResult, optional
+        A frequency-route result of the same candidate and order: refined from its continuous
+        model alone (:func:`_local_start`), no subspace starts and no warm start.
 
     Returns
     -------
@@ -72,6 +75,10 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
         order, modes_found = _auto_order(options, left, values, n_out, y_scale, omega0, block_rows, data)
     else:
         order = _order(options, values, n_out, block_rows)
+    local = _local_start(start, cand, order)
+    if local is not None:  # a local re-identification from a neighbouring record's model
+        refined = _fnsi.refine(data, *local, zf)
+        return _result(signals, cand, options, data, excited, refined, (block_rows, values, order, local[0][:0]))
     starts = [block_rows]
     if not cand.terms:  # the linear model: every candidate is refined from it too
         starts += [r for r in (int(1.25 * block_rows), int(1.5 * block_rows), 2 * block_rows)
@@ -89,9 +96,27 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
             best = (cost, rows, values, order, poles, refined)
     assert best is not None  # starts is never empty
     _, block_rows, singular_values, order, reflected, refined = best
+    refined = _better_of_warm_start(signals, cand, options, data, refined)
+    return _result(signals, cand, options, data, excited, refined, (block_rows, singular_values, order, reflected),
+                   modes_found)
+
+
+def _local_start(start, cand, order):
+    """The continuous ``(A_c, C)`` of ``start`` when it is a frequency-route result of ``cand``'s terms at ``order``."""
+    if (start is None or start.settings.get("domain") != "frequency" or start.order != order
+            or tuple(t.name for t in start.terms) != tuple(t.name for t in cand.terms) or start.virtual_stiffness):
+        return None
+    model = start.model
+    return model.continuous_state_matrix(), np.array(model.C, dtype=float)
+
+
+def _result(signals: Signals, cand, options: NSIOptions, data, excited, refined, subspace, modes_found=()):
+    """The :class:`NSIResult` of a refined continuous model ``(A_c, C, (B_c, D_c, residual))``."""
+    zf = options.zero_feedthrough
+    block_rows, singular_values, order, reflected = subspace
     order = int(refined[0].shape[0])  # a lone real pole of the start becomes a pair (_modal_fit.modal_start)
     reflected = reflected[reflected.imag >= 0]  # one of each conjugate pair
-    Ac, C, fit = _better_of_warm_start(signals, cand, options, data, refined)
+    Ac, C, fit = refined
     if cand.terms and _at_noise_level(fit[2]):  # the basis again from the model's (less noisy) output
         data = data.with_smoothed_basis(data.outputs - fit[2] * data.output_std)
         Ac, C, fit = _fnsi.refine(data, Ac, C, zf)

@@ -83,6 +83,7 @@ def identify(
     options: NSIOptions | None = None,
     *,
     correlations: HankelCorrelations | None = None,
+    start: NSIResult | None = None,
 ) -> NSIResult:
     """Identify one candidate model by nonlinear subspace identification.
 
@@ -110,6 +111,12 @@ def identify(
         (:func:`hankel_correlations`, same data and settings): only the products of the added
         terms' inputs are computed. The result is the same (to rounding); ignored when they do
         not apply or with ``route="lq"``.
+    start : NSIResult, optional
+        A frequency-route identification of the same candidate at the same order (e.g. on the whole
+        record) from which the frequency route refines directly, without the subspace starts: a
+        local re-identification, as the noise replicates and the record halves need (a start of
+        their own may fall into another local minimum of a many-mode model). Ignored on the time
+        route and when it does not match.
 
     Returns
     -------
@@ -166,7 +173,7 @@ def identify(
     cand = as_candidate(candidate)
     identification_routes(cand.terms, signals.input_dofs, signals.output_dofs)
     if options.domain == "frequency":
-        return identify_frequency(signals, cand, options)
+        return identify_frequency(signals, cand, options, start)
     if signals.realisations > 1:  # a Hankel block across a boundary would join two unrelated steady states
         raise InputDataError(
             f"the time route cannot estimate from {signals.realisations} realisations at once (its block rows would "

@@ -82,10 +82,10 @@ def loop_effects(signals, names=None) -> list[Effect]:
     gaps: dict[tuple[int, ...], Sequence[float]] | None = None
     if CLEARANCE in names:
         gaps = {at: tuple(default_gaps(float(np.std(x)))) for at, x in _location_motions(signals, "displacement")}
-    widths = None
+    widths: dict[tuple[int, ...], Sequence[float]] | None = None
     if SMOOTH_FRICTION in names:
-        widths = {at: tuple(default_widths(float(np.std(v)))) for at, v in _location_motions(signals, "velocity")}
-        widths = {at: w for at, w in widths.items() if all(np.isfinite(w)) and min(w) > 0}
+        found = {at: tuple(default_widths(float(np.std(v)))) for at, v in _location_motions(signals, "velocity")}
+        widths = {at: w for at, w in found.items() if all(np.isfinite(w)) and min(w) > 0}
     return effect_dictionary(signals.output_dofs, [t for t in EFFECT_TYPES if t in names], gaps=gaps, widths=widths)
 
 

@@ -77,8 +77,9 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions, start=None) 
         order = _order(options, values, n_out, block_rows)
     local = _local_start(start, cand, order)
     if local is not None:  # a local re-identification from a neighbouring record's model
-        refined = _fnsi.refine(data, *local, zf)
-        return _result(signals, cand, options, data, excited, refined, (block_rows, values, order, local[0][:0]))
+        Ac0, C0 = local
+        refined = _fnsi.refine(data, Ac0, C0, zf)
+        return _result(signals, cand, options, data, excited, refined, (block_rows, values, order, Ac0[:0]))
     starts = [block_rows]
     if not cand.terms:  # the linear model: every candidate is refined from it too
         starts += [r for r in (int(1.25 * block_rows), int(1.5 * block_rows), 2 * block_rows)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 
 import numpy as np
@@ -84,3 +85,20 @@ def test_no_steady_state_is_an_unstable_model_error():
     """A map without a fixed point (X -> X + 1) is refused with the closed-loop message."""
     with pytest.raises(UnstableModelError, match="no periodic steady state"):
         _solve(lambda X: X + 1.0, np.ones((4, 2), dtype=complex), "diverging")
+
+
+def test_a_term_the_motion_never_reaches_is_a_zero_force():
+    """A clearance whose gap the validation record's motion never reaches predicts as the linear part (no
+    'not identifiable' failure: that belongs to identification, not to a prediction)."""
+    data = _record(0)
+    gap = 0.5 * float(np.std(data.displacement[:, 0]))
+    clearance = Term(f"(abs(x1)-{gap:.6g})*(sign(abs(x1)-{gap:.6g})+1)/2*sign(x1)", 1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = identify(data, CandidateModel(name="clearance", terms=(clearance,)), NSIOptions(domain="frequency",
+                                                                                               order=4))
+    quiet = _record(3, rms=0.05)
+    assert np.max(np.abs(quiet.displacement[:, 0])) < gap
+    predicted = result.reconstruct(quiet, closed_loop=True).predicted
+    linear_part = dataclasses.replace(result, candidate=CandidateModel(name="linear part", terms=()))
+    assert np.allclose(predicted, linear_part.reconstruct(quiet, closed_loop=True).predicted)

@@ -264,13 +264,20 @@ def step_diagnose(out: Path) -> None:
             print("| --- | --- | --- | --- | --- |")
             for seg in results.get("validation", []):
                 b = before.get(seg["name"], {})
-                print(f"| {seg['name']} | {b.get('nrmse', float('nan')):.3f} | {seg['nrmse']:.3f} | "
+                print(f"| {seg['name']} | {_number(b.get('nrmse'))} | {_number(seg.get('nrmse'), seg.get('error'))} | "
                       + ", ".join(f"{v:.4f}" for v in b.get("rmse_per_channel", [])) + " | "
                       + ", ".join(f"{v:.4f}" for v in seg.get("rmse_per_channel", [])) + " |")
             if not extra:
                 _acceptance_table(level, results)
             if extra and added:
                 _figure_of_merit_table(level, added)
+
+
+def _number(value, error=None) -> str:
+    """A table cell: the value to 3 decimals, or why there is none."""
+    if value is None:
+        return "failed: " + (error or "")[:50] if error else "-"
+    return f"{value:.3f}"
 
 
 def _acceptance_table(level: int, results: dict) -> None:
@@ -322,7 +329,11 @@ def _figure_of_merit_table(level: int, added) -> None:
         else:
             segment, record, period = f"random-odd level {other[-1]}", odd(int(other[-1])), ODD_PERIOD
         for name, result in models.items():
-            band, whole, rms = figure_of_merit(result, segment, level, record, period)
+            try:
+                band, whole, rms = figure_of_merit(result, segment, level, record, period)
+            except Exception as err:  # noqa: BLE001 - a table row, whatever failed (no steady state)
+                print(f"| {segment} | {name} | failed: {str(err)[:60]} | | |")
+                continue
             print(f"| {segment} | {name} | " + " | ".join(f"{b:.4f} / {w:.4f} ({r:.3f})" for b, w, r in
                                                           zip(band, whole, rms)) + " |")
 

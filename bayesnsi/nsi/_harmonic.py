@@ -7,7 +7,7 @@ its closed-loop response is the periodic solution of
 
 on those lines, with x(t) the inverse DFT of X (the other lines empty, in prediction as in the
 fitted model) and ẋ its exact spectral derivative, the basis evaluated as in identification
-(:func:`bayesnsi.nsi.feedback.extended_input`, point values). No initial state is estimated and
+(point values, as :func:`bayesnsi.nsi.feedback.extended_input` takes them). No initial state is estimated and
 nothing is integrated in time: a time simulation of the black-box model from a state fixed on a
 few samples diverged within the first samples on the simulated ground vibration test for every
 friction model, while this solution is what the test measured after its transient periods. The
@@ -182,7 +182,6 @@ def periodic_closed_loop(result, signals: Signals, free=None) -> np.ndarray:
     force = period_dft(signals.force, period).mean(axis=0)
     G = result.frf(freqs[lines])  # (K, l, m + q) of the inputs [f; -n]
     m = force.shape[1]
-    force_time = np.fft.irfft(force * period, period, axis=0)  # one period of the mean force (the basis ignores it)
     linear = np.einsum("kom,km->ko", G[:, :, :m], force[lines])
     n_out = linear.shape[1]
     omega = 2 * np.pi * freqs
@@ -199,9 +198,7 @@ def periodic_closed_loop(result, signals: Signals, free=None) -> np.ndarray:
     def update(X):
         x, v = time_of(X)
         x, v = x + extra[0], v + extra[1]
-        one = Signals(force=force_time, displacement=x, velocity=v, fs=signals.fs,
-                      input_dofs=result.input_dofs, output_dofs=result.output_dofs)
-        u_n = np.fft.rfft(extended_input(one, result.terms, "fourth", "sample")[:, m:], axis=0)[lines] / period
+        u_n = np.fft.rfft(_basis(result, x, v), axis=0)[lines] / period
         return linear + np.einsum("koq,kq->ko", G[:, :, m:], u_n)
 
     X = linear
@@ -210,6 +207,17 @@ def periodic_closed_loop(result, signals: Signals, free=None) -> np.ndarray:
         X = _solve(update, linear, result.candidate.name, switching)
     x, _ = time_of(X)
     return np.tile(x + extra[0], (signals.n_samples // period, 1))
+
+
+def _basis(result, x: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``-n_i(x, v)`` of the model's terms on its own response (n_samples, q); a term that is zero there (a
+    clearance whose gap the motion never reaches) is a zero force, not an identification failure."""
+    rows = {int(d) - 1: k for k, d in enumerate(result.output_dofs)}
+    xs = {row: x[:, k] for row, k in rows.items()}
+    vs = {row: v[:, k] for row, k in rows.items()}
+    columns = [-np.broadcast_to(np.asarray(term.expr.function(xs, vs), dtype=float), (len(x),))
+               for term in result.terms]
+    return np.column_stack(columns) if columns else np.zeros((len(x), 0))
 
 
 def _solve(update, start: np.ndarray, name: str, switching: tuple[str, ...] = ()) -> np.ndarray:

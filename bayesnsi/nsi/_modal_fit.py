@@ -23,6 +23,8 @@ from collections.abc import Callable
 import numpy as np
 import scipy.linalg
 
+from ._levenberg import levenberg_marquardt
+
 __all__ = ["DAMPING_RANGE", "ModalProblem", "modal_start", "refine"]
 
 DAMPING_RANGE = (1e-4, 0.995)
@@ -198,8 +200,6 @@ def refine(inputs, outputs, sigma, s, Ac, C, zero_feedthrough: bool, max_nfev: i
         The refined model in real modal form (pairs ordered by natural frequency) when it fits the
         lines better than the start, None otherwise (or for a start :func:`modal_start` refuses).
     """
-    from scipy.optimize import leastsq
-
     start_form = modal_start(Ac, C)
     if start_form is None:
         return None
@@ -248,9 +248,8 @@ def refine(inputs, outputs, sigma, s, Ac, C, zero_feedthrough: bool, max_nfev: i
         return full
 
     cost0 = float(np.sum(residual(start) ** 2))
-    # MINPACK's lmder as least_squares(method="lm", x_scale="jac", gtol=1e-8) calls it, without its wrappers
-    x, _, info, _, _ = leastsq(lambda t: residual(embed(t)), start[free], Dfun=lambda t: jacobian(embed(t))[:, free],
-                               full_output=True, ftol=1e-7, xtol=1e-7, gtol=1e-8, maxfev=max_nfev, factor=100.0)
+    x, _, _ = levenberg_marquardt(lambda t: residual(embed(t)), lambda t: jacobian(embed(t))[:, free], start[free],
+                                  max_nfev=max_nfev)
     x = embed(x)
     cost = float(np.sum(residual(x) ** 2))
     best, best_cost = (x, cost) if np.isfinite(cost) and cost < cost0 else (start, cost0)

@@ -23,6 +23,7 @@ from ..models import CandidateModel
 from ..options import NSIOptions
 from ..signals import Signals
 from . import _fnsi
+from ._modal_fit import DAMPING_RANGE
 from ._stabilised import stabilised_order, stable_modes
 from .order import auto_order
 from .periodic import best_linear_approximation
@@ -141,6 +142,12 @@ def _result(signals: Signals, cand, options: NSIOptions, data, excited, refined,
     B, D, _ = _fnsi.input_matrices(continuous, A, C, False, z_model)
     model = StateSpaceModel(A=A, B=B, C=C, D=D, dt=dt_model)
     modes, spurious = split_poles(model.poles, dt_model)
+    # a refined pair held at the lowest damping ratio the search allows is no mode: it fits a narrow feature of the
+    # lines (distortion, noise); it stays in the model and is reported with the spurious poles
+    pinned = [m for m in modes if m.damping_ratio < _PINNED_DAMPING]
+    if pinned:
+        modes = [m for m in modes if m.damping_ratio >= _PINNED_DAMPING]
+        spurious = np.concatenate([spurious, [m.pole for m in pinned], [np.conj(m.pole) for m in pinned]])
     if not modes:
         raise UnstableModelError(
             f"candidate {cand.name!r}: no physical mode among the {order} identified poles; "
@@ -197,6 +204,7 @@ def _result(signals: Signals, cand, options: NSIOptions, data, excited, refined,
     )
 
 
+_PINNED_DAMPING = 1.5 * DAMPING_RANGE[0]  # damping ratios this close to the refinement's bound are no modes
 _NOISE_FIT = 1.5  # a weighted line misfit below this many times the number of complex residuals is at noise level
 _WARM: dict = {}  # (data, terms, settings) -> refined continuous (A_c, C) of identified candidates
 _WARM_SIZE = 64

@@ -109,14 +109,10 @@ def identify(
     correlations : HankelCorrelations, optional
         Lagged products of a candidate whose terms this one's start with
         (:func:`hankel_correlations`, same data and settings): only the products of the added
-        terms' inputs are computed. The result is the same (to rounding); ignored when they do
-        not apply or with ``route="lq"``.
+        terms' inputs are computed; the same result (to rounding). Ignored when they do not
+        apply or with ``route="lq"``.
     start : NSIResult, optional
-        A frequency-route identification of the same candidate at the same order (e.g. on the whole
-        record) from which the frequency route refines directly, without the subspace starts: a
-        local re-identification, as the noise replicates and the record halves need (a start of
-        their own may fall into another local minimum of a many-mode model). Ignored on the time
-        route and when it does not match.
+        Frequency route: refined from it alone (noise replicates).
 
     Returns
     -------

@@ -45,7 +45,6 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 from bayesnsi.checks.adequacy import model_checks
-from bayesnsi.uncertainty import widen_inadequate  # noqa: E402
 from bayesnsi.io import load_config, load_signals  # noqa: E402
 from bayesnsi.models import CandidateModel, Term  # noqa: E402
 from bayesnsi.options import EvidenceOptions, NSIOptions  # noqa: E402
@@ -57,6 +56,7 @@ from bayesnsi.simulate import (  # noqa: E402
     modal_parameters,
     simulate_response,
 )
+from bayesnsi.uncertainty import widen_inadequate  # noqa: E402
 
 FS, DURATION, FORCE_BAND, RMS, NOISE = 100.0, 60.0, (1.0, 30.0), 5.0, 0.02
 MCK = chain_system([1.0, 1.5], [800.0, 1000.0], [2.0, 2.0])

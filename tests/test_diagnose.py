@@ -351,12 +351,12 @@ def test_loop_options_choose_the_effect_types_of_the_dictionary():
     from bayesnsi.loop import loop_effects
 
     case = undeclared_case("clearance", seed=0, noise_percent=1.0, duration=5.0)
-    # 2 DOFs and the pair 1-2: 8 types x 3 locations + 3 gaps x 2 DOFs + 2 tanh widths x 3 locations
+    # 2 DOFs and the pair 1-2: 8 types x 3 locations + 3 gaps x 3 locations + 2 tanh widths x 3 locations
     # (|v| among the types: every location of the vibrating chain reverses in both record halves)
-    assert len(loop_effects(case.signals)) == len(loop_effects(case.signals, LoopOptions().effects)) == 36
+    assert len(loop_effects(case.signals)) == len(loop_effects(case.signals, LoopOptions().effects)) == 39
     chosen = loop_effects(case.signals, LoopOptions(effects=["clearance", "x^3"]).effects)
-    assert [e.name.split(" ")[0] for e in chosen] == ["x^3", "clearance", "clearance", "clearance"] * 2 + ["x^3"]
-    assert {e.location for e in chosen if e.gap is not None} == {(1,), (2,)}
+    assert [e.name.split(" ")[0] for e in chosen] == ["x^3", "clearance", "clearance", "clearance"] * 3
+    assert {e.location for e in chosen if e.gap is not None} == {(1,), (2,), (1, 2)}  # a clearance between sensors
     with pytest.raises(ConfigError, match=r"\[diagnose\] effects: expected a non-empty list"):
         LoopOptions(effects=[])
     with pytest.raises(ConfigError, match=r"\[diagnose\] effects: unknown type\(s\) \['x\^4'\]"):

@@ -13,7 +13,6 @@ from bayesnsi.io.posterior import NETCDF_ENGINE, posterior_filename, read_poster
 
 from .test_plots import _posterior
 
-
 SAMPLER = SamplerRecord(name="emcee", version="3.1.6", moves=("StretchMove",), weights=(1.0,), n_walkers=4,
                         n_steps=130, n_burn=10, parameters="all parameters")
 

@@ -1,5 +1,5 @@
-"""The sections of an experiment configuration: ``[data]``, ``[nsi]``, ``[[candidates]]``,
-``[[validation]]`` and ``[evidence]``, each checked and turned into its typed object."""
+"""The sections of an experiment configuration: ``[data]``, ``[nsi]``, ``[[candidates]]`` and
+``[evidence]``, each checked and turned into its typed object (``[[validation]]``: :mod:`._config_validation`)."""
 
 from __future__ import annotations
 
@@ -29,11 +29,11 @@ from ._config_fields import (
     get_window,
 )
 from ._config_files import check_files_cover, parse_files
-from ._specs import DataSpec, IntegrationSpec, ValidationSegment
+from ._specs import DataSpec, IntegrationSpec
 
 __all__ = [
-    "MAX_CONFIG_CANDIDATES", "TOO_MANY", "parse_candidates", "parse_data", "parse_evidence", "parse_nsi",
-    "parse_validation",
+    "MAX_CONFIG_CANDIDATES", "TOO_MANY", "parse_candidates", "parse_data", "parse_evidence", "parse_integrate",
+    "parse_nsi", "resolve_file",
 ]
 
 MAX_CONFIG_CANDIDATES = 10_000
@@ -43,7 +43,6 @@ in code, e.g. with :func:`bayesnsi.run.dictionary_candidates`)."""
 TOO_MANY = "build large candidate databases in code (bayesnsi.run.dictionary_candidates)"
 _DATA_KEYS = tuple(f.name for f in dataclasses.fields(DataSpec))
 _INTEGRATE_KEYS = tuple(f.name for f in dataclasses.fields(IntegrationSpec))
-_VALIDATION_KEYS = tuple(f.name for f in dataclasses.fields(ValidationSegment))
 _CANDIDATE_KEYS = ("name", "prior", "terms")
 _TERM_KEYS = ("expr", "at", "prior_scale")
 _BAND_KEYS = tuple(f.name for f in dataclasses.fields(NSIOptions) if f.metadata.get("kind") == "band")
@@ -56,11 +55,11 @@ def parse_data(table: Any, where: Where, check_files: bool) -> DataSpec:
     if not isinstance(table, dict):
         raise where.error(None, "a table [data]", table)
     check_keys(table, _DATA_KEYS, where)
-    files = parse_files(table, where, lambda name, key: _resolve_file(name, where, key, check_files))
+    files = parse_files(table, where, lambda name, key: resolve_file(name, where, key, check_files))
     if not files and "file" not in table:
         raise where.error("file", "the measurement file", fix='add file = "data.csv", or files = { u = "u.csv", '
                           'y = "y.csv" } for one file per column (data shipped as separate channels)')
-    file = next(iter(files.values())) if files else _resolve_file(
+    file = next(iter(files.values())) if files else resolve_file(
         get_text(table, "file", where), where, "file", check_files)
     fs = get_number(table, "fs", where, None, positive=True)
     if fs is not None and not MIN_FS <= fs <= MAX_FS:
@@ -71,7 +70,7 @@ def parse_data(table: Any, where: Where, check_files: bool) -> DataSpec:
     inputs = cast(dict[str, int], _dof_map(table, "inputs", where, required=True))
     accelerations = _dof_map(table, "accelerations", where, required=False) or {}
     velocities = _dof_map(table, "velocities", where, required=False)
-    integrate = _parse_integrate(table, where, fs, accelerations, velocities)
+    integrate = parse_integrate(table, where, fs, accelerations, velocities)
     if integrate is not None:  # displacements (and velocities) derived from the sensors' signals
         sensors = "accelerations" if accelerations else "velocities"
         for key in ("outputs", "velocities") if accelerations else ("outputs",):
@@ -170,7 +169,7 @@ def _scale_map(table: Mapping, where: Where, columns: list[str]) -> dict[str, fl
                        _gain)
 
 
-def _parse_integrate(table: Mapping, where: Where, fs: float | None, accelerations,
+def parse_integrate(table: Mapping, where: Where, fs: float | None, accelerations,
                      velocities) -> IntegrationSpec | None:
     value = table.get("integrate")
     if value is None:
@@ -213,7 +212,7 @@ def _parse_integrate(table: Mapping, where: Where, fs: float | None, acceleratio
     )
 
 
-def _resolve_file(name: str, where: Where, key: str, check_files: bool) -> Path:
+def resolve_file(name: str, where: Where, key: str, check_files: bool) -> Path:
     if not name.strip() or "\x00" in name:
         raise where.error(key, "a file name (relative to the config file's folder)", name)
     file = _expand_home(Path(name), where, key)
@@ -375,55 +374,6 @@ def _parse_terms(item: Mapping, where: Where, data: DataSpec) -> tuple[tuple[Ter
         terms.append(term)
         scales.append(get_number(entry, "prior_scale", here, None, positive=True))
     return tuple(terms), tuple(scales)
-
-
-def parse_validation(items: Any, path: Path, data: DataSpec, check_files: bool) -> tuple[ValidationSegment, ...]:
-    """``[[validation]]`` segments, none overlapping the estimation window of the data file."""
-    top = Where(path, "[[validation]]")
-    if not isinstance(items, list) or not all(isinstance(item, dict) for item in items):
-        raise top.error(None, "an array of tables written [[validation]] (double brackets)", items)
-    segments, names = [], set()
-    for index, item in enumerate(items, start=1):
-        where = Where(path, f"[[validation]] #{index}")
-        check_keys(item, _VALIDATION_KEYS, where)
-        name = check_name(get_text(item, "name", where), where, "name")
-        if name in names:
-            raise where.problem("name", f"validation name {name!r} is used twice; give each segment its own name")
-        names.add(name)
-        files = parse_files(item, where, lambda text, key: _resolve_file(text, where, key, check_files))  # noqa: B023 - called at once
-        if files:  # another record, one file per channel: the columns of [data]
-            check_files_cover(files, [*data.inputs, *(data.outputs if data.integrate is None else {}),
-                                      *(data.velocities or {}), *data.accelerations], where)
-        file = _resolve_file(get_text(item, "file", where), where, "file", check_files) if "file" in item else None
-        start = get_int(item, "start", where, None if file or files else MISSING, minimum=0)
-        stop = get_int(item, "stop", where, None if file or files else MISSING, minimum=1)
-        if start is not None and stop is not None and start >= stop:
-            raise where.error("stop", f"an index greater than start = {start}", stop)
-        if not files and (file is None or file == data.file):
-            _check_no_overlap(where, name, start, stop, data.estimation)
-        count, drop = get_int(item, "realisations", where, 1, minimum=1), get_int(item, "transient_periods", where, 0,
-                                                                                    minimum=0)
-        if data.period is None and (count > 1 or drop):
-            raise where.problem("realisations", "needs the period of the test: add [data] period")
-        segments.append(ValidationSegment(name=name, start=start, stop=stop, file=file, files=files,
-                                          realisations=count, transient_periods=drop))
-    return tuple(segments)
-
-
-def _check_no_overlap(where, name, start, stop, estimation) -> None:
-    if estimation is None:
-        raise where.problem(
-            None, f"segment {name!r} [{start}, {stop}) is in the data file, but the estimation window is the "
-            "whole record by default; set [data] estimation = [start, stop] to a window that excludes it"
-        )
-    lo = 0 if start is None else start
-    hi = math.inf if stop is None else stop
-    if lo < estimation[1] and estimation[0] < hi:
-        raise where.problem(
-            None, f"segment {name!r} [{start}, {stop}) overlaps the estimation window "
-            f"[{estimation[0]}, {estimation[1]}); validation data must never be used for estimation - "
-            "move the segment or shrink [data] estimation"
-        )
 
 
 def parse_evidence(raw: Mapping, path: Path) -> tuple[EvidenceOptions, int]:

@@ -216,6 +216,16 @@ class ValidationSegment:
     realisations, transient_periods : int
         As in ``[data]``: the segment holds that many equal realisations of whole periods, each
         without its transient periods, validated each from its own steady state (default 1, 0).
+    integrate : IntegrationSpec or None
+        How this record's sensors are integrated when not as ``[data] integrate`` (e.g. over the fitted
+        band only, so that the errors compare what the model predicts, while the estimation record
+        keeps the harmonics above it); None: as ``[data]``.
+    period : int or None
+        Samples per period of this record when it differs from ``[data] period`` (a random-odd
+        multisine of another length), 0 for a record that is not periodic (a sine sweep: the
+        model is simulated on the whole record); None (default): ``[data] period``, unless the
+        segment's force does not repeat with it, when it is validated as not periodic (with a
+        warning).
     """
 
     name: str
@@ -225,6 +235,8 @@ class ValidationSegment:
     files: dict[str, Path] = field(default_factory=dict)
     realisations: int = 1
     transient_periods: int = 0
+    period: int | None = None
+    integrate: IntegrationSpec | None = None
 
 
 @dataclass(frozen=True)

@@ -72,8 +72,8 @@ from ._config_sections import (
     parse_data,
     parse_evidence,
     parse_nsi,
-    parse_validation,
 )
+from ._config_validation import parse_validation
 from ._specs import DataSpec, ExperimentConfig, IntegrationSpec, ValidationSegment
 
 __all__ = [

@@ -58,19 +58,22 @@ mean-removed when ``remove_mean``. See
 from __future__ import annotations
 
 import csv
+import dataclasses
 import math
 import os
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
-from ..exceptions import InputDataError
+from ..exceptions import InputDataError, PeriodicityWarning
+from ..nsi.steady import force_repeats
 from ..signals import Signals
 from ._columns import FORMATS, FS_TOLERANCE, TIME_TOLERANCE, MeasurementColumns, file_format
 from ._csv import CSVColumns, read_csv_columns
 from ._load_checks import check_loaded
-from ._realisations import Split
+from ._realisations import Split, split_parts
 from ._record import Record, read_any
 from ._specs import DataSpec, ExperimentConfig
 from .results import atomic_open
@@ -221,18 +224,40 @@ def load_validation(config: ExperimentConfig) -> list[tuple[str, Signals]]:
     out = []
     for segment in config.validation:
         same_file = not segment.files and (segment.file is None or segment.file == config.data.file)
+        data = config.data
+        if segment.period is not None:  # its own period, or 0: not periodic (a sweep)
+            data = dataclasses.replace(data, period=segment.period or None)
+        if segment.integrate is not None:  # its own integration band
+            data = dataclasses.replace(data, integrate=segment.integrate)
         if segment.files:  # another record, one file per channel
-            record = Record(next(iter(segment.files.values())), config.data, segment.files)
+            record = Record(next(iter(segment.files.values())), data, segment.files)
         else:
-            record = main if same_file else Record(segment.file or config.data.file, config.data)
+            record = main if same_file and data is config.data else Record(segment.file or data.file, data)
         if record is not main:
             main.check_same_units(record, f"[[validation]] {segment.name!r}")
         start, stop = record.window(
             (segment.start, segment.stop), f"[[validation]] {segment.name!r} start/stop", config.path
         )
         split = Split(segment.realisations, segment.transient_periods, f"[[validation]] {segment.name!r}")
+        if segment.period is None and not _repeats(record, data.period, start, stop, split):
+            warnings.warn(
+                f"[[validation]] {segment.name!r}: its force does not repeat every {data.period} samples ([data] "
+                "period), so it is validated as a record that is not periodic (the model simulated over the whole "
+                "record); give period = <samples> in the segment if it has a period of its own",
+                PeriodicityWarning, stacklevel=2,
+            )
+            data = dataclasses.replace(data, period=None)
+            record = Record(segment.file or data.file, data, segment.files or None)
         out.append((segment.name, record.signals(start, stop, means, split)))
     return out
+
+
+def _repeats(record: Record, period: int | None, start: int, stop: int, split: Split) -> bool:
+    """The force of each realisation of a window repeats with ``period`` (True without a period or two of them)."""
+    if not period or stop - start < 2 * period:
+        return True  # nothing to tell: a window shorter than two periods loads without its period anyway
+    parts = split_parts(period, record.path, start, stop, split)
+    return all(force_repeats(record.force[a:b], period) for a, b in parts if b - a >= 2 * period)
 
 
 def _estimation_split(config: ExperimentConfig) -> Split:

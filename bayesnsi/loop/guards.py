@@ -231,7 +231,7 @@ def check_effect(
     if log_bf_checked and overlap >= MIN_HALF_OVERLAP and free_body:
         halves = half_coefficients_force(signals, trial)
     elif log_bf_checked and overlap >= MIN_HALF_OVERLAP:  # the halves cost two identifications
-        halves, too_short, rows = half_coefficients(signals, trial.candidate, context.nsi, half_cache)
+        halves, too_short, rows = half_coefficients(signals, trial.candidate, context.nsi, half_cache, trial)
         if rows != context.nsi.block_rows:
             note = (
                 f"{TOO_SHORT} at {context.nsi.block_rows} block rows ({signals.n_samples // 2} samples each): "

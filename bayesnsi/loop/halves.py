@@ -63,7 +63,7 @@ def half_block_rows(n_half: int, block_rows: int, n_channels: int) -> int:
     return int(min(block_rows, (n_half + 1) // (2 * (n_channels + 1))))
 
 
-def half_coefficients(signals, candidate, nsi, cache=None) -> tuple[tuple[float, float], bool, int]:
+def half_coefficients(signals, candidate, nsi, cache=None, start=None) -> tuple[tuple[float, float], bool, int]:
     """The last coefficient of ``candidate`` identified on each half of the record.
 
     Parameters
@@ -74,6 +74,9 @@ def half_coefficients(signals, candidate, nsi, cache=None) -> tuple[tuple[float,
     cache : dict, optional
         Kept across calls; the Hankel products of each half for the candidate without its last
         term are stored in it, so that the effects checked against one model share them.
+    start : NSIResult, optional
+        The candidate identified on the whole record: on the frequency route each half is refined
+        from it (:func:`bayesnsi.nsi.identify`'s ``start``), a local re-identification.
 
     Returns
     -------
@@ -105,7 +108,8 @@ def half_coefficients(signals, candidate, nsi, cache=None) -> tuple[tuple[float,
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", BayesNSIWarning)
-                values.append(identify(part, candidate, nsi, correlations=correlations).coefficient_values[-1])
+                found = identify(part, candidate, nsi, correlations=correlations, start=start)
+                values.append(found.coefficient_values[-1])
         except BlockRowsError:
             values.append(np.nan)
             too_short = True

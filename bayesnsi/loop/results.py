@@ -36,12 +36,17 @@ class EffectScore:
     screen_rank : int
         Rank (1 = best) of the effect in the search's screen; 0 when the search had no screen.
     screen_score : float
-        Its screen score (a log-likelihood ratio for the frequency-domain and force views, a
-        distortion level for periodic data); it only orders the effects. NaN without a screen.
+        Its screen score (a log-likelihood ratio of the effect's column in a local regression of the
+        outputs, :func:`bayesnsi.loop.screen.screen_effects`, or of the force view); it only
+        orders the effects. NaN without a screen.
     screen_view : str
         Which screen ranked it: "frequency" (:func:`bayesnsi.loop.screen.screen_effects`),
         "force" (free body, :func:`bayesnsi.loop.screen_force.screen_effects_force`),
         "periodic" (:func:`bayesnsi.loop.localise.screen_effects_periodic`), or empty.
+    screen_location : float
+        On the periodic view, the data-only distortion level of the effect's location
+        (:func:`bayesnsi.loop.localise.location_distortion`), which orders the screen before
+        the score; NaN otherwise.
     log_bayes_factor : float
         ``log_evidence`` minus the Laplace log-evidence of the model the search started from (NaN
         until the search is recorded, :meth:`bayesnsi.loop.state.LoopState.record_scores`).
@@ -58,6 +63,7 @@ class EffectScore:
     screen_rank: int = 0
     screen_score: float = math.nan
     screen_view: str = ""
+    screen_location: float = math.nan
     log_bayes_factor: float = math.nan
     imag_ratio: float = math.nan
 
@@ -313,7 +319,7 @@ class LoopResult:
         list of dict
             In the search's order (by Laplace log-evidence, then the screened-out ones in screen
             order): ``type``, ``at``, ``gap``, ``eps``, ``term``, ``screen_rank``, ``screen_score``,
-            ``screen_view``, ``log_evidence_laplace``, ``log_bayes_factor``, ``nrmse``,
+            ``screen_view``, ``screen_location``, ``log_evidence_laplace``, ``log_bayes_factor``, ``nrmse``,
             ``imag_ratio``, ``status`` ("accepted", "rejected", "not checked", "failed",
             "screened out") and ``reason``.
         """
@@ -375,6 +381,7 @@ def score_record(row: EffectScore, step: LoopStep | None = None, n_tries=None, s
     return {
         "type": effect.base, "at": list(effect.location), "gap": effect.gap, "eps": effect.eps, "term": row.term.name,
         "screen_rank": row.screen_rank, "screen_score": row.screen_score, "screen_view": row.screen_view,
-        "log_evidence_laplace": row.log_evidence, "log_bayes_factor": row.log_bayes_factor, "nrmse": row.nrmse,
+        "screen_location": row.screen_location, "log_evidence_laplace": row.log_evidence,
+        "log_bayes_factor": row.log_bayes_factor, "nrmse": row.nrmse,
         "imag_ratio": row.imag_ratio, "status": status, "reason": reason,
     }

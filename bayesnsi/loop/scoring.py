@@ -210,18 +210,22 @@ def _screened(context: LoopContext, candidate, effects, exclude):
 
     Effects already in the model or excluded are dropped first. Returns ``(kept effects, scores
     of the rest, screen)``; the rest carry a NaN score (screened out, not re-identified), in screen
-    order; ``screen`` maps each kept effect's term name to its ``(rank, score, view)``.
+    order; ``screen`` maps each kept effect's term name to its ``(rank, score, view, location level)`` (the
+    data-only distortion level of its location on the periodic view, NaN otherwise).
     """
     effects = new_effects(candidate, effects, exclude)
     count = len(effects) if context.options.screen is None else context.options.screen  # None: all
+    located: dict[str, float] = {}
     try:
         if context.nsi.virtual_stiffness not in ("auto", 0.0, 0):  # a free body: screen in the force view
             view, ranked = "force", screen_effects_force(context.signals, candidate, effects)
         elif context.nsi.domain == "frequency" and context.signals.period and context.signals.force.shape[1] == 1:
-            view, ranked = "periodic", screen_effects_periodic(  # where the data show the distortion first
+            view, found = "periodic", screen_effects_periodic(  # where the data show the distortion first
                 context.signals, candidate, effects, max_frequency_hz=context.screen_hz,
                 velocity_method=context.nsi.velocity_method,
             )
+            ranked = [(e, score) for e, score, _ in found]
+            located = {e.term.name: level for e, _, level in found}
         else:
             view, ranked = "frequency", screen_effects(
                 context.signals, candidate, effects, max_frequency_hz=context.screen_hz,
@@ -229,9 +233,11 @@ def _screened(context: LoopContext, candidate, effects, exclude):
             )
     except BayesNSIError:
         return effects, [], {}  # too short a record to screen: score them all
-    screen = {e.term.name: (rank, float(score), view) for rank, (e, score) in enumerate(ranked, start=1)}
+    screen = {e.term.name: (rank, float(score), view, located.get(e.term.name, math.nan))
+              for rank, (e, score) in enumerate(ranked, start=1)}
     rest = [
-        EffectScore(e, math.nan, screen_rank=rank, screen_score=float(score), screen_view=view)
+        EffectScore(e, math.nan, screen_rank=rank, screen_score=float(score), screen_view=view,
+                    screen_location=located.get(e.term.name, math.nan))
         for rank, (e, score) in enumerate(ranked[count:], start=count + 1)
     ]
     if len(effects) <= count:  # all re-identified, in dictionary order as without a screen
@@ -244,7 +250,8 @@ def _with_screen(entry: EffectScore, screen: dict, name: str | None = None) -> E
     found = screen.get(entry.term.name if name is None else name)
     if found is None:
         return entry
-    return replace(entry, screen_rank=found[0], screen_score=found[1], screen_view=found[2])
+    return replace(entry, screen_rank=found[0], screen_score=found[1], screen_view=found[2],
+                   screen_location=found[3])
 
 
 def rank_effects(context: LoopContext, candidate, exclude=(), effects=None, screen: bool = True) -> list[EffectScore]:

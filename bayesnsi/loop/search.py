@@ -46,6 +46,7 @@ from ..options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions
 from .free_view import free_body_start
 from .friction import friction_reading, holds_friction
 from .guards import ADMISSIBILITY, check_effect, documented
+from .localise import DETECTION_REACH
 from .moves import accept_pair, look_ahead, prune
 from .results import LoopResult
 from .scoring import laplace_score, rank_effects
@@ -58,7 +59,7 @@ SCREEN_BAND = 1.6
 
 
 def loop_effects(signals, names=None) -> list[Effect]:
-    """The loop's dictionary: effect types at the measured DOFs and between neighbouring ones.
+    """The loop's dictionary: effect types at the measured DOFs and across every pair of them.
 
     Parameters
     ----------
@@ -67,14 +68,16 @@ def loop_effects(signals, names=None) -> list[Effect]:
     names : sequence of str, optional
         Keys of :data:`bayesnsi.models.EFFECT_TYPES`, ``"clearance"`` and ``"tanh(v/eps)"``
         (``LoopOptions.effects``); default :data:`bayesnsi.models.dictionary.DEFAULT_EFFECT_TYPES`,
-        clearances and tanh frictions. The types that compare the two directions of motion
+        clearances and tanh frictions. Every type acts at each measured DOF and across every pair of
+        them. Clearances are tried at every location with gaps of 0.5, 1 and 1.5 standard deviations
+        of the displacement they act on (the relative displacement for a pair; refined when one ranks
+        among the best); the smoothed friction ``tanh(v/eps)`` with ε = 0.25 and 0.5 standard
+        deviations of the velocity it acts on, written with its numeric ε
+        (:func:`bayesnsi.models.default_widths`).
+        The types that compare the two directions of motion
         (:data:`bayesnsi.models.dictionary.DIRECTIONAL`, e.g. ``|v|``) are kept only at locations
         whose velocity reverses at least ``MIN_REVERSALS`` times in each half of the record
-        (:func:`bayesnsi.models.dictionary.velocity_reversals`). Clearances are tried at each measured
-        DOF with gaps of 0.5, 1 and 1.5 displacement standard deviations (refined when one ranks among the best); the
-        smoothed friction ``tanh(v/eps)`` at every location (DOFs and pairs) with ε = 0.25 and 0.5
-        standard deviations of the velocity it acts on (the relative velocity for a pair), written
-        with its numeric ε (:func:`bayesnsi.models.default_widths`).
+        (:func:`bayesnsi.models.dictionary.velocity_reversals`).
 
     Returns
     -------
@@ -93,44 +96,29 @@ def loop_effects(signals, names=None) -> list[Effect]:
         )
     gaps: dict[tuple[int, ...], Sequence[float]] | None = None
     if CLEARANCE in names:
-        std = {d: signals.displacement[:, c].std() for c, d in enumerate(signals.output_dofs)}
-        gaps = {(d,): tuple(default_gaps(s)) for d, s in std.items()}
-    widths = _friction_widths(signals) if SMOOTH_FRICTION in names else None
+        gaps = {at: tuple(default_gaps(float(np.std(x)))) for at, x in _location_motions(signals, "displacement")}
+    widths: dict[tuple[int, ...], Sequence[float]] | None = None
+    if SMOOTH_FRICTION in names:
+        found = {at: tuple(default_widths(float(np.std(v)))) for at, v in _location_motions(signals, "velocity")}
+        widths = {at: w for at, w in found.items() if all(np.isfinite(w)) and min(w) > 0}
     effects = effect_dictionary(signals.output_dofs, [t for t in EFFECT_TYPES if t in names], gaps=gaps, widths=widths)
     if not any(e.base in DIRECTIONAL for e in effects):
         return effects
-    reversing = _reversing_locations(signals)
+    half = signals.n_samples // 2
+    reversing = {at for at, v in _location_motions(signals, "velocity")
+                 if min(velocity_reversals(v[:half]), velocity_reversals(v[half:])) >= MIN_REVERSALS}
     return [e for e in effects if e.base not in DIRECTIONAL or e.location in reversing]
 
 
-def _reversing_locations(signals) -> set[tuple[int, ...]]:
-    """Locations (DOFs and consecutive pairs) whose velocity reverses MIN_REVERSALS times in each record half."""
-    velocity = signals.velocities()
-    half = len(velocity) // 2
-
-    def reverses(v) -> bool:
-        return min(velocity_reversals(v[:half]), velocity_reversals(v[half:])) >= MIN_REVERSALS
-
-    column = {int(d): c for c, d in enumerate(signals.output_dofs)}
-    out: set[tuple[int, ...]] = set()
-    for d, c in column.items():
-        if reverses(velocity[:, c]):
-            out.add((d,))
-        if d + 1 in column and reverses(velocity[:, c] - velocity[:, column[d + 1]]):
-            out.add((d, d + 1))
-    return out
-
-
-def _friction_widths(signals) -> dict[tuple[int, ...], Sequence[float]]:
-    """tanh widths at each measured DOF and each pair of consecutive measured DOFs (as effect_dictionary)."""
-    velocity = signals.velocities()
-    column = {int(d): c for c, d in enumerate(signals.output_dofs)}
-    out: dict[tuple[int, ...], Sequence[float]] = {}
-    for d, c in column.items():
-        out[(d,)] = tuple(default_widths(float(velocity[:, c].std())))
-        if d + 1 in column:
-            out[(d, d + 1)] = tuple(default_widths(float((velocity[:, c] - velocity[:, column[d + 1]]).std())))
-    return {at: w for at, w in out.items() if all(np.isfinite(w)) and min(w) > 0}
+def _location_motions(signals, quantity: str):
+    """``(location, motion)`` at each measured DOF and across each pair of them (as effect_dictionary)."""
+    values = np.asarray(signals.displacement if quantity == "displacement" else signals.velocities(), dtype=float)
+    dofs = [int(d) for d in signals.output_dofs]
+    for c, d in enumerate(dofs):
+        yield (d,), values[:, c]
+    for i, j in enumerate(dofs):
+        for k, other in enumerate(dofs[i + 1 :], start=i + 1):
+            yield (j, other), values[:, i] - values[:, k]
 
 
 def close_the_loop(
@@ -269,6 +257,12 @@ def close_the_loop_with(
         nsi = nsi.replace(virtual_stiffness=start.virtual_stiffness)
     top_hz = max([m.frequency_hz for m in start.modes] or [start.band_hz[1]])  # free bodies: no mode
     screen_hz = None if options.screen is None else SCREEN_BAND * top_hz
+    if nsi.domain == "frequency":
+        # every candidate at the start's order (the same linear dynamics, its order chosen once); the screen over
+        # the fitted lines and the harmonics above them, where the data show the nonlinear forces
+        nsi = nsi.replace(order=start.order) if nsi.order == "auto" else nsi
+        fit_top = float((start.fit.fit_band_hz or start.band_hz)[1])
+        screen_hz = None if options.screen is None else DETECTION_REACH * fit_top
     context = LoopContext(signals, effects, nsi, evidence, options, execution, screen_hz)
     context, start, first = free_body_start(context, start, SCREEN_BAND)  # one view: force or displacement
     start_score = laplace_score(start, signals, evidence)[0]

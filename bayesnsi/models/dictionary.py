@@ -51,7 +51,7 @@ removed leaves it nothing to explain. These three are not in :data:`DEFAULT_EFFE
 
 ``|v|`` is direction-dependent viscous friction written without a linear part: beside the linear
 damping ``c·v`` of the identified model, ``λ|v|`` makes the viscous coefficient ``c + λ`` moving
-forwards and ``c - λ`` backwards (:func:`bayesnsi.diagnose.friction_reading`). It is ``v+`` less its
+forwards and ``c - λ`` backwards (:func:`bayesnsi.loop.friction_reading`). It is ``v+`` less its
 linear half (``v·[v > 0] = (v + |v|)/2``): NSI identifies the linear damping with the linear part,
 so a basis that holds ``v/2`` as well leaves the two to share it. Offered by default wherever the
 velocity reverses often enough to inform it (:data:`DIRECTIONAL`). A Coulomb friction that differs by
@@ -211,7 +211,7 @@ def effect_dictionary(
     pairs: Sequence[tuple[int, int]] | None = None,
     widths: dict[tuple[int, ...], Sequence[float]] | None = None,
 ) -> list[Effect]:
-    """Effects at each measured DOF and between neighbouring measured DOFs (docs/method.md §7).
+    """Effects at each measured DOF and between pairs of measured DOFs (docs/method.md §7).
 
     Parameters
     ----------
@@ -222,7 +222,9 @@ def effect_dictionary(
     gaps : mapping location -> sequence of float, optional
         Clearance gaps [m] to try at each location (``(k,)`` or ``(j, k)``); none by default.
     pairs : sequence of (j, k), optional
-        Element locations; default: consecutive DOF numbers that are both measured.
+        Element locations; default: every pair of measured DOFs (which sensors an element joins
+        is not known from their numbers: on a ground vibration test the joint is between the wing
+        and payload sensors, whatever they are called).
     widths : mapping location -> sequence of float, optional
         Widths ε [m/s] of the ``tanh(v/eps)`` frictions to try at each location; none by default.
 
@@ -242,7 +244,7 @@ def effect_dictionary(
         raise ConfigError(f"unknown effect type(s) {unknown}; choose from {list(EFFECT_TYPES)}")
     dofs = sorted(set(int(d) for d in measured_dofs))
     if pairs is None:
-        pairs = [(j, j + 1) for j in dofs if j + 1 in dofs]
+        pairs = [(j, k) for i, j in enumerate(dofs) for k in dofs[i + 1 :]]
     locations = [(k,) for k in dofs] + [(int(j), int(k)) for j, k in pairs]
     out = []
     for at in locations:

@@ -27,7 +27,6 @@ from ..signals import Signals
 from .feedback import extended_input
 from .periodic import excited_lines, period_dft
 
-_MIN_DAMPING = 1e-5  # a refined pole with a smaller damping ratio is refused (marginally stable)
 _SMOOTH_LINES = 9  # running median of the noise variance over this many lines (weights)
 
 
@@ -333,89 +332,16 @@ def stabilise_continuous(Ac: np.ndarray):
 
 
 def refine(data: LineData, Ac: np.ndarray, C: np.ndarray, zero_feedthrough: bool, max_nfev: int = 200):
-    """Weighted least-squares refinement of A_c, C on the lines (variable projection, docs/method.md §11).
+    """Weighted least-squares refinement of A_c, C on the lines (:func:`._modal_fit.refine`).
 
-    A_c in real modal form, each pair ``σ ± jω`` parametrised by ``log(-σ)`` and ``ω`` (so the
-    refined model stays stable), C free; B and D are solved by weighted linear least squares
-    (:func:`input_matrices`) for every trial, so only the poles and C are searched
-    (Levenberg-Marquardt with Kaufman's Jacobian of the projected residual). Returns the better
-    of start and end, as ``(A_c, C, (B_c, D_c, whitened residual))`` (:func:`input_matrices` of that pair).
+    Returns the better of start and end, as ``(A_c, C, (B_c, D_c, whitened residual))``
+    (:func:`input_matrices` of the start when the refinement does not gain).
     """
-    from scipy.optimize import leastsq
-
-    from ._modal_fit import ModalProblem
+    from ._modal_fit import refine as modal_refine
 
     jw = 2j * np.pi * data.freqs_hz
-    blocks, T = _real_modal(Ac)
-    if blocks is None:
+    found = modal_refine(data.inputs, data.outputs, data.output_std, jw, Ac, C, zero_feedthrough, max_nfev)
+    if found is None:
         return Ac, C, input_matrices(data, Ac, C, zero_feedthrough, jw)
-    n_pairs, n_out = len(blocks), C.shape[0]
-    problem = ModalProblem(data.inputs, data.outputs, data.output_std, jw, zero_feedthrough)
-    cache: dict = {}
-
-    def unpack(theta):
-        A = np.zeros_like(Ac)
-        damping = -np.exp(np.clip(theta[:n_pairs], -60.0, 20.0))
-        for i, (sig, om) in enumerate(zip(damping, theta[n_pairs : 2 * n_pairs])):
-            A[2 * i : 2 * i + 2, 2 * i : 2 * i + 2] = [[sig, om], [-om, sig]]
-        return A, theta[2 * n_pairs :].reshape(n_out, -1)
-
-    def parts(theta):
-        return -np.exp(np.clip(theta[:n_pairs], -60.0, 20.0)), theta[n_pairs : 2 * n_pairs], theta[2 * n_pairs :]
-
-    def fitted(theta):
-        key = theta.tobytes()
-        if key not in cache:
-            cache.clear()
-            damping, omega, c = parts(theta)
-            cache[key] = problem.fit(damping, omega, c.reshape(n_out, -1))
-        return cache[key]
-
-    def residual(theta):
-        res = fitted(theta)["residual"]
-        return np.concatenate([res.real.ravel(), res.imag.ravel()])
-
-    def jacobian(theta):
-        return problem.jacobian(fitted(theta), parts(theta)[0])
-
-    C_modal = C @ T
-    start = np.concatenate([np.log(-blocks[:, 0]), blocks[:, 1], C_modal.ravel()])
-    # the gauge: a pair's C columns times [[a, b], [-b, a]] (B times its inverse) leave the fit unchanged;
-    # fixing each pair's entries on its strongest output removes that 2-parameter freedom per pair
-    pivot = np.argmax(np.abs(C_modal[:, 0::2]) + np.abs(C_modal[:, 1::2]), axis=0)
-    free = np.ones(start.size, dtype=bool)
-    for i, o in enumerate(pivot):
-        free[2 * n_pairs + o * C.shape[1] + 2 * i : 2 * n_pairs + o * C.shape[1] + 2 * i + 2] = False
-
-    def embed(theta):
-        full = start.copy()
-        full[free] = theta
-        return full
-
-    cost0 = np.sum(residual(start) ** 2)
-    # MINPACK's lmder as least_squares(method="lm", x_scale="jac", gtol=1e-8) calls it, without its wrappers
-    x, _, info, _, _ = leastsq(lambda t: residual(embed(t)), start[free], Dfun=lambda t: jacobian(embed(t))[:, free],
-                               full_output=True, ftol=1e-7, xtol=1e-7, gtol=1e-8, maxfev=max_nfev, factor=100.0)
-    x = embed(x)
-    cost = float(np.dot(info["fvec"], info["fvec"]))
-    sigma, omega = np.exp(np.clip(x[:n_pairs], -60.0, 20.0)), np.abs(x[n_pairs : 2 * n_pairs])
-    if (not np.isfinite(cost) or cost >= cost0 or np.any(sigma < _MIN_DAMPING * np.hypot(sigma, omega))
-            or np.any(sigma > 100 * np.abs(jw).max())):
-        # no gain, or a pole pushed onto the imaginary axis or far past the lines: keep the subspace model
-        return Ac, C, input_matrices(data, Ac, C, zero_feedthrough, jw)
-    final = fitted(x)
-    return (*unpack(x), (final["B"], final["D"], final["residual"]))
-
-
-def _real_modal(Ac: np.ndarray):
-    """Pairs (σ, ω) and the real basis T with ``T⁻¹ A_c T`` block-diagonal; (None, None) if a pole is real
-    or unstable (no refinement then)."""
-    lam, vec = np.linalg.eig(Ac)
-    upper = lam.imag > 0
-    if 2 * upper.sum() != len(lam) or np.any(lam.real >= 0):
-        return None, None
-    order = np.argsort(lam[upper].imag)
-    lam_u, vec_u = lam[upper][order], vec[:, upper][:, order]
-    T = np.empty_like(Ac)
-    T[:, 0::2], T[:, 1::2] = vec_u.real, vec_u.imag
-    return np.column_stack([lam_u.real, lam_u.imag]), T
+    A, C_new, B, D, residual, _ = found
+    return A, C_new, (B, D, residual)

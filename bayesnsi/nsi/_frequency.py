@@ -23,6 +23,8 @@ from ..models import CandidateModel
 from ..options import NSIOptions
 from ..signals import Signals
 from . import _fnsi
+from ._modal_fit import DAMPING_RANGE
+from ._stabilised import stabilised_order, stable_modes
 from .order import auto_order
 from .periodic import best_linear_approximation
 from .physics import CoefficientEstimate, band_coefficients, coefficient_spectrum, default_band, split_poles
@@ -32,7 +34,7 @@ from .statespace import StateSpaceModel
 _BAND_POINTS = 512
 
 
-def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult:
+def identify_frequency(signals: Signals, cand, options: NSIOptions, start=None) -> NSIResult:
     """Identify ``cand`` from periodic ``signals`` by frequency-domain subspace (see module doc).
 
     Parameters
@@ -50,6 +52,9 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
         ``max_order``, ``band_hz`` (fitted lines and λ band), ``zero_feedthrough``,
         ``velocity_method`` (only when the basis needs velocities and none are measured:
         spectral differentiation is used instead, exact for periodic data).
+    start : NSIResult, optional
+        A frequency-route result of the same candidate and order: refined from its continuous
+        model alone (:func:`_local_start`), no subspace starts and no warm start.
 
     Returns
     -------
@@ -64,13 +69,27 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
     cap = len(excited.lines) // (data.inputs.shape[1] + n_out)
     block_rows = min(int(options.block_rows), cap)
     zf = options.zero_feedthrough
+    decompositions = {block_rows: _fnsi.subspace(excited, block_rows, points)}
+    left, values, (_, y_scale) = decompositions[block_rows]
+    modes_found: tuple = ()
+    if options.order == "auto":
+        order, modes_found = _auto_order(options, left, values, n_out, y_scale, omega0, block_rows, data)
+    else:
+        order = _order(options, values, n_out, block_rows)
+    local = _local_start(start, cand, order)
+    if local is not None:  # a local re-identification from a neighbouring record's model
+        Ac0, C0 = local
+        refined = _fnsi.refine(data, Ac0, C0, zf)
+        return _result(signals, cand, options, data, excited, refined, (block_rows, values, order, Ac0[:0]))
     starts = [block_rows]
-    if not cand.terms and options.order != "auto":  # the linear model: every candidate is refined from it too
-        starts += [r for r in (int(1.25 * block_rows), int(1.5 * block_rows), 2 * block_rows) if r <= cap]
+    if not cand.terms:  # the linear model: every candidate is refined from it too
+        starts += [r for r in (int(1.25 * block_rows), int(1.5 * block_rows), 2 * block_rows)
+                   if r <= cap and order <= r * n_out - 1]
     best: tuple | None = None
     for rows in dict.fromkeys(starts):
-        left, values, (_, y_scale) = _fnsi.subspace(excited, rows, points)
-        order = _order(options, values, n_out, rows)
+        if rows not in decompositions:
+            decompositions[rows] = _fnsi.subspace(excited, rows, points)
+        left, values, (_, y_scale) = decompositions[rows]
         Ac, C = _fnsi.continuous_ac(*_fnsi.system_ac(left, order, n_out, y_scale), omega0)
         Ac, poles = _fnsi.stabilise_continuous(Ac)
         refined = _fnsi.refine(data, Ac, C, zf)
@@ -79,8 +98,27 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
             best = (cost, rows, values, order, poles, refined)
     assert best is not None  # starts is never empty
     _, block_rows, singular_values, order, reflected, refined = best
+    refined = _better_of_warm_start(signals, cand, options, data, refined)
+    return _result(signals, cand, options, data, excited, refined, (block_rows, singular_values, order, reflected),
+                   modes_found)
+
+
+def _local_start(start, cand, order):
+    """The continuous ``(A_c, C)`` of ``start`` when it is a frequency-route result of ``cand``'s terms at ``order``."""
+    if (start is None or start.options.domain != "frequency" or start.order != order
+            or tuple(t.name for t in start.terms) != tuple(t.name for t in cand.terms) or start.virtual_stiffness):
+        return None
+    model = start.model
+    return model.continuous_state_matrix(), np.array(model.C, dtype=float)
+
+
+def _result(signals: Signals, cand, options: NSIOptions, data, excited, refined, subspace, modes_found=()):
+    """The :class:`NSIResult` of a refined continuous model ``(A_c, C, (B_c, D_c, residual))``."""
+    zf = options.zero_feedthrough
+    block_rows, singular_values, order, reflected = subspace
+    order = int(refined[0].shape[0])  # a lone real pole of the start becomes a pair (_modal_fit.modal_start)
     reflected = reflected[reflected.imag >= 0]  # one of each conjugate pair
-    Ac, C, fit = _better_of_warm_start(signals, cand, options, data, refined)
+    Ac, C, fit = refined
     if cand.terms and _at_noise_level(fit[2]):  # the basis again from the model's (less noisy) output
         data = data.with_smoothed_basis(data.outputs - fit[2] * data.output_std)
         Ac, C, fit = _fnsi.refine(data, Ac, C, zf)
@@ -104,6 +142,12 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
     B, D, _ = _fnsi.input_matrices(continuous, A, C, False, z_model)
     model = StateSpaceModel(A=A, B=B, C=C, D=D, dt=dt_model)
     modes, spurious = split_poles(model.poles, dt_model)
+    # a refined pair held at the lowest damping ratio the search allows is no mode: it fits a narrow feature of the
+    # lines (distortion, noise); it stays in the model and is reported with the spurious poles
+    pinned = [m for m in modes if m.damping_ratio < _PINNED_DAMPING]
+    if pinned:
+        modes = [m for m in modes if m.damping_ratio >= _PINNED_DAMPING]
+        spurious = np.concatenate([spurious, [m.pole for m in pinned], [np.conj(m.pole) for m in pinned]])
     if not modes:
         raise UnstableModelError(
             f"candidate {cand.name!r}: no physical mode among the {order} identified poles; "
@@ -133,6 +177,7 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
         n_realisations=int(data.n_realisations),  # their lines stacked: each count below is per realisation
         n_lines=int(len(excited.lines) // data.n_realisations),
         n_band_lines=int(len(data.lines) // data.n_realisations),
+        stable_modes_hz=tuple(round(m.frequency_hz, 6) for m in modes_found),  # order "auto": stabilisation diagram
         line_misfit=float(np.sqrt(np.mean(np.abs(residual if data.excited is None else residual[data.excited]) ** 2))),
         band_misfit=float(np.sqrt(np.mean(np.abs(residual) ** 2))),  # the unexcited band lines included
         unexcited_ratio=None if unexcited is None else tuple((k, tuple(v)) for k, v in unexcited.items()),
@@ -154,6 +199,7 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions) -> NSIResult
     )
 
 
+_PINNED_DAMPING = 1.5 * DAMPING_RANGE[0]  # damping ratios this close to the refinement's bound are no modes
 _NOISE_FIT = 1.5  # a weighted line misfit below this many times the number of complex residuals is at noise level
 _WARM: dict = {}  # (data, terms, settings) -> refined continuous (A_c, C) of identified candidates
 _WARM_SIZE = 64
@@ -211,6 +257,29 @@ def _unexcited_ratio(signals: Signals) -> dict | None:
     ratios = best_linear_approximation(signals.realisation_records()).unexcited_ratio()
     out = {k: [float(x) for x in v] for k, v in ratios.items() if np.all(np.isfinite(v))}
     return out or None
+
+
+def _auto_order(options: NSIOptions, left, singular_values, n_out: int, y_scale, omega0: float, block_rows: int,
+                data) -> tuple[int, tuple]:
+    """``order = "auto"`` on the frequency route: the stable modes of the band (:mod:`._stabilised`).
+
+    The subspace models of orders 2, 4, ... up to ``max_order`` (and the block rows' bound) are
+    read as a stabilisation diagram inside the fitted lines' band; the order is twice the number
+    of stable modes plus the residual pairs. Where no mode is stable (too few lines, or a record
+    of noise) the largest gap of the singular values decides, as on the time route.
+    """
+    limit = min(block_rows * n_out - 1, int(options.max_order))
+    band = (float(data.freqs_hz.min()), float(data.freqs_hz.max()))
+
+    def poles_at(n):
+        Ac, C = _fnsi.continuous_ac(*_fnsi.system_ac(left, n, n_out, y_scale), omega0)
+        lam, vec = np.linalg.eig(Ac)
+        return lam, C @ vec
+
+    modes = stable_modes(poles_at, range(2, limit + 1, 2), band)
+    if not modes:
+        return auto_order(singular_values, limit), ()
+    return stabilised_order(modes, limit), modes
 
 
 def _order(options: NSIOptions, singular_values: np.ndarray, n_out: int, block_rows: int) -> int:

@@ -7,7 +7,7 @@ its closed-loop response is the periodic solution of
 
 on those lines, with x(t) the inverse DFT of X (the other lines empty, in prediction as in the
 fitted model) and ẋ its exact spectral derivative, the basis evaluated as in identification
-(:func:`bayesnsi.nsi.feedback.extended_input`, point values). No initial state is estimated and
+(point values, as :func:`bayesnsi.nsi.feedback.extended_input` takes them). No initial state is estimated and
 nothing is integrated in time: a time simulation of the black-box model from a state fixed on a
 few samples diverged within the first samples on the simulated ground vibration test for every
 friction model, while this solution is what the test measured after its transient periods. The
@@ -28,11 +28,12 @@ from ..signals import Signals
 from .feedback import extended_input
 from .periodic import period_dft
 
-__all__ = ["applies", "periodic_affine", "periodic_closed_loop"]
+__all__ = ["applies", "applies_to_record", "periodic_affine", "periodic_closed_loop", "record_closed_loop"]
 
 _FIXED_POINT_STEPS = 60
 _NEWTON_STEPS = 30
 _TOLERANCE = 1e-9  # relative residual ||T(X) - X|| / ||X|| accepted as converged
+_INITIAL_STATE_ROUNDS = 3  # initial state and forced solution of a record that is not periodic, in turn
 _ACCEPT = 1e-3  # a discontinuous basis (sign) may cycle: a residual below this is still a steady state
 
 
@@ -57,7 +58,97 @@ def applies(result, signals: Signals) -> bool:
     )
 
 
-def periodic_closed_loop(result, signals: Signals) -> np.ndarray:
+def applies_to_record(result, signals: Signals) -> bool:
+    """A frequency-route result and a record that is not whole periods (a sweep): :func:`record_closed_loop`.
+
+    Parameters
+    ----------
+    result : NSIResult
+    signals : Signals
+
+    Returns
+    -------
+    bool
+    """
+    return (result.options.domain == "frequency" and not result.virtual_stiffness
+            and not applies(result, signals) and getattr(signals, "realisations", 1) == 1)
+
+
+def record_closed_loop(result, signals: Signals, n_init: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Closed-loop response of a frequency-route model to a record that is not periodic (a sine sweep).
+
+    The model holds on the lines of its band only; simulated in time, its response outside the band
+    (arbitrary gains of the nonlinear-input channels near DC, amplified by the integration to
+    displacement) can diverge (docs/method.md §11). Here the record, followed by as many zeros, is
+    taken as one period of a periodic record and solved by harmonic balance on the lines of the
+    fitted band (:func:`periodic_closed_loop`): the kinematics fed to the basis functions are
+    band-limited as in identification and nothing outside the band is fed back; the zeros let the
+    response to the record's end die out before it wraps onto its start. The motion the record
+    starts with enters as the linear model's free response from an initial state fitted to the
+    first ``n_init`` samples' difference between the measured response and the solution from rest
+    (its whole band, as the time route's initial state), added to the displacement and velocity the
+    basis functions see and to the prediction; the solution is then found again with it.
+
+    Parameters
+    ----------
+    result : NSIResult
+        Identified by the frequency route.
+    signals : Signals
+        Any record (one realisation).
+    n_init : int
+        Samples that fix the initial state (0: the record starts at rest).
+
+    Returns
+    -------
+    displacement : ndarray, shape (n_samples, l)
+        At the output DOFs.
+    x0 : ndarray, shape (n,)
+        The initial state of the stored model (zeros without ``n_init``).
+
+    Raises
+    ------
+    UnstableModelError
+        When no steady state is found (:func:`periodic_closed_loop`).
+    """
+    n = signals.n_samples
+    force = np.concatenate([np.asarray(signals.force, dtype=float), np.zeros_like(signals.force)])
+    shown = np.concatenate([np.asarray(signals.displacement, dtype=float), np.zeros_like(signals.displacement)])
+    padded = Signals(force=force, displacement=shown, fs=signals.fs,  # the displacement is not used
+                     input_dofs=result.input_dofs, output_dofs=result.output_dofs, period=2 * n)
+    at_rest = periodic_closed_loop(result, padded)[:n]
+    model = result.free_model
+    x0 = np.zeros(model.order)
+    init = min(int(n_init), n)
+    if init < 1:
+        return at_rest, x0
+    step = max(int(round(1.0 / (signals.fs * model.dt))), 1)  # the stored model may run on a finer grid
+    A_step = np.linalg.matrix_power(model.A, step)
+    observed = np.empty((init, model.C.shape[0], model.order))  # C A_step^k
+    observed[0] = model.C
+    for k in range(1, init):
+        observed[k] = observed[k - 1] @ A_step
+    solution, forced = at_rest, at_rest
+    measured = np.asarray(signals.displacement, dtype=float)
+    c_vel = model.C @ model.continuous_state_matrix()
+    for _ in range(_INITIAL_STATE_ROUNDS):  # the forced part depends on the free motion through the basis
+        gap = (measured[:init] - forced[:init]).ravel()
+        x0 = np.linalg.lstsq(observed.reshape(-1, model.order), gap, rcond=None)[0]
+        trajectory = np.empty((n, model.order))
+        x = x0
+        for k in range(n):
+            trajectory[k] = x
+            x = A_step @ x
+        free = np.zeros((2, 2 * n, len(result.output_dofs)))
+        free[0, :n] = trajectory @ model.C.T
+        free[1, :n] = trajectory @ c_vel.T
+        solution = periodic_closed_loop(result, padded, free)[:n]
+        forced = solution - free[0, :n]
+        if not result.terms:
+            break
+    return solution, x0
+
+
+def periodic_closed_loop(result, signals: Signals, free=None) -> np.ndarray:
     """Periodic steady-state closed-loop response of ``result`` to the forces of ``signals``.
 
     Parameters
@@ -73,6 +164,10 @@ def periodic_closed_loop(result, signals: Signals) -> np.ndarray:
     ndarray, shape (n_samples, l)
         Displacements at the output DOFs, one period repeated, nonzero only on the fitted band's lines.
 
+    free : ndarray, shape (2, n_samples, l), optional
+        Displacement and velocity added to the solution on the lines (one period), in the basis
+        functions' arguments and in the result (:func:`record_closed_loop`: a free response).
+
     Raises
     ------
     UnstableModelError
@@ -87,7 +182,6 @@ def periodic_closed_loop(result, signals: Signals) -> np.ndarray:
     force = period_dft(signals.force, period).mean(axis=0)
     G = result.frf(freqs[lines])  # (K, l, m + q) of the inputs [f; -n]
     m = force.shape[1]
-    force_time = np.fft.irfft(force * period, period, axis=0)  # one period of the mean force (the basis ignores it)
     linear = np.einsum("kom,km->ko", G[:, :, :m], force[lines])
     n_out = linear.shape[1]
     omega = 2 * np.pi * freqs
@@ -99,11 +193,12 @@ def periodic_closed_loop(result, signals: Signals) -> np.ndarray:
         spectrum *= 1j * omega[:, None]
         return x, np.fft.irfft(spectrum * period, period, axis=0)
 
+    extra = np.zeros((2, period, n_out)) if free is None else np.asarray(free, dtype=float)[:, :period]
+
     def update(X):
         x, v = time_of(X)
-        one = Signals(force=force_time, displacement=x, velocity=v, fs=signals.fs,
-                      input_dofs=result.input_dofs, output_dofs=result.output_dofs)
-        u_n = np.fft.rfft(extended_input(one, result.terms, "fourth", "sample")[:, m:], axis=0)[lines] / period
+        x, v = x + extra[0], v + extra[1]
+        u_n = np.fft.rfft(_basis(result, x, v), axis=0)[lines] / period
         return linear + np.einsum("koq,kq->ko", G[:, :, m:], u_n)
 
     X = linear
@@ -111,7 +206,18 @@ def periodic_closed_loop(result, signals: Signals) -> np.ndarray:
         switching = tuple(t.name for t in result.terms if t.expr.switches_with_velocity)
         X = _solve(update, linear, result.candidate.name, switching)
     x, _ = time_of(X)
-    return np.tile(x, (signals.n_samples // period, 1))
+    return np.tile(x + extra[0], (signals.n_samples // period, 1))
+
+
+def _basis(result, x: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``-n_i(x, v)`` of the model's terms on its own response (n_samples, q); a term that is zero there (a
+    clearance whose gap the motion never reaches) is a zero force, not an identification failure."""
+    rows = {int(d) - 1: k for k, d in enumerate(result.output_dofs)}
+    xs = {row: x[:, k] for row, k in rows.items()}
+    vs = {row: v[:, k] for row, k in rows.items()}
+    columns = [-np.broadcast_to(np.asarray(term.expr.function(xs, vs), dtype=float), (len(x),))
+               for term in result.terms]
+    return np.column_stack(columns) if columns else np.zeros((len(x), 0))
 
 
 def _solve(update, start: np.ndarray, name: str, switching: tuple[str, ...] = ()) -> np.ndarray:

@@ -84,6 +84,7 @@ def identify(
     options: NSIOptions | None = None,
     *,
     correlations: HankelCorrelations | None = None,
+    start: NSIResult | None = None,
 ) -> NSIResult:
     """Identify one candidate model by nonlinear subspace identification.
 
@@ -109,8 +110,10 @@ def identify(
     correlations : HankelCorrelations, optional
         Lagged products of a candidate whose terms this one's start with
         (:func:`hankel_correlations`, same data and settings): only the products of the added
-        terms' inputs are computed. The result is the same (to rounding); ignored when they do
-        not apply or with ``route="lq"``.
+        terms' inputs are computed; the same result (to rounding). Ignored when they do not
+        apply or with ``route="lq"``.
+    start : NSIResult, optional
+        Frequency route: refined from it alone (noise replicates).
 
     Returns
     -------
@@ -167,7 +170,7 @@ def identify(
     cand = as_candidate(candidate)
     identification_routes(cand.terms, signals.input_dofs, signals.output_dofs)
     if options.domain == "frequency":
-        return identify_frequency(signals, cand, options)
+        return identify_frequency(signals, cand, options, start)
     if signals.realisations > 1:  # a Hankel block across a boundary would join two unrelated steady states
         raise InputDataError(
             f"the time route cannot estimate from {signals.realisations} realisations at once (its block rows would "

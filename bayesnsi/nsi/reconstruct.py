@@ -141,7 +141,8 @@ def reconstruct(result, signals: Signals, closed_loop: bool = False, n_init: int
         nonlinear inputs evaluated on the model's own simulated displacements and velocities
         (velocity output ``C A_c x``), needed for validation data; for a frequency-route model
         on whole periods, the periodic steady state on the fitted lines (harmonic balance,
-        :mod:`._harmonic`; no initial state).
+        :mod:`._harmonic`; no initial state), and on any other record (a sweep) the same on the
+        record followed by as many zeros (:func:`._harmonic.record_closed_loop`).
     n_init : int, optional
         Samples used to estimate the initial state (default: all for open loop, 50 for closed
         loop, as in the Silverbox benchmark rules).
@@ -180,6 +181,9 @@ def reconstruct(result, signals: Signals, closed_loop: bool = False, n_init: int
             predicted = forced + model.initial_response(x0, len(u))
         if not np.all(np.isfinite(predicted)):
             raise UnstableModelError("simulation diverged: the model is unstable")
+    elif _harmonic.applies_to_record(result, signals):  # frequency route, any other record: on the fitted lines
+        predicted, x0 = _harmonic.record_closed_loop(result, signals, init // factor)
+        return _reconstruction(signals, predicted, x0)
     else:
         x0 = initial_state(model, u[:init], y_work[:init])
         free = _measured_grid(result, signals) if result.virtual_stiffness else work
@@ -190,6 +194,13 @@ def reconstruct(result, signals: Signals, closed_loop: bool = False, n_init: int
     return Reconstruction(
         measured=y, predicted=predicted, closed_loop=closed_loop, x0=x0, nrmse_per_channel=per, nrmse=overall
     )
+
+
+def _reconstruction(signals: Signals, predicted: np.ndarray, x0: np.ndarray) -> Reconstruction:
+    """A closed-loop :class:`Reconstruction` of ``signals`` at the data's samples."""
+    per, overall = nrmse(np.asarray(signals.displacement), predicted)
+    return Reconstruction(measured=np.asarray(signals.displacement), predicted=predicted, closed_loop=True, x0=x0,
+                          nrmse_per_channel=per, nrmse=overall)
 
 
 def _measured_grid(result, signals: Signals) -> Signals:

@@ -42,6 +42,9 @@ class IdentificationFit:
         Frequency route: samples per period, periods averaged, realisations stacked (0 on the time route).
     n_lines, n_band_lines : int
         Frequency route: excited lines fitted per realisation, and all band lines fitted.
+    stable_modes_hz : tuple of float
+        Frequency route with ``order = "auto"``: the modes the stabilisation diagram found stable in
+        frequency, damping and shape [Hz] (empty otherwise).
     line_misfit, band_misfit : float or None
         Frequency route: noise-weighted rms misfit on the excited lines (about 1: down to the noise)
         and on every band line.
@@ -61,6 +64,7 @@ class IdentificationFit:
     n_realisations: int = 0
     n_lines: int = 0
     n_band_lines: int = 0
+    stable_modes_hz: tuple[float, ...] = ()
     line_misfit: float | None = None
     band_misfit: float | None = None
     unexcited_ratio: tuple[tuple[str, tuple[float, ...]], ...] | None = None

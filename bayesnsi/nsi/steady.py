@@ -15,7 +15,10 @@ import numpy as np
 
 from ..noise.periodic import period_deviations
 
-__all__ = ["FORCE_SCATTER_LIMIT", "PERIOD_OUTLIER_LIMIT", "REPEAT_CORRELATION", "period_problems", "repeating_period"]
+__all__ = [
+    "FORCE_SCATTER_LIMIT", "PERIOD_OUTLIER_LIMIT", "REPEAT_CORRELATION", "force_repeats", "period_problems",
+    "repeating_period",
+]
 
 FORCE_SCATTER_LIMIT = 0.1
 """Largest period-to-period scatter of the force over the power of its period mean."""
@@ -74,6 +77,32 @@ def repeating_period(force) -> int | None:
     while lag < half and rho[lag + 1] > rho[lag]:  # up to the peak (the first hit may be on its flank)
         lag += 1
     return lag
+
+
+def force_repeats(force, period) -> bool:
+    """True when the force repeats every ``period`` samples (scatter between periods within ``FORCE_SCATTER_LIMIT``).
+
+    Parameters
+    ----------
+    force : array_like, shape (n_samples,) or (n_samples, m)
+    period : int
+        Samples per period.
+
+    Returns
+    -------
+    bool
+        False for fewer than two whole periods or a scatter above the limit (e.g. a sine sweep read with
+        the period of a multisine test).
+    """
+    f = np.asarray(force, dtype=float)
+    f = f.reshape(len(f), -1)
+    n = len(f) // int(period)
+    if n < 2:
+        return False
+    fp = f[: n * int(period)].reshape(n, int(period), -1)
+    mean = fp.mean(axis=0)
+    power = float(np.sum((mean - mean.mean(axis=0)) ** 2))
+    return power > 0 and float(np.sum((fp - mean) ** 2)) / (n - 1) <= FORCE_SCATTER_LIMIT * power
 
 
 def period_problems(force, response, period, offset: int = 0, step: int = 1, realisations: int = 1) -> list[str]:

@@ -145,7 +145,7 @@ def reidentify(result, labelled_signals, options):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", SpuriousPoleWarning)
             try:
-                copy = identify(record, result.candidate, options)
+                copy = identify(record, result.candidate, options, start=result)  # frequency route: from the estimate
             except (BayesNSIError, np.linalg.LinAlgError) as err:
                 failures.append(f"{label}: {type(err).__name__}: {err}")
                 continue

@@ -8,7 +8,7 @@ import pytest
 from matplotlib.figure import Figure
 
 from bayesnsi.curves import effect_curve
-from bayesnsi.evidence.sampling import PosteriorSamples
+from bayesnsi.evidence.posterior import PosteriorSamples
 from bayesnsi.exceptions import InputDataError
 from bayesnsi.models import Term
 from bayesnsi.plots import plot_effect_force, plot_posterior_pairs, plot_traces

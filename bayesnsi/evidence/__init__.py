@@ -28,11 +28,12 @@ from .likelihood import (
     sufficient_statistics,
 )
 from .marginal import EvidenceResult, evidence_from_statistics, marginal_evidence
+from .posterior import PosteriorSamples, SamplerRecord
 from .prior_defaults import coefficient_prior, default_coefficient_scales, default_priors
 from .priors import ARPrior, CoefficientPrior, NoisePrior, Priors
 from .quadrature import QuadratureEvidence, quadrature_log_evidence
 from .ranking import ModelProbabilities, compare_evidence, plain_ranking, posterior_probabilities, ranking_table
-from .sampling import PosteriorSamples, SamplerRecord, chain_bytes, check_chain_memory, sample_posterior
+from .sampling import chain_bytes, check_chain_memory, sample_posterior
 
 __all__ = [
     # candidates

@@ -49,9 +49,8 @@ def sample_collapsed(target: Target, rng, n_walkers: int, n_steps: int, n_burn: 
     """
     import emcee
 
+    from .posterior import PosteriorSamples, SamplerRecord
     from .sampling import (
-        PosteriorSamples,
-        SamplerRecord,
         _chain_settings,
         _initial_walkers,
         _inside_support,
@@ -116,7 +115,8 @@ def _run_emcee(collapsed: CollapsedTarget, p0, mode, cov, moves: str, n_steps: i
 
     from .._interrupt import interrupt_after
     from ._moves import IndependenceMove, move_list
-    from .sampling import SamplerRecord, _initial_walkers
+    from .posterior import SamplerRecord
+    from .sampling import _initial_walkers
 
     n_walkers, q = p0.shape
     random_state = np.random.RandomState(seed).get_state()

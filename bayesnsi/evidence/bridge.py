@@ -25,8 +25,8 @@ from scipy.special import logsumexp
 from ..exceptions import InputDataError
 from ._target import _LOG_2PI, Target
 from .likelihood import SufficientStatistics
+from .posterior import PosteriorSamples
 from .priors import Priors
-from .sampling import PosteriorSamples
 
 __all__ = ["BridgeEstimate", "bridge_sampling"]
 

@@ -36,9 +36,10 @@ from .bridge import BridgeEstimate, _bridge, bridge_sampling
 from .collapsed import collapsible
 from .convergence import ConvergenceReport, convergence_report, posterior_summary
 from .likelihood import SufficientStatistics, _beta, sufficient_statistics
+from .posterior import PosteriorSamples, SamplerRecord
 from .priors import Priors
 from .quadrature import MAX_QUADRATURE_COEFFICIENTS, QuadratureEvidence, quadrature_log_evidence
-from .sampling import PosteriorSamples, SamplerRecord, _sample
+from .sampling import _sample
 
 __all__ = ["EvidenceResult", "evidence_from_statistics", "marginal_evidence"]
 

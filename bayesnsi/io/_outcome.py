@@ -1,6 +1,6 @@
 """Explicit conversions of a candidate's outcome to plain data and back (the cache's schema).
 
-Each result class is described field by field (:class:`_Struct`): every field has a kind that
+Each result class is described field by field (:class:`Struct`): every field has a kind that
 encodes it with :func:`~bayesnsi.io._store.encode_value` and checks what is read back (type,
 array dtype and number of dimensions, allowed values). Terms are stored as their expression text
 and location and rebuilt through the expression parser (:class:`~bayesnsi.models.Term`), never
@@ -10,7 +10,6 @@ result is never cached incompletely.
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Mapping
 from typing import Any
 
@@ -32,104 +31,28 @@ from ..nsi import CoefficientEstimate, IdentificationFit, Mode, NSIResult, State
 from ..options import NSIOptions
 from ..run.batch import FAILED_STAGES, CandidateOutcome
 from ..uncertainty import Intervals, ParameterInterval
-from ._store import EntryError, decode_value, encode_value
+from ._plain_kinds import (
+    BOOL,
+    COMPLEX,
+    FLOAT,
+    INT,
+    OPTIONAL_FLOAT,
+    OPTIONAL_INT,
+    OPTIONAL_STR,
+    STR,
+    Array,
+    Choice,
+    Frame,
+    Named,
+    Sequence,
+    Struct,
+    Typed,
+)
+from ._store import EntryError
 
 __all__ = ["outcome_from_plain", "outcome_to_plain", "schema_fields"]
 
 _MAX_EXPRESSION = 2000  # characters of a stored term expression
-
-
-class _Typed:
-    """A value of the given Python types (generic encoding, type checked when read)."""
-
-    def __init__(self, *types: type, none: bool = False):
-        self.types, self.none = types, none
-
-    def encode(self, value: Any, arrays: dict) -> Any:
-        return encode_value(value, arrays)
-
-    def decode(self, plain: Any, arrays: Mapping, where: str) -> Any:
-        value = decode_value(plain, arrays, where)
-        if value is None and self.none:
-            return value
-        if isinstance(value, bool) and bool not in self.types or not isinstance(value, self.types):
-            expected = "/".join(t.__name__ for t in self.types)
-            raise EntryError(f"{where}: expected {expected}, got {type(value).__name__}")
-        return value
-
-
-class _Frame(_Typed):
-    """A pandas DataFrame (pandas imported when one is read: a command that reads none skips its 0.2 s)."""
-
-    def __init__(self):
-        super().__init__()
-
-    def decode(self, plain: Any, arrays: Mapping, where: str) -> Any:
-        import pandas as pd
-
-        self.types = (pd.DataFrame,)
-        return super().decode(plain, arrays, where)
-
-
-class _Array(_Typed):
-    """An ndarray of one dtype and number of dimensions."""
-
-    def __init__(self, dtype: str, ndim: int):
-        super().__init__(np.ndarray)
-        self.dtype, self.ndim = dtype, ndim
-
-    def decode(self, plain: Any, arrays: Mapping, where: str) -> Any:
-        value = super().decode(plain, arrays, where)
-        if value.dtype.name != self.dtype or value.ndim != self.ndim:
-            raise EntryError(f"{where}: expected a {self.ndim}-D {self.dtype} array, got {value.ndim}-D {value.dtype}")
-        return value
-
-
-class _Choice(_Typed):
-    """One of a few strings (or None)."""
-
-    def __init__(self, choices: tuple[str, ...]):
-        super().__init__(str, none=True)
-        self.choices = choices
-
-    def decode(self, plain: Any, arrays: Mapping, where: str) -> Any:
-        value = super().decode(plain, arrays, where)
-        if value is not None and value not in self.choices:
-            raise EntryError(f"{where}: {value[:40]!r} is not one of {self.choices}")
-        return value
-
-
-class _Sequence:
-    """A tuple whose items are all of one kind (stored as a JSON list)."""
-
-    def __init__(self, item):
-        self.item = item
-
-    def encode(self, value: Any, arrays: dict) -> Any:
-        return [self.item.encode(v, arrays) for v in value]
-
-    def decode(self, plain: Any, arrays: Mapping, where: str) -> Any:
-        if not isinstance(plain, list):
-            raise EntryError(f"{where}: expected a list, got {type(plain).__name__}")
-        return tuple(self.item.decode(v, arrays, f"{where}[{k}]") for k, v in enumerate(plain))
-
-
-class _Named:
-    """A mapping of str to one kind, or None (stored as a list of [name, value] pairs)."""
-
-    def __init__(self, item):
-        self.item = item
-
-    def encode(self, value: Any, arrays: dict) -> Any:
-        return None if value is None else [[str(k), self.item.encode(v, arrays)] for k, v in value.items()]
-
-    def decode(self, plain: Any, arrays: Mapping, where: str) -> Any:
-        if plain is None:
-            return None
-        pairs = isinstance(plain, list) and all(isinstance(p, list) and len(p) == 2 for p in plain)
-        if not pairs or not all(isinstance(p[0], str) for p in plain):
-            raise EntryError(f"{where}: expected a list of [name, value] pairs")
-        return {k: self.item.decode(v, arrays, f"{where}[{k[:30]!r}]") for k, v in plain}
 
 
 class _Finding:
@@ -192,43 +115,6 @@ class _Term:
             raise EntryError(f"{where}: invalid term ({err})") from None
 
 
-class _Struct:
-    """A frozen dataclass, field by field; ``fixed`` fields are not stored but set when read.
-
-    ``check(value)`` returns what is inconsistent in a decoded value (e.g. shapes that do not
-    agree), or None.
-    """
-
-    def __init__(self, cls: type, fields: dict, none: bool = False, fixed: Mapping | None = None, check=None):
-        self.cls, self.fields, self.none, self.fixed, self.check = cls, fields, none, dict(fixed or {}), check
-
-    def encode(self, value: Any, arrays: dict) -> Any:
-        if value is None and self.none:
-            return None
-        if not isinstance(value, self.cls):
-            raise TypeError(f"expected {self.cls.__name__}, got {type(value).__name__}")
-        missing = {f.name for f in dataclasses.fields(self.cls)} - set(self.fields) - set(self.fixed)
-        if missing:
-            raise TypeError(f"{self.cls.__name__} has fields the cache does not store: {sorted(missing)}")
-        return {name: kind.encode(getattr(value, name), arrays) for name, kind in self.fields.items()}
-
-    def decode(self, plain: Any, arrays: Mapping, where: str) -> Any:
-        if plain is None and self.none:
-            return None
-        if not isinstance(plain, dict) or set(plain) != set(self.fields):
-            found = sorted(plain)[:8] if isinstance(plain, dict) else type(plain).__name__
-            raise EntryError(f"{where}: expected a {self.cls.__name__} with fields {sorted(self.fields)}, got {found}")
-        values = {name: kind.decode(plain[name], arrays, f"{where}.{name}") for name, kind in self.fields.items()}
-        try:
-            value = self.cls(**values, **self.fixed)
-        except (BayesNSIError, TypeError, ValueError, ArithmeticError) as err:
-            raise EntryError(f"{where}: invalid {self.cls.__name__} ({err})") from None
-        problem = self.check(value) if self.check is not None else None
-        if problem:
-            raise EntryError(f"{where}: inconsistent {self.cls.__name__}: {problem}")
-        return value
-
-
 def _check_nsi(result: NSIResult) -> str | None:
     A, B, C, D = (result.model.A, result.model.B, result.model.C, result.model.D)
     n, m, n_out = A.shape[0], B.shape[1], C.shape[0]
@@ -275,53 +161,45 @@ def _check_outcome(outcome: CandidateOutcome) -> str | None:
     return None
 
 
-FLOAT = _Typed(float, int, np.floating, np.integer)
-OPTIONAL_FLOAT = _Typed(float, int, np.floating, np.integer, none=True)
-INT = _Typed(int, np.integer)
-OPTIONAL_INT = _Typed(int, np.integer, none=True)
-BOOL = _Typed(bool, np.bool_)
-STR = _Typed(str)
-OPTIONAL_STR = _Typed(str, none=True)
-COMPLEX = _Typed(complex, np.complexfloating)
-FLOATS, INTS, STRS = _Sequence(FLOAT), _Sequence(INT), _Sequence(STR)
-FINDINGS = _Sequence(_Finding())
+FLOATS, INTS, STRS = Sequence(FLOAT), Sequence(INT), Sequence(STR)
+FINDINGS = Sequence(_Finding())
 TERM = _Term()
 
-CANDIDATE = _Struct(CandidateModel, {
-    "name": STR, "terms": _Sequence(TERM), "prior": FLOAT, "coefficient_prior_scales": _Sequence(OPTIONAL_FLOAT),
+CANDIDATE = Struct(CandidateModel, {
+    "name": STR, "terms": Sequence(TERM), "prior": FLOAT, "coefficient_prior_scales": Sequence(OPTIONAL_FLOAT),
 })
 
-NSI_RESULT = _Struct(NSIResult, {
+NSI_RESULT = Struct(NSIResult, {
     "candidate": CANDIDATE,
-    "model": _Struct(StateSpaceModel, {
-        "A": _Array("float64", 2), "B": _Array("float64", 2), "C": _Array("float64", 2), "D": _Array("float64", 2),
+    "model": Struct(StateSpaceModel, {
+        "A": Array("float64", 2), "B": Array("float64", 2), "C": Array("float64", 2), "D": Array("float64", 2),
         "dt": FLOAT,
     }),
-    "singular_values": _Array("float64", 1),
+    "singular_values": Array("float64", 1),
     "order": INT,
     "block_rows": INT,
     "input_dofs": INTS,
     "output_dofs": INTS,
     "band_hz": FLOATS,
-    "modes": _Sequence(_Struct(Mode, {"frequency_hz": FLOAT, "damping_ratio": FLOAT, "pole": COMPLEX})),
-    "spurious_poles": _Array("complex128", 1),
-    "coefficients": _Sequence(_Struct(CoefficientEstimate, {
+    "modes": Sequence(Struct(Mode, {"frequency_hz": FLOAT, "damping_ratio": FLOAT, "pole": COMPLEX})),
+    "spurious_poles": Array("complex128", 1),
+    "coefficients": Sequence(Struct(CoefficientEstimate, {
         "term": TERM, "value": FLOAT, "imag_ratio": FLOAT, "band_hz": FLOATS, "spread": FLOAT,
         "excluded_fraction": FLOAT,
     })),
     "options": _OptionsKind(NSIOptions),
-    "fit": _Struct(IdentificationFit, {
+    "fit": Struct(IdentificationFit, {
         "n_samples": INT, "fs": FLOAT, "reflected_poles_hz": FLOATS, "virtual_mode_mirrored_hz": FLOATS,
-        "fit_band_hz": _Typed(tuple, none=True), "requested_block_rows": OPTIONAL_INT,
+        "fit_band_hz": Typed(tuple, none=True), "requested_block_rows": OPTIONAL_INT,
         "period": INT, "n_periods": INT, "n_realisations": INT,
         "n_lines": INT, "n_band_lines": INT, "stable_modes_hz": FLOATS,
         "line_misfit": OPTIONAL_FLOAT, "band_misfit": OPTIONAL_FLOAT,
-        "unexcited_ratio": _Typed(tuple, none=True),
+        "unexcited_ratio": Typed(tuple, none=True),
     }),
-    "rigid_body_poles": _Array("complex128", 1),
+    "rigid_body_poles": Array("complex128", 1),
 }, none=True, check=_check_nsi)
 
-EVIDENCE_RESULT = _Struct(EvidenceResult, {
+EVIDENCE_RESULT = Struct(EvidenceResult, {
     "log_evidence": FLOAT,
     "log_evidence_se": FLOAT,
     "laplace_log_evidence": FLOAT,
@@ -329,66 +207,66 @@ EVIDENCE_RESULT = _Struct(EvidenceResult, {
     "plain_log_likelihood": FLOAT,
     "likelihood": STR,
     "coefficient_names": STRS,
-    "posterior": _Struct(PosteriorSamples, {
-        "samples": _Array("float64", 3),
-        "log_posterior": _Array("float64", 2),
+    "posterior": Struct(PosteriorSamples, {
+        "samples": Array("float64", 3),
+        "log_posterior": Array("float64", 2),
         "param_names": STRS,
         "coefficient_names": STRS,
         "channel_names": STRS,
         "likelihood": STR,
         "ar_order": INT,
-        "acceptance_fraction": _Array("float64", 1),
-        "autocorr_time": _Array("float64", 1),
+        "acceptance_fraction": Array("float64", 1),
+        "autocorr_time": Array("float64", 1),
         "autocorr_reliable": BOOL,
-        "mode": _Array("float64", 1),
-        "mode_covariance": _Array("float64", 2),
-        "settings": _Typed(dict),
-        "sampler": _Struct(SamplerRecord, {
+        "mode": Array("float64", 1),
+        "mode_covariance": Array("float64", 2),
+        "settings": Typed(dict),
+        "sampler": Struct(SamplerRecord, {
             "name": STR, "version": STR, "moves": STRS, "weights": FLOATS, "n_walkers": INT, "n_steps": INT,
             "n_burn": INT, "parameters": STR,
         }, none=True),
     }, check=_check_posterior),
-    "summary": _Frame(),
-    "convergence": _Struct(ConvergenceReport, {
+    "summary": Frame(),
+    "convergence": Struct(ConvergenceReport, {
         "rhat_max": FLOAT, "ess_bulk_min": FLOAT, "ess_tail_min": FLOAT, "worst_rhat": STR, "worst_ess": STR,
         "rhat_threshold": FLOAT, "ess_threshold": FLOAT, "n_chains": INT, "n_draws": INT,
     }),
     "rhat_max": FLOAT,
     "ess_min": FLOAT,
-    "ci95": _Array("float64", 2),
-    "bridge": _Struct(BridgeEstimate, {
+    "ci95": Array("float64", 2),
+    "bridge": Struct(BridgeEstimate, {
         "log_evidence": FLOAT, "se": FLOAT, "n_posterior": INT, "n_proposal": INT, "n_posterior_eff": FLOAT,
         "n_iterations": INT, "converged": BOOL, "proposal": STR,
     }),
-    "settings": _Typed(dict),
+    "settings": Typed(dict),
     "priors_text": STR,
     "warnings": STRS,
-    "quadrature": _Struct(QuadratureEvidence, {"log_evidence": FLOAT, "error": FLOAT, "n_nodes": INT, "n_passes": INT},
+    "quadrature": Struct(QuadratureEvidence, {"log_evidence": FLOAT, "error": FLOAT, "n_nodes": INT, "n_passes": INT},
                           none=True),
 }, check=_check_evidence)
 
-_PARAMETER_INTERVALS = _Sequence(_Struct(ParameterInterval, {
+_PARAMETER_INTERVALS = Sequence(Struct(ParameterInterval, {
     "name": STR, "estimate": FLOAT, "sd": FLOAT, "posterior_sd": FLOAT, "segment_sd": FLOAT, "ci50": FLOATS,
     "ci95": FLOATS, "posterior_mean": FLOAT, "bias": FLOAT,
 }))
 
-INTERVALS = _Struct(Intervals, {
+INTERVALS = Struct(Intervals, {
     "method": STR, "coefficients": _PARAMETER_INTERVALS, "frequencies": _PARAMETER_INTERVALS,
     "damping_ratios": _PARAMETER_INTERVALS, "n_segments": INT, "segment_samples": INT, "findings": FINDINGS,
 }, none=True, fixed={"widening": 1.0})  # widened for inadequacy by select after the cache (uncertainty.widening)
 
-OUTCOME = _Struct(CandidateOutcome, {
+OUTCOME = Struct(CandidateOutcome, {
     "candidate": CANDIDATE,
     "result": NSI_RESULT,
-    "evidences": _Named(EVIDENCE_RESULT),
+    "evidences": Named(EVIDENCE_RESULT),
     "nrmse": OPTIONAL_FLOAT,
     "nrmse_per_channel": FLOATS,
     "error": OPTIONAL_STR,
-    "failed_stage": _Choice(FAILED_STAGES),
+    "failed_stage": Choice(FAILED_STAGES),
     "traceback": OPTIONAL_STR,
     "findings": FINDINGS,
     "intervals": INTERVALS,
-    "whiteness": _Struct(Whiteness, {
+    "whiteness": Struct(Whiteness, {
         "residual": STR, "max_lag": INT, "statistic": FLOATS, "p_value": FLOATS, "fraction_outside": FLOATS,
     }, none=True),
     "seconds": FLOAT,
@@ -453,9 +331,9 @@ def schema_fields() -> dict[str, set[str]]:
     pending = [OUTCOME]
     while pending:
         kind = pending.pop()
-        if isinstance(kind, (_Sequence, _Named)):
+        if isinstance(kind, (Sequence, Named)):
             pending.append(kind.item)
-        elif isinstance(kind, _Struct):
+        elif isinstance(kind, Struct):
             found[kind.cls.__name__] = set(kind.fields) | set(kind.fixed)
             pending.extend(kind.fields.values())
     return found

@@ -28,6 +28,7 @@ from .likelihood import (
     sufficient_statistics,
 )
 from .marginal import EvidenceResult, evidence_from_statistics, marginal_evidence
+from .pointwise import BlockStatistics, block_statistics, pointwise_log_likelihood
 from .posterior import PosteriorSamples, SamplerRecord
 from .prior_defaults import coefficient_prior, default_coefficient_scales, default_priors
 from .priors import ARPrior, CoefficientPrior, NoisePrior, Priors
@@ -36,6 +37,9 @@ from .ranking import ModelProbabilities, compare_evidence, plain_ranking, poster
 from .sampling import chain_bytes, check_chain_memory, sample_posterior
 
 __all__ = [
+    "BlockStatistics",
+    "block_statistics",
+    "pointwise_log_likelihood",
     # candidates
     "RESIDUALS",
     "candidate_affine",

@@ -11,6 +11,7 @@ from ..options import EvidenceOptions
 from ._target import parse_likelihood
 from .likelihood import sufficient_statistics
 from .marginal import evidence_from_statistics
+from .pointwise import block_statistics
 from .prior_defaults import default_priors
 
 __all__ = ["RESIDUALS", "candidate_affine", "candidate_evidence", "candidate_priors", "noise_floor_factor"]
@@ -177,6 +178,7 @@ def candidate_evidence(
     # one pass over the record serves every likelihood: statistics of order p hold those of lower orders
     t0 = time.perf_counter()
     stats = sufficient_statistics(affine, ar_order=max(orders.values()))
+    blocks = block_statistics(affine, ar_order=max(orders.values()))  # the draws' pointwise log-likelihood
     t_stats = time.perf_counter() - t0
     out = {}
     for lik, child in zip(likelihoods, seed_sequence.spawn(len(likelihoods))):
@@ -194,7 +196,7 @@ def candidate_evidence(
             n_burn=options.n_burn,
             warn=warn,
         )
-        out[lik] = replace(ev, settings={**ev.settings, "time_statistics_s": t_stats})
+        out[lik] = replace(ev, settings={**ev.settings, "time_statistics_s": t_stats}, blocks=blocks)
     if plain is not None:
         out = {lik: replace(ev, plain_log_likelihood=plain) for lik, ev in out.items()}
     return out

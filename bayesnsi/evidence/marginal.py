@@ -36,6 +36,7 @@ from .bridge import BridgeEstimate, _bridge, bridge_sampling
 from .collapsed import collapsible
 from .convergence import ConvergenceReport, convergence_report, posterior_summary
 from .likelihood import SufficientStatistics, _beta, sufficient_statistics
+from .pointwise import BlockStatistics, pointwise_log_likelihood
 from .posterior import PosteriorSamples, SamplerRecord
 from .priors import Priors
 from .quadrature import MAX_QUADRATURE_COEFFICIENTS, QuadratureEvidence, quadrature_log_evidence
@@ -87,6 +88,9 @@ class EvidenceResult:
     quadrature : QuadratureEvidence or None
         Exact value by quadrature over the coefficients (:func:`~bayesnsi.evidence.quadrature_log_evidence`:
         white or AR(1) residuals, at most 3 coefficients), else None.
+    blocks : BlockStatistics or None
+        Statistics of the record's blocks, for the pointwise log-likelihood of the draws
+        (:meth:`pointwise_log_likelihood`; set by :func:`~bayesnsi.evidence.candidate_evidence`).
     """
 
     log_evidence: float
@@ -107,6 +111,7 @@ class EvidenceResult:
     priors_text: str = ""
     warnings: tuple[str, ...] = ()
     quadrature: QuadratureEvidence | None = None
+    blocks: BlockStatistics | None = field(default=None, repr=False, compare=False)
 
     def __repr__(self) -> str:
         from .._repr import compact_repr
@@ -138,6 +143,18 @@ class EvidenceResult:
         """
         reference = self.exact_log_evidence
         return abs(self.laplace_log_evidence - (self.log_evidence if reference is None else reference))
+
+    def pointwise_log_likelihood(self) -> np.ndarray | None:
+        """Log-likelihood of each record block at each posterior draw (:mod:`~bayesnsi.evidence.pointwise`).
+
+        Returns
+        -------
+        ndarray, shape (chain, draw, B), or None
+            None without block statistics (an evidence computed from statistics alone).
+        """
+        if self.blocks is None:
+            return None
+        return pointwise_log_likelihood(self.posterior, self.blocks)
 
     @property
     def coefficient_mean(self) -> np.ndarray:

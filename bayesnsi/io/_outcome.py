@@ -17,6 +17,7 @@ import numpy as np
 
 from ..checks.validation import Whiteness
 from ..evidence import (
+    BlockStatistics,
     BridgeEstimate,
     ConvergenceReport,
     EvidenceResult,
@@ -243,6 +244,11 @@ EVIDENCE_RESULT = Struct(EvidenceResult, {
     "warnings": STRS,
     "quadrature": Struct(QuadratureEvidence, {"log_evidence": FLOAT, "error": FLOAT, "n_nodes": INT, "n_passes": INT},
                           none=True),
+    "blocks": Struct(BlockStatistics, {
+        "bounds": Array("int64", 2), "lagged": Array("float64", 5), "head": Array("float64", 4),
+        "tail": Array("float64", 4), "measured_std": Array("float64", 2), "center": Array("float64", 1),
+        "names": STRS,
+    }, none=True),
 }, check=_check_evidence)
 
 _PARAMETER_INTERVALS = Sequence(Struct(ParameterInterval, {

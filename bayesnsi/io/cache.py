@@ -50,8 +50,8 @@ __all__ = ["CACHE_DIRNAME", "CACHE_FORMAT", "ENTRY_SUFFIX", "ResultCache", "cand
 CACHE_DIRNAME = _CACHE_DIRNAME
 """Name of the cache folder inside an output directory."""
 
-CACHE_FORMAT = 3
-"""Layout version of a cache entry (entries of other versions are not read: 1 held pickles, 2 untyped settings)."""
+CACHE_FORMAT = 4
+"""Layout version of a cache entry (entries of other versions are not read)."""
 
 ENTRY_SUFFIX = ".npz"
 """File suffix of an entry."""

@@ -10,7 +10,10 @@ groups), built by :func:`posterior_tree`:
 * ``posterior_given_linear_part``: the sampler's draws, ``coefficient``, ``sigma`` (chain, draw,
   channel) and, for AR likelihoods, ``rho``: the posterior that takes the identified linear part as
   exact (too narrow as an uncertainty of the coefficients);
-* ``sample_stats``: ``lp`` of the sampler's draws.
+* ``sample_stats``: ``lp`` of the sampler's draws;
+* ``log_likelihood``: ``response`` (chain, draw, block), the log-likelihood of each contiguous block
+  of the record at the sampler's draws (:mod:`bayesnsi.evidence.pointwise`), so that
+  ``arviz_stats.loo(tree)`` and ``arviz_stats.compare`` give leave-one-block-out estimates.
 
 Variables carry ``units`` and ``description`` attributes; the tree's attributes name the model, the
 likelihood, the log evidence and its Monte-Carlo error, the sampler and the interval method. Read one
@@ -116,6 +119,17 @@ def posterior_tree(name: str, evidence, intervals=None, units=None):
     drawn = {**sampled.attrs, "sampler": sampler, "draws": "honest intervals" if honest else "the sampler's"}
     groups = {"posterior": xr.Dataset(posterior, coords=coords, attrs=drawn),
               "posterior_given_linear_part": sampled, "sample_stats": given["sample_stats"].to_dataset()}
+    pointwise = evidence.pointwise_log_likelihood() if hasattr(evidence, "pointwise_log_likelihood") else None
+    if pointwise is not None:  # the draws of posterior_given_linear_part, block by block (arviz_stats.loo)
+        bounds = evidence.blocks.bounds
+        groups["log_likelihood"] = xr.Dataset(
+            {"response": xr.DataArray(pointwise, dims=("chain", "draw", "block"), attrs={
+                "units": "nat", "block_start": [int(b) for b in bounds[:, 0]],
+                "block_stop": [int(b) for b in bounds[:, 1]],
+                "description": f"log-likelihood ({evidence.likelihood}) of each contiguous block of the record "
+                "(samples block_start..block_stop-1) at the draws of posterior_given_linear_part"})},
+            coords={"chain": sampled["chain"].values, "draw": sampled["draw"].values,
+                    "block": np.arange(pointwise.shape[-1])})
     if "coefficient" in sampled:
         sampled["coefficient"].attrs.update(units=term_units, description="coefficient λ given the linear part")
     sampled["sigma"].attrs.update(units=units.displacement or "data units",

@@ -1,4 +1,4 @@
-"""Errors in the measured quantity (issue 17 item 5, docs/method.md §9).
+"""Errors in the measured quantity (docs/method.md §9).
 
 NSI works on displacements; a test that measures accelerations integrates them (``[data]
 integrate``) and :class:`~bayesnsi.signals.Signals` keeps only the displacement and velocity, with

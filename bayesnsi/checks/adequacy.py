@@ -1,4 +1,4 @@
-"""Model adequacy beside the evidence (issue 15): does the selected model explain the data?
+"""Model adequacy beside the evidence: does the selected model explain the data?
 
 The posterior probabilities compare the candidates with each other; they say nothing when every
 candidate is wrong, and the evidence of one candidate can win while it predicts worse. For every
@@ -212,7 +212,7 @@ def model_checks(
         try:
             if is_free_body(result):
                 # a free body's displacement residual is the drift of its rigid-body mode: judge the
-                # force it predicts from the measured motion against the force's noise (issue 14)
+                # force it predicts from the measured motion against the force's noise
                 fp = force_prediction(result, signals)
                 quantity, rms = "force", np.array([fp.rmse])
                 level = np.array([max(force_noise_std(signals, fp.cutoff_hz), np.finfo(float).tiny)])

@@ -5,7 +5,7 @@ sensors'. A force measured with noise of its own (a load cell's, a drive current
 the responses through the structure, ``H(ω) N_f(ω)``, amplified at the resonances, and no candidate
 can explain it. On a periodic record both noises show as the scatter between periods, line by line:
 at line k the force's noise reaches output o at ``R_k = (σ²_F(k) / |F̄(k)|²) |Ȳ_o(k)|² / σ²_Y,o(k)``
-times the output's own noise (one force: ``Ȳ = H F̄``). A trial (4-DOF chain, laser vibrometer, flat
+times the output's own noise (one force: ``Ȳ = H F̄``). A simulated test (4-DOF chain, laser vibrometer, flat
 multisine of 8 periods, 1 % velocity noise) with 0.5 % noise on the force: R > 1 on the lines holding
 77-84 % of each response's power, and the superset true + Coulomb beat the true model by 26-258 nat
 on 5 of 5 seeds; without the force noise the true model won on 4 of 5 (the fifth by 1.8 nat). With

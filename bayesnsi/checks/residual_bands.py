@@ -1,4 +1,4 @@
-"""The residual against the noise band by band (issue 15): where in frequency a model misses the data.
+"""The residual against the noise band by band: where in frequency a model misses the data.
 
 The whole-record ratio of :func:`bayesnsi.checks.adequacy.model_checks` divides the residual's rms by
 that of the noise the model passes on. A mode the model lacks, or an effect that shows at a few

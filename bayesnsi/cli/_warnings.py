@@ -43,7 +43,7 @@ def periodic_hint(config, signals) -> str | None:
     """A note when the estimation force repeats but the config gives no ``[data] period``.
 
     A multisine test read without its period goes to the time route, which does not use the
-    repetition (trial of a GVT file: every nonlinear candidate came out unstable there, and
+    repetition (a simulated GVT file: every nonlinear candidate came out unstable there, and
     nothing said that the data were periodic).
 
     Parameters

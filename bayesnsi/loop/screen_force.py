@@ -3,7 +3,7 @@
 The frequency-domain screen (:func:`bayesnsi.loop.screen_effects`) regresses the displacement
 spectra on the extended input up to 1.6 × the highest mode. A free body has no mode, and its
 displacement at low frequencies is the integral of everything (the rigid-body mode), so that
-screen sees a handful of bins and ranks friction among look-alikes (issue 14: sign(v) 8th of 10
+screen sees a handful of bins and ranks friction among look-alikes (EMPS: sign(v) 8th of 10
 on the EMPS axis). The field screens a positioning axis in the force view instead: on the
 low-pass filtered record (:func:`bayesnsi.nsi.inverse.filtered_kinematics`), the measured force is
 regressed on ``[a, v, x, 1]`` and the current model's basis functions, and each effect is scored by

@@ -13,7 +13,7 @@ is the share of the new column's own variation that the accepted effect already 
 accepted coefficient (the variance inflation factor of that pair). Beyond ``rho2 = 0.5`` the
 accepted effect explains more of the new column than is left for the new term alone: the data
 can only share a force between the two, and any model-form error moves both coefficients and the
-linear part (issue 14: on the EMPS axis v|v| after sign(v), rho2 = 0.68, moved Fv by +43 %).
+linear part (on the EMPS axis v|v| after sign(v), rho2 = 0.68, moved Fv by +43 %).
 
 A free body (one force, one displacement at the same DOF) is identified in the force view, so its
 columns are taken there: low-pass filtered kinematics, nonlinear columns filtered once more

@@ -299,7 +299,7 @@ def _rms(a: np.ndarray) -> np.ndarray:
 
 def _smoothed(var: np.ndarray) -> np.ndarray:
     """Running median over neighbouring lines (a variance from few periods scatters by χ²)."""
-    import scipy.ndimage  # here: 0.07 s to import, and the time route never needs it (issue 16)
+    import scipy.ndimage  # here: 0.07 s to import, and the time route never needs it
 
     out = scipy.ndimage.median_filter(var, size=(_SMOOTH_LINES, 1), mode="nearest")
     positive = out[out > 0]

@@ -225,7 +225,7 @@ def _solve(update, start: np.ndarray, name: str, switching: tuple[str, ...] = ()
     linearised loop gain with real part above one, e.g. a strong hardening, repels every damped step).
 
     ``switching`` names the model's terms whose force jumps at velocity reversals (``sign(v)``): the
-    message of a failure then names them as the likely cause, which is not an instability (on the trial's
+    message of a failure then names them as the likely cause, which is not an instability (on the
     hysteretic record ``tanh(v1/0.01)`` with λ = -14.9 N settled where ``sign(v1)`` with -14.4 N did not).
     """
     X, step = start, 1.0

@@ -2,7 +2,7 @@
 
 It computes what ``scipy.signal.lfilter([0, 1], [1, -c])`` computes (the same recursion, term by
 term, to rounding), without importing ``scipy.signal``: its import costs 0.3-0.7 s at the start of
-every command (issue 16); for complex poles it is also faster (0.77 against 1.03 ms for 1e5
+every command; for complex poles it is also faster (0.77 against 1.03 ms for 1e5
 samples). The recursion ``y[n] - c·y[n-1] = r[n]`` over ``N`` samples is the lower-bidiagonal system
 ``L y = r`` with a unit diagonal; forward substitution of that system is the recursion.
 """

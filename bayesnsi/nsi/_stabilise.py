@@ -1,4 +1,4 @@
-"""Unstable poles of the time route outside the band the data inform (issue 17, item 4).
+"""Unstable poles of the time route outside the band the data inform.
 
 A subspace model of integrated accelerations can hold a growing pole below the excited band
 (where the integrated data hold only drift) or above it: one such pole made the whole candidate

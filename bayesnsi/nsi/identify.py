@@ -301,7 +301,7 @@ def informed_modes(modes, signals) -> tuple[list, list]:
 
     A record integrated from accelerometers or velocity sensors in time holds no motion below the
     integration window's lower edge ``f_lo (1 - taper)`` (:attr:`Signals.acceleration_noise`); a "mode"
-    the subspace step places there (a trial's swept beam: 1.6 Hz with ζ = 0.99, integration from 8 Hz)
+    the subspace step places there (a simulated swept-sine beam: 1.6 Hz with ζ = 0.99, integration from 8 Hz)
     fits nothing the structure did, and it set the default averaging band of λ below the data. So does
     a heavily damped one (ζ > :data:`INTEGRATION_ARTEFACT_DAMPING`) whose half-power band
     ``f (1 - ζ)`` starts below ``f_lo``: the integrated noise, largest at the band's lower edge.
@@ -326,7 +326,7 @@ def informed_modes(modes, signals) -> tuple[list, list]:
     floor = corner * (1.0 - float(noise.taper) if noise.method == "frequency" else 0.5)
 
     # a heavily damped "mode" whose half-power band reaches below the corner is the integration's
-    # low-frequency noise (a trial integrated from 1 Hz: 1.33-1.41 Hz with ζ 0.42-0.45 at order 10)
+    # low-frequency noise (a record integrated from 1 Hz: 1.33-1.41 Hz with ζ 0.42-0.45 at order 10)
     informed = [m.frequency_hz >= floor and not (m.damping_ratio > INTEGRATION_ARTEFACT_DAMPING
                                                  and m.frequency_hz * (1.0 - m.damping_ratio) < corner)
                 for m in modes]

@@ -80,7 +80,7 @@ def order_note(singular_values: np.ndarray, order: int, max_order: int, even: bo
 
     The largest gap of log σ follows the modes that dominate the response: a displacement record of
     modes spread over a decade (integrated accelerations of a beam: 30, 120 and 300 Hz) has its largest
-    gap after the first mode, with the others' gaps close behind (trial of a swept-sine beam: 1.99 after
+    gap after the first mode, with the others' gaps close behind (a simulated swept-sine beam: 1.99 after
     order 2, 1.32 after 4, 1.77 after 14).
 
     Parameters

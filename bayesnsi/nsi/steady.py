@@ -38,7 +38,7 @@ def repeating_period(force) -> int | None:
     """The period (samples) a force repeats with, when it repeats at least twice; else None.
 
     For a record loaded without ``[data] period``: a multisine test read as a plain record goes
-    to the time route, which does not use the repetition (trial of a GVT file: every nonlinear
+    to the time route, which does not use the repetition (a simulated GVT file: every nonlinear
     candidate came out unstable there, with no hint that the data were periodic).
 
     Parameters

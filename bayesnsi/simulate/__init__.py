@@ -40,7 +40,7 @@ __all__ = [
     "fft_interpolate",
     "multisine",
     "multisine_lines",
-    # simulated ground vibration test (periodic, issue 17)
+    # simulated ground vibration test (periodic)
     "GVTRecord",
     "gvt_records",
     "gvt_structure",

@@ -1,4 +1,4 @@
-"""A simulated ground vibration test (issue 17, item 6): many modes, few sensors, a nonlinear joint.
+"""A simulated ground vibration test: many modes, few sensors, a nonlinear joint.
 
 Built like a real test rather than a textbook case: a 12-DOF free-free chain on a soft
 suspension (the rigid-body mode at 0.49 Hz lies below the band), nine flexible modes in the

@@ -1,4 +1,4 @@
-"""Noise replicates of an identification: its scatter and its errors-in-variables bias (issue 15).
+"""Noise replicates of an identification: its scatter and its errors-in-variables bias.
 
 The intervals of :func:`~bayesnsi.uncertainty.candidate_intervals` with ``interval = "noise"``, and with
 the default ``"auto"`` for every candidate without Coulomb friction (docs/method.md §11; for those,

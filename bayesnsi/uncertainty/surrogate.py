@@ -1,4 +1,4 @@
-"""Model replicates: the identification repeated on the identified model driven by fresh forces (issue 15).
+"""Model replicates: the identification repeated on the identified model driven by fresh forces.
 
 A parametric bootstrap (``interval = "surrogate"``, and the default ``"auto"`` for a candidate with
 Coulomb friction, a sign() of velocities alone, :func:`holds_coulomb_friction`; docs/method.md

@@ -11,6 +11,7 @@ import numpy as np
 from matplotlib.ticker import NullLocator, ScalarFormatter
 
 from ..io.units import ChannelUnits
+from ._layout import fit_margins
 from ._ticks import frequency_ticks, in_view
 
 __all__ = ["plot_band_ratios", "plot_bayes_factors", "plot_reconstruction"]
@@ -38,8 +39,9 @@ def plot_bayes_factors(decision, selected: str, ax=None):
         such.
     """
     others = decision.drop(index=selected, errors="ignore")
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(7.5, 0.55 * len(others) + 1.6), layout="constrained")
+    alone = ax is None
+    if alone:
+        fig, ax = plt.subplots(figsize=(7.5, 0.55 * len(others) + 1.6))
     else:
         fig = ax.figure
     values = others["log_bayes_factor"].to_numpy(dtype=float)
@@ -65,8 +67,10 @@ def plot_bayes_factors(decision, selected: str, ax=None):
     ax.set_xlim(min(0.0, float(np.min(values[finite], initial=0.0)) * 1.15), top)
     ax.set_xlabel(f"log Bayes factor of {selected} against each candidate [nat]")
     ax.set_title(f"How sure: evidence for {selected}", fontsize=10)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,  # never over a bar
-              title="Kass and Raftery", title_fontsize=7)
+    legend = ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,  # never over a bar
+                       title="Kass and Raftery", title_fontsize=7)
+    if alone:
+        fit_margins(ax, legend)
     return fig
 
 
@@ -160,8 +164,9 @@ def plot_band_ratios(check, channel_names, limit: float, ax=None):
     matplotlib.figure.Figure
         One step line per channel on log-log axes; 1 is the level of a model that explains the data.
     """
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(7.5, 3.4), layout="constrained")
+    alone = ax is None
+    if alone:
+        fig, ax = plt.subplots(figsize=(7.5, 3.4))
     else:
         fig = ax.figure
     edges = np.asarray(check.band_edges_hz, dtype=float)
@@ -182,5 +187,7 @@ def plot_band_ratios(check, channel_names, limit: float, ax=None):
     ax.set_xlabel("frequency [Hz]")
     ax.set_ylabel("residual / noise passed on")
     ax.set_title(f"{check.name}: residual over the noise it passes on, band by band", fontsize=10)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+    legend = ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+    if alone:
+        fit_margins(ax, legend)
     return fig

@@ -3,14 +3,20 @@
 Constrained layout measures every artist of every axes twice before a figure is drawn (a third of
 the drawing time of a one-panel report figure); the texts that set the margins - tick labels, axis
 labels, the title, a legend beside the axes - are measured here once, from their strings and fonts.
+
+Titles of the report's figures are set with ``y=1.0`` where no text can sit above the axes (no tick
+labels on top, no offset text of a linear axis beside the title, :func:`title_height`): matplotlib
+then places them at the top without measuring the y axis's ticks once more for each title (8 % of
+the drawing time).
 """
 
 from __future__ import annotations
 
 import matplotlib as mpl
 from matplotlib.font_manager import FontProperties
+from matplotlib.ticker import ScalarFormatter
 
-__all__ = ["fit_margins"]
+__all__ = ["fit_margins", "title_height"]
 
 _EDGE = 4.0  # free border around the drawn texts [pt]
 
@@ -63,3 +69,24 @@ def fit_margins(ax, legend=None) -> None:
     if legend is not None:  # beside the axes, 1 % of their width away
         right = max(right, _EDGE + legend.get_window_extent(renderer).width * to_points + 0.01 * width)
     fig.subplots_adjust(left=left / width, right=1 - right / width, bottom=bottom / height, top=1 - top / height)
+
+
+def title_height(ax) -> dict:
+    """``{"y": 1.0}`` for ``Axes.set_title`` when nothing is drawn above ``ax`` (no offset text such as ``1e9``
+    on its y axis), else ``{}`` (matplotlib then lifts the title over it).
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        With its data drawn (the offset depends on the limits).
+
+    Returns
+    -------
+    dict
+    """
+    formatter = ax.yaxis.get_major_formatter()
+    if isinstance(formatter, ScalarFormatter):
+        formatter.set_locs(ax.yaxis.get_majorticklocs())
+        if formatter.get_offset():
+            return {}
+    return {"y": 1.0}

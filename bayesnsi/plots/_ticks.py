@@ -1,10 +1,11 @@
-"""Ticks of logarithmic axes: plain-text labels, and only the ticks a reader uses.
+"""Ticks of the report's figures: plain-text labels, and only the ticks a reader sees.
 
 Matplotlib's log axes label decades in mathtext (``$10^{-2}$``, whose parser is built on first
-use) and carry eight minor ticks per decade, a decade beyond each end included. Every tick is a
-handful of artists made and laid out at each draw: with the mathtext parse, most of the cost of a
-report's figures (docs/measurements.md, "What the report costs"). The same reading costs less with
-labels in plain Unicode text (``10⁻²``) and ticks inside the view only.
+use) and carry eight minor ticks per decade, a decade beyond each end included; its linear
+locators add a tick beyond each end. Every tick is a handful of artists made, laid out and measured
+at each draw: with the mathtext parse, most of the cost of a report's figures (docs/measurements.md,
+"What the report costs"). The same reading costs less with labels in plain Unicode text (``10⁻²``)
+and ticks inside the view only.
 """
 
 from __future__ import annotations
@@ -125,13 +126,13 @@ class _InView(Locator):
         return values[(values >= low - slack) & (values <= high + slack)]
 
 
-def in_view(axis, bins: int | str = "auto") -> None:
+def in_view(axis, bins: int) -> None:
     """Tick a linear axis at round steps (at most ``bins`` intervals), inside its view only.
 
     Parameters
     ----------
     axis : matplotlib.axis.Axis
-    bins : int or "auto"
+    bins : int
         :class:`matplotlib.ticker.MaxNLocator`'s ``nbins``.
     """
     axis.set_major_locator(_InView(MaxNLocator(nbins=bins, steps=[1, 2, 2.5, 5, 10])))

@@ -12,6 +12,7 @@ import numpy as np
 from matplotlib.ticker import MaxNLocator, MultipleLocator
 
 from ..io.units import ChannelUnits, term_unit
+from ._layout import title_height
 from ._ticks import decade_ticks, frequency_ticks
 
 __all__ = ["plot_singular_values", "plot_stabilization", "plot_model_order", "plot_frf", "plot_coefficient_spectrum",
@@ -50,7 +51,7 @@ def plot_singular_values(result, ax=None, max_shown: int = 60):
     ax.set_xlabel("index")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_ylabel("singular value (scaled data, unitless)")
-    ax.set_title(f"Singular values - {result.candidate.name}")
+    ax.set_title(f"Singular values - {result.candidate.name}", y=1.0)  # (y given: see _layout.py)
     ax.legend()
     return fig
 
@@ -91,7 +92,7 @@ def plot_stabilization(singular_values, diagram, ax=None, fmax_hz: float | None 
     ax.set_ylabel("model order")
     if fmax_hz:
         ax.set_xlim(0, fmax_hz)
-    ax.set_title("Stabilisation diagram (physical poles)")
+    ax.set_title("Stabilisation diagram (physical poles)", y=1.0)
     return fig
 
 
@@ -199,7 +200,7 @@ def plot_frf(results, freqs_hz, output_index=None, input_index=None, exact=None,
         mag.grid(True, which="major", axis="y", color="0.88", lw=0.6)
         pair = f"H{first.output_dofs[o]},{first.input_dofs[i]}"
         mag.set_ylabel(f"|{pair}| {units.label('frf')}")
-        mag.set_title(f"output x{first.output_dofs[o]}, force at DOF {first.input_dofs[i]}", fontsize=9)
+        mag.set_title(f"output x{first.output_dofs[o]}, force at DOF {first.input_dofs[i]}", fontsize=9, y=1.0)
         phase.set_ylabel(f"∠{pair} [deg]")
         low, high = phase.get_ylim()
         steps = max(1.0, (high - low) / 360)  # 90, 180, 360, 720, ... degrees: at most 5 ticks
@@ -313,7 +314,7 @@ def plot_coefficient_spectrum(result, freqs_hz=None, axes=None, units=None):
         ax.plot(freqs_hz, spectrum[:, k].imag, label="Im λ(ω)")
         ax.axvspan(*result.band_hz, color="0.9", zorder=0, label="averaging band")
         ax.axhline(coef.value, color="C3", ls="--", lw=1, label=f"estimate {coef.value:.4g}")
-        ax.set_title(f"{coef.term.name}  (|Im|/|Re| = {coef.imag_ratio:.3f})", fontsize=9)
+        ax.set_title(f"{coef.term.name}  (|Im|/|Re| = {coef.imag_ratio:.3f})", fontsize=9, **title_height(ax))
         ax.set_xlabel("frequency [Hz]")
         unit = term_unit(coef.term.expr.text, units or ChannelUnits())
         ax.set_ylabel(f"λ(ω) [{unit or 'force per unit of n(x, v)'}]")

@@ -66,7 +66,7 @@ def plot_bayes_factors(decision, selected: str, ax=None):
         ax.xaxis.set_major_formatter(ScalarFormatter())
     ax.set_xlim(min(0.0, float(np.min(values[finite], initial=0.0)) * 1.15), top)
     ax.set_xlabel(f"log Bayes factor of {selected} against each candidate [nat]")
-    ax.set_title(f"How sure: evidence for {selected}", fontsize=10)
+    ax.set_title(f"How sure: evidence for {selected}", fontsize=10, y=1.0)  # (y given: see _layout.py)
     legend = ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,  # never over a bar
                        title="Kass and Raftery", title_fontsize=7)
     if alone:
@@ -126,10 +126,10 @@ def plot_reconstruction(reconstructions, fs: float, channel=0, units=None, max_s
             ax = axes[k + 1, col]
             ax.plot(t, rec.residual[shown, index], lw=0.6, color=f"C{k}")
             ax.set_ylabel(f"error {units.label('displacement')}", fontsize=8)
-            ax.set_title(f"{label}: NRMSE {rec.nrmse_per_channel[index]:.4f}", fontsize=8)
+            ax.set_title(f"{label}: NRMSE {rec.nrmse_per_channel[index]:.4f}", fontsize=8, y=1.0)
         for ax in axes[2:, col]:
             ax.sharey(axes[1, col])
-        in_view(axes[0, col].yaxis, 4)
+        in_view(axes[0, col].yaxis, 6)
         in_view(axes[1, col].yaxis, 2)  # (the error panels below share its y axis)
         top.set_ylabel(f"{name} {units.label('displacement')}")
         axes[-1, col].set_xlabel("time [s]")
@@ -138,7 +138,7 @@ def plot_reconstruction(reconstructions, fs: float, channel=0, units=None, max_s
     top.legend(fontsize=7, ncols=min(4, n + 1), loc="upper right")
     title = "Measured and reconstructed (open loop)"
     if cols == 1:
-        top.set_title(title, fontsize=10)
+        top.set_title(title, fontsize=10, y=1.0)
     else:
         fig.suptitle(title, fontsize=10, y=1 - 0.08 / height, va="top")
     return fig
@@ -186,7 +186,7 @@ def plot_band_ratios(check, channel_names, limit: float, ax=None):
     ax.yaxis.set_minor_locator(NullLocator())
     ax.set_xlabel("frequency [Hz]")
     ax.set_ylabel("residual / noise passed on")
-    ax.set_title(f"{check.name}: residual over the noise it passes on, band by band", fontsize=10)
+    ax.set_title(f"{check.name}: residual over the noise it passes on, band by band", fontsize=10, y=1.0)
     legend = ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     if alone:
         fit_margins(ax, legend)

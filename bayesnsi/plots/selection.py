@@ -9,6 +9,7 @@ from ..curves import effect_curve
 from ..exceptions import InputDataError
 from ..io.units import ChannelUnits, term_unit
 from ._layout import fit_margins
+from ._ticks import in_view
 
 __all__ = [
     "plot_model_probabilities",
@@ -131,6 +132,7 @@ def plot_posterior_pairs(posterior, max_params: int = 4, units=None):
         if ax.has_data() and (len(terms) == 1 or spec.rowspan.start == spec.colspan.start):
             ax.set_ylabel("posterior density")
     if len(terms) == 1:  # a lone marginal: margins fitted once (constrained layout costs a third of its drawing)
+        in_view(fig.axes[0].xaxis, 5)  # at most 6 labels: long values (-0.8975) no longer overlap
         fit_margins(fig.axes[0])
     return fig
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import enum
+import functools
 import importlib.metadata
 import json
 import math
@@ -402,6 +403,7 @@ def _key(key: Any, where: str) -> str:
     raise TypeError(f"cannot use a {type(key).__name__} as a JSON key at {where}; use strings")
 
 
+@functools.cache  # results.json and the report list them: looked up once per process
 def _distribution_version(name: str) -> str | None:
     try:
         return importlib.metadata.version(name)

@@ -4,7 +4,14 @@ Axes carry units: pass ``units`` (:func:`bayesnsi.io.units.data_units` of a conf
 :class:`bayesnsi.io.units.ChannelUnits`); without them the axes say "data units".
 """
 
-from .nsi import plot_coefficient_spectrum, plot_frf, plot_singular_values, plot_stabilization
+from .nsi import (
+    plot_coefficient_spectra,
+    plot_coefficient_spectrum,
+    plot_frf,
+    plot_model_order,
+    plot_singular_values,
+    plot_stabilization,
+)
 from .report import plot_band_ratios, plot_bayes_factors, plot_reconstruction
 from .selection import (
     plot_effect_force,
@@ -17,8 +24,10 @@ from .selection import (
 __all__ = [
     "plot_singular_values",
     "plot_stabilization",
+    "plot_model_order",
     "plot_frf",
     "plot_coefficient_spectrum",
+    "plot_coefficient_spectra",
     "plot_model_probabilities",
     "plot_bayes_factors",
     "plot_band_ratios",

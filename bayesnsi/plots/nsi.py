@@ -9,11 +9,14 @@ from __future__ import annotations
 
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.ticker import MaxNLocator, MultipleLocator, NullLocator
+from matplotlib.ticker import MaxNLocator, MultipleLocator
 
 from ..io.units import ChannelUnits, term_unit
+from ._layout import title_height
+from ._ticks import decade_ticks, frequency_ticks
 
-__all__ = ["plot_singular_values", "plot_stabilization", "plot_frf", "plot_coefficient_spectrum"]
+__all__ = ["plot_singular_values", "plot_stabilization", "plot_model_order", "plot_frf", "plot_coefficient_spectrum",
+           "plot_coefficient_spectra"]
 
 
 def _axes(ax, figsize=(6.0, 4.0)):
@@ -42,13 +45,13 @@ def plot_singular_values(result, ax=None, max_shown: int = 60):
     fig, ax = _axes(ax, (6.0, 3.2))
     s = result.singular_values[:max_shown]
     ax.semilogy(np.arange(1, len(s) + 1), s, "o-", ms=3)
-    ax.yaxis.set_minor_locator(NullLocator())  # decades ticked and gridded (minor ticks: half the drawing time)
+    decade_ticks(ax.yaxis)  # decades ticked and gridded, labelled in plain text (minor ticks: half the drawing time)
     ax.grid(True, which="major", axis="y", color="0.88", lw=0.6)
     ax.axvline(result.order + 0.5, color="C3", ls="--", label=f"order n = {result.order}")
     ax.set_xlabel("index")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_ylabel("singular value (scaled data, unitless)")
-    ax.set_title(f"Singular values - {result.candidate.name}")
+    ax.set_title(f"Singular values - {result.candidate.name}", y=1.0)  # (y given: see _layout.py)
     ax.legend()
     return fig
 
@@ -89,7 +92,34 @@ def plot_stabilization(singular_values, diagram, ax=None, fmax_hz: float | None 
     ax.set_ylabel("model order")
     if fmax_hz:
         ax.set_xlim(0, fmax_hz)
-    ax.set_title("Stabilisation diagram (physical poles)")
+    ax.set_title("Stabilisation diagram (physical poles)", y=1.0)
+    return fig
+
+
+def plot_model_order(result, diagram, fmax_hz: float | None = None):
+    """The choice of the model order in one figure: singular values beside the stabilisation diagram.
+
+    Parameters
+    ----------
+    result : NSIResult
+        The identification whose singular values are shown (paper Fig. 3).
+    diagram : list of (order, ndarray (k, 2) of (frequency_hz, damping_ratio), spurious)
+        As returned by :func:`bayesnsi.nsi.stabilization`.
+    fmax_hz : float, optional
+        Upper frequency limit of the diagram [Hz].
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        :func:`plot_singular_values` (left) and :func:`plot_stabilization` (right).
+    """
+    width, height = 10.5, 3.9
+    # fixed margins [in]: constrained layout doubles the drawing time
+    fig, (left, right) = plt.subplots(1, 2, figsize=(width, height), gridspec_kw={
+        "left": 0.9 / width, "right": 1 - 0.15 / width, "top": 1 - 0.35 / height, "bottom": 0.55 / height,
+        "wspace": 0.22})
+    plot_singular_values(result, ax=left)
+    plot_stabilization(result.singular_values, diagram, ax=right, fmax_hz=fmax_hz)
     return fig
 
 
@@ -147,12 +177,15 @@ def plot_frf(results, freqs_hz, output_index=None, input_index=None, exact=None,
         if measured is not None:  # solid where the forces explain the output (coherence >= 0.5), dotted elsewhere
             out = output_index or 0 if single else o
             h1 = measured.frf[:, out, input_index or 0] if single else measured.frf[:, o, i]
-            shown = measured.coherence[:, out] >= 0.5
+            # thousands of lines: those that draw the same curve at the axes' width (the noise's envelope kept)
+            kept = _thinned(measured.freqs_hz, np.abs(h1), _FRF_COLUMNS, log_frequency)
+            freqs, h1 = measured.freqs_hz[kept], h1[kept]
+            shown = measured.coherence[kept, out] >= 0.5
             angle = _phase_degrees(h1)
-            mag.semilogy(measured.freqs_hz, np.abs(h1), ":", color="0.6", lw=0.6)
-            mag.semilogy(measured.freqs_hz, np.where(shown, np.abs(h1), np.nan), "-", color="0.45", lw=0.8,
+            mag.semilogy(freqs, np.abs(h1), ":", color="0.6", lw=0.6)
+            mag.semilogy(freqs, np.where(shown, np.abs(h1), np.nan), "-", color="0.45", lw=0.8,
                          label="measured (H1; dotted: coherence < 0.5)")
-            phase.plot(measured.freqs_hz, np.where(shown, angle, np.nan), "-", color="0.45", lw=0.6)
+            phase.plot(freqs, np.where(shown, angle, np.nan), "-", color="0.45", lw=0.6)
         if exact is not None:
             ref = exact[:, 0, 0] if single else exact[:, o, i]
             mag.semilogy(freqs_hz, np.abs(ref), "k-", lw=2.5, alpha=0.45, label="exact")
@@ -162,12 +195,12 @@ def plot_frf(results, freqs_hz, output_index=None, input_index=None, exact=None,
             style = {"ls": _STYLES[k % len(_STYLES)], "lw": max(0.9, 1.8 - 0.3 * k), "color": f"C{k}"}
             mag.semilogy(freqs_hz, np.abs(h[:, o, i]), label=label, **style)  # line styles: no model hides another
             phase.plot(freqs_hz, _phase_degrees(h[:, o, i]), **style)
-        # decades ticked and gridded; minor ticks off: 8 per decade on 8 panels cost 0.3 s of drawing
-        mag.yaxis.set_minor_locator(NullLocator())
+        # decades ticked and gridded, in plain text; minor ticks off: 8 per decade on 8 panels cost 0.3 s of drawing
+        decade_ticks(mag.yaxis)
         mag.grid(True, which="major", axis="y", color="0.88", lw=0.6)
         pair = f"H{first.output_dofs[o]},{first.input_dofs[i]}"
         mag.set_ylabel(f"|{pair}| {units.label('frf')}")
-        mag.set_title(f"output x{first.output_dofs[o]}, force at DOF {first.input_dofs[i]}", fontsize=9)
+        mag.set_title(f"output x{first.output_dofs[o]}, force at DOF {first.input_dofs[i]}", fontsize=9, y=1.0)
         phase.set_ylabel(f"∠{pair} [deg]")
         low, high = phase.get_ylim()
         steps = max(1.0, (high - low) / 360)  # 90, 180, 360, 720, ... degrees: at most 5 ticks
@@ -176,12 +209,61 @@ def plot_frf(results, freqs_hz, output_index=None, input_index=None, exact=None,
         if log_frequency:
             phase.set_xscale("log")
         phase.set_xlim(freqs_hz[0], freqs_hz[-1])
+    if log_frequency:  # the panels share this axis: 1, 2, 5 per decade in plain numbers, inside the view
+        frequency_ticks(fig.axes[0].xaxis)  # (once, after the scale: setting a scale resets the ticks)
     fig.axes[0].legend(fontsize=8)
     fig.suptitle("Underlying linear FRF", fontsize=11, y=1 - 0.1 / height, va="top")  # above the first title
     return fig
 
 
 _STYLES = ("-", "--", "-.", ":")
+_FRF_COLUMNS = 1000  # columns of a thinned measured FRF: more than the axes' pixels at the report's 150 dpi
+
+
+def _thinned(x: np.ndarray, y: np.ndarray, columns: int, log: bool = False) -> np.ndarray:
+    """Indices of the points of a line that draw it the same at ``columns`` columns across its x range.
+
+    Per column: its first and last points and those of the lowest and highest ``y`` (in x
+    order), so that a noisy curve keeps its envelope and a smooth one its shape; a column of up to
+    four points keeps them all.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        Increasing abscissae (positive when ``log``).
+    y : ndarray, shape (n,)
+        Finite ordinates.
+    columns : int
+        Columns across ``x[0] .. x[-1]`` (about the pixel width of the axes, or more).
+    log : bool
+        Columns of equal width on a logarithmic axis.
+
+    Returns
+    -------
+    ndarray of int
+        Increasing indices into ``x``.
+    """
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    n = len(x)
+    if n <= 4 * columns:
+        return np.arange(n)
+    g = np.log10(x) if log else x
+    span = g[-1] - g[0]
+    column = np.minimum(((g - g[0]) / span * columns).astype(int), columns - 1) if span > 0 else np.zeros(n, int)
+    starts = np.flatnonzero(np.r_[True, column[1:] != column[:-1]])
+    lengths = np.diff(np.r_[starts, n])
+    owner = np.repeat(np.arange(len(starts)), lengths)
+    low = np.minimum.reduceat(y, starts)[owner] == y
+    high = np.maximum.reduceat(y, starts)[owner] == y
+    last = np.r_[starts[1:] - 1, n - 1]
+    keep = np.zeros(n, dtype=bool)
+    keep[starts] = keep[last] = True
+    # the first lowest and first highest point of each column
+    for extreme in (low, high):
+        where = np.flatnonzero(extreme)
+        _, first = np.unique(owner[where], return_index=True)
+        keep[where[first]] = True
+    return np.flatnonzero(keep)
 
 
 def _phase_degrees(h: np.ndarray) -> np.ndarray:
@@ -232,9 +314,57 @@ def plot_coefficient_spectrum(result, freqs_hz=None, axes=None, units=None):
         ax.plot(freqs_hz, spectrum[:, k].imag, label="Im λ(ω)")
         ax.axvspan(*result.band_hz, color="0.9", zorder=0, label="averaging band")
         ax.axhline(coef.value, color="C3", ls="--", lw=1, label=f"estimate {coef.value:.4g}")
-        ax.set_title(f"{coef.term.name}  (|Im|/|Re| = {coef.imag_ratio:.3f})", fontsize=9)
+        ax.set_title(f"{coef.term.name}  (|Im|/|Re| = {coef.imag_ratio:.3f})", fontsize=9, **title_height(ax))
         ax.set_xlabel("frequency [Hz]")
         unit = term_unit(coef.term.expr.text, units or ChannelUnits())
         ax.set_ylabel(f"λ(ω) [{unit or 'force per unit of n(x, v)'}]")
         ax.legend(fontsize=7)
+    return fig
+
+
+def plot_coefficient_spectra(results, units=None):
+    """λ(ω) of every term of several candidates in one figure, a panel each, two panels a row (paper Fig. 5).
+
+    Parameters
+    ----------
+    results : mapping of str to NSIResult
+        The candidates by label; linear ones are left out.
+    units : ChannelUnits, optional
+        Units of the data, for the unit of each λ (:func:`bayesnsi.io.units.term_unit`).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The panels of :func:`plot_coefficient_spectrum`, each titled with its candidate.
+
+    Raises
+    ------
+    ValueError
+        If no candidate has a nonlinear term.
+    """
+    shown = {name: res for name, res in results.items() if res.terms}
+    n = sum(len(res.terms) for res in shown.values())
+    if n == 0:
+        raise ValueError("no candidate has nonlinear coefficients to plot")
+    longest = max(len(name) + len(term.name) for name, res in shown.items() for term in res.terms)
+    cols = 2 if n > 1 and longest <= 30 else 1  # side by side while the panels' titles fit their width
+    rows = -(-n // cols)
+    width, height = (6.5 if cols == 1 else 10.5), 2.7 * rows + 0.2
+    # fixed margins [in] (constrained layout doubles the drawing time), room for the labels of λ's units
+    left, right, top, bottom, gap_x, gap_y = 1.0, 0.15, 0.35, 0.5, 1.2, 0.85
+    panel_width = (width - left - right - gap_x * (cols - 1)) / cols
+    panel_height = (height - top - bottom - gap_y * (rows - 1)) / rows
+    fig, grid = plt.subplots(rows, cols, figsize=(width, height), squeeze=False, gridspec_kw={
+        "left": left / width, "right": 1 - right / width, "top": 1 - top / height, "bottom": bottom / height,
+        "wspace": gap_x / panel_width, "hspace": gap_y / panel_height})
+    panels = list(grid.ravel())
+    for ax in panels[n:]:
+        ax.remove()
+    start = 0
+    for name, res in shown.items():
+        axes = panels[start : start + len(res.terms)]
+        plot_coefficient_spectrum(res, axes=axes, units=units)
+        for ax in axes:
+            ax.set_title(f"{name}: {ax.get_title()}", fontsize=9)
+        start += len(res.terms)
     return fig

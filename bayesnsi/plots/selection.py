@@ -8,6 +8,8 @@ import numpy as np
 from ..curves import effect_curve
 from ..exceptions import InputDataError
 from ..io.units import ChannelUnits, term_unit
+from ._layout import fit_margins
+from ._ticks import in_view
 
 __all__ = [
     "plot_model_probabilities",
@@ -119,8 +121,8 @@ def plot_posterior_pairs(posterior, max_params: int = 4, units=None):
     common: dict = dict(var_names=["coefficient"], coords={"term": terms}, backend="matplotlib")
     if len(terms) == 1:  # a pair plot needs two variables
         stats: dict = {"point_estimate": {"round_to": _significant_digits(posterior, terms)}}
-        plot = arviz_plots.plot_dist(posterior.to_datatree(), figure_kwargs=_figure_kwargs(5.0, 3.4), stats=stats,
-                                     **common)
+        plot = arviz_plots.plot_dist(posterior.to_datatree(), figure_kwargs={"figsize": (5.0, 3.4)}, stats=stats,
+                                     **common)  # (its margins fitted below)
     else:
         plot = arviz_plots.plot_pair(posterior.to_datatree(), figure_kwargs=_figure_kwargs(size, size), **common)
     fig = plot.viz["figure"].item()
@@ -129,6 +131,9 @@ def plot_posterior_pairs(posterior, max_params: int = 4, units=None):
         spec = ax.get_subplotspec()
         if ax.has_data() and (len(terms) == 1 or spec.rowspan.start == spec.colspan.start):
             ax.set_ylabel("posterior density")
+    if len(terms) == 1:  # a lone marginal: margins fitted once (constrained layout costs a third of its drawing)
+        in_view(fig.axes[0].xaxis, 5)  # at most 6 labels: long values (-0.8975) no longer overlap
+        fit_margins(fig.axes[0])
     return fig
 
 

@@ -19,10 +19,12 @@ estimation record and over the fitted band for the validation records, order "au
   prediction errors on the same records (the ratio the linear part is judged by).
 - ``modes``: frequency and damping of the modes in the band at every level (full multisines and
   random-odd records): the classic picture of a nonlinear structure.
-- ``diagnose``: ``bayesnsi diagnose --start linear`` at levels 3 and 5 with the default acceptance rule,
-  and again with the quality index not applied (``--max-imag-ratio 1e9``: what the other guards and the
-  held-out records say); the validation errors before and after, and the benchmark's figure of merit
-  (rms error of each simulated output, m/s²) on the fitted band and over the whole measured signal.
+- ``diagnose``: ``bayesnsi diagnose --start linear`` at levels 3 and 5 with the default acceptance rule
+  (the quality index judged against the model's misfit, :mod:`bayesnsi.loop.quality`), and again with the
+  quality index not applied (``--max-imag-ratio 1e9``: what the other guards and the held-out records
+  say); the validation errors before and after, each effect of the first search with its index, misfit
+  ratio κ, memory resolution M and held-out errors, and the benchmark's figure of merit (rms error of each
+  simulated output, m/s²) on the fitted band and over the whole measured signal.
 """
 
 from __future__ import annotations
@@ -40,6 +42,7 @@ from bayesnsi.checks.validation import validate
 from bayesnsi.cli import main
 from bayesnsi.io import load_config, load_signals, load_validation
 from bayesnsi.loop.localise import location_distortion
+from bayesnsi.loop.quality import MisfitReading, misfit_reading
 from bayesnsi.models import CandidateModel, Term
 from bayesnsi.nsi import identify, period_dft
 
@@ -269,7 +272,7 @@ def step_diagnose(out: Path) -> None:
                       + ", ".join(f"{v:.4f}" for v in seg.get("rmse_per_channel", [])) + " |")
             if not extra:
                 _acceptance_table(level, results)
-            if extra and added:
+            if added:
                 _figure_of_merit_table(level, added)
 
 
@@ -291,8 +294,8 @@ def _acceptance_table(level: int, results: dict) -> None:
         before = {s.name: s.nrmse for s in validate(linear, segments)}
     print(f"\nLevel {level}, first search: each re-identified effect, its guards and its held-out errors "
           "(NRMSE after / before, fitted band; the records are never used by the loop)")
-    print("| effect | log BF | quality index | status: reason | " + " | ".join(before) + " |")
-    print("| --- | --- | --- | --- | " + "--- | " * len(before))
+    print("| effect | log BF | quality index | κ | M | status: reason | " + " | ".join(before) + " |")
+    print("| --- | --- | --- | --- | --- | --- | " + "--- | " * len(before))
     for row in results.get("loop_scores", [[]])[0]:
         if row.get("log_evidence_laplace") is None:
             continue
@@ -300,14 +303,17 @@ def _acceptance_table(level: int, results: dict) -> None:
         term = Term(row["term"].rsplit("@", 1)[0], at if len(at) == 2 else at[0])
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
+            reading = MisfitReading()
             try:
                 trial = identify(signals, CandidateModel("trial", (term,)), nsi)
+                reading = misfit_reading(trial, signals, seed=config.evidence.seed)
                 errors = {s.name: s.nrmse for s in validate(trial, segments)}
             except Exception as err:  # noqa: BLE001 - a table row, whatever failed
                 errors = {name: None for name in before} | {"error": str(err)[:40]}
         cells = " | ".join("diverged" if errors.get(n) is None else f"{errors[n] / before[n]:.2f}" for n in before)
         print(f"| {row['term'][:48]} | {row['log_bayes_factor']:.0f} | {row['imag_ratio']:.2f} | "
-              f"{row['status']}: {row['reason'][:60]} | {cells} |")
+              f"{reading.misfit_ratio:.3g} | {reading.resolution:.3g} | {row['status']}: {row['reason'][:60]} | "
+              f"{cells} |")
 
 
 def _figure_of_merit_table(level: int, added) -> None:

@@ -33,6 +33,7 @@ from ..exceptions import BayesNSIError
 from ..findings import Finding
 from ..noise import IntegratedSensorNoise, noise_model, spectral_lines
 from .dissipation import injects_energy
+from .misfit import index_judgement, misfit_reading
 from .residual_bands import MAX_BAND_RATIO, band_findings, propagated_noise, residual_bands
 
 __all__ = [
@@ -67,7 +68,11 @@ class ModelCheck:
     quality_index : float or None
         Largest |Im λ|/|Re λ| of its coefficients; None for a linear candidate.
     quality_ok : bool
-        ``quality_index <= max_imag_ratio`` (True for a linear candidate).
+        Every coefficient passes its quality index: below ``max_imag_ratio``, or, where the model misfits
+        its data beyond ``max_noise_ratio``, not resolved against that misfit (the loop's rule,
+        :func:`bayesnsi.checks.misfit.index_judgement`; True for a linear candidate).
+    unresolved : tuple of str
+        The terms whose index passes only as not resolved against the misfit: the index cannot judge them.
     validation_nrmse : float or None
         Mean closed-loop NRMSE over the validation segments (inf when a simulation failed; None
         without validation data).
@@ -135,6 +140,7 @@ class ModelCheck:
     band_edges_hz: tuple[float, ...] = ()
     band_ratios: tuple[tuple[float, ...], ...] = ()
     passed_on_std: tuple[float, ...] = ()
+    unresolved: tuple[str, ...] = ()
 
     def to_dict(self) -> dict:
         """JSON-ready record.
@@ -155,6 +161,7 @@ class ModelCheck:
             "band_ratio": self.band_ratio, "band_hz": None if self.band_hz is None else list(self.band_hz),
             "band_dof": self.band_dof, "band_edges_hz": list(self.band_edges_hz),
             "band_ratios": [list(row) for row in self.band_ratios], "passed_on_std": list(self.passed_on_std),
+            "quality_unresolved": list(self.unresolved),
         }
 
 
@@ -236,6 +243,7 @@ def model_checks(
             continue
         ratio = float(np.max(rms / level))
         quality = max((c.imag_ratio for c in result.coefficients), default=None)
+        quality_ok, unresolved = _quality(result, signals, max_imag_ratio, max_noise_ratio, seed)
         segments = validation.get(outcome.name, ())
         nrmse = None
         if segments:
@@ -246,7 +254,7 @@ def model_checks(
             passed_on_std=() if passed_on is None else tuple(float(v) for v in passed_on),
             adequate=ratio <= max_noise_ratio,
             quality_index=None if quality is None else float(quality),
-            quality_ok=quality is None or quality <= max_imag_ratio, validation_nrmse=nrmse,
+            quality_ok=quality_ok, unresolved=unresolved, validation_nrmse=nrmse,
             validation_log_predictive=_log_predictive(segments, np.where(rms > 0, rms, level)) if segments else None,
             quantity=quantity, unsupported=unsupported_terms(getattr(outcome, "intervals", None)),
             noise_source="force" if quantity == "force" else source,
@@ -256,6 +264,22 @@ def model_checks(
             **({} if band is None else _worst_band(band, signals.output_dofs)),
         )
     return checks
+
+
+def _quality(result, signals, max_imag_ratio: float, max_noise_ratio: float, seed: int) -> tuple[bool, tuple[str, ...]]:
+    """Whether every coefficient passes its quality index judged against the model's misfit
+    (:func:`bayesnsi.checks.misfit.index_judgement`, the loop's rule), and the terms that pass only as not
+    resolved against it."""
+    ok, unresolved = True, []
+    for k, c in enumerate(result.coefficients):
+        if c.imag_ratio < max_imag_ratio:
+            continue
+        reading = misfit_reading(result, signals, index=k, seed=seed)
+        passed, only_unresolved = index_judgement(c.imag_ratio, max_imag_ratio, max_noise_ratio, reading)
+        ok &= passed
+        if only_unresolved:
+            unresolved.append(c.term.name)
+    return ok, tuple(unresolved)
 
 
 def _worst_band(bands, output_dofs) -> dict:
@@ -314,7 +338,8 @@ def adequacy_findings(
     Returns
     -------
     tuple of Finding
-        One finding per failed check (kinds ``adequacy.quality_index``, ``adequacy.negative_dissipation``,
+        One finding per failed check (kinds ``adequacy.quality_index``, ``adequacy.quality_unresolved`` (an index
+        the model's misfit leaves unresolved), ``adequacy.negative_dissipation``,
         ``adequacy.unsupported_term``, ``adequacy.validation``, ``adequacy.none_adequate``,
         ``adequacy.not_adequate``, ``adequacy.edges``, ``adequacy.band``, ``adequacy.orders``): the
         selected model fails the quality index; it holds a dissipative-shaped velocity term with a
@@ -329,6 +354,13 @@ def adequacy_findings(
     out: list[Finding] = []
     subject = selected or ""
     chosen = checks.get(selected) if selected is not None else None
+    if chosen is not None and chosen.unresolved:
+        out.append(Finding(
+            "adequacy.quality_unresolved",
+            f"the selected model {selected!r} holds {', '.join(chosen.unresolved)} whose quality index exceeds "
+            f"{max_imag_ratio:g} but is not resolved against the model's misfit (its residual is "
+            f"{chosen.noise_ratio:.3g}x the noise): the index cannot judge it (docs/method.md §7)",
+            subject, values={"terms": list(chosen.unresolved), "limit": max_imag_ratio}))
     if chosen is not None and not chosen.quality_ok:
         out.append(Finding(
             "adequacy.quality_index",

@@ -59,6 +59,9 @@ def step_record(step, loop) -> dict[str, Any]:
         "checks": [{"name": c.name, "value": c.value, "limit": c.limit, "passed": c.passed, "text": c.text}
                    for c in step.checks],
         "quality_only": step.quality_only,
+        "index_unresolved": step.index_unresolved,
+        "misfit_ratio": step.misfit_ratio,
+        "memory_resolution": step.memory_resolution,
         "search": step.search,  # the effects that search screened and scored, what became of each
         "screened": [] if step.search is None else loop.search_records(step.search),
     }

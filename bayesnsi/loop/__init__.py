@@ -2,11 +2,12 @@
 
 Modules: :mod:`~bayesnsi.loop.search` (the loop), :mod:`~bayesnsi.loop.scoring` (Laplace
 evidence of each effect, the screen, clearance gaps), :mod:`~bayesnsi.loop.guards` (the one
-acceptance rule: Bayes factor, quality index, record halves (:mod:`~bayesnsi.loop.halves`),
-separability, dissipation), :mod:`~bayesnsi.loop.moves` (prune, look
-ahead, re-examine), :mod:`~bayesnsi.loop.state` (the loop's context and state),
-:mod:`~bayesnsi.loop.results`, :mod:`~bayesnsi.loop.screen`, :mod:`~bayesnsi.loop.forces`,
-:mod:`~bayesnsi.loop.friction` (forward/backward viscous, Coulomb level and offset of a one-DOF model).
+acceptance rule: Bayes factor, quality index judged against the model's misfit
+(:mod:`~bayesnsi.loop.quality`), record halves (:mod:`~bayesnsi.loop.halves`), separability,
+dissipation), :mod:`~bayesnsi.loop.moves` (prune, look ahead, re-examine),
+:mod:`~bayesnsi.loop.state` (the loop's context and state), :mod:`~bayesnsi.loop.results`,
+:mod:`~bayesnsi.loop.screen`, :mod:`~bayesnsi.loop.forces`, :mod:`~bayesnsi.loop.friction`
+(forward/backward viscous, Coulomb level and offset of a one-DOF model).
 """
 
 from .forces import ResidualForce, residual_force

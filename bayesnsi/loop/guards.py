@@ -9,7 +9,10 @@ the order of :data:`CHECK_ORDER`:
   ``LoopOptions.threshold``; the full evidence (emcee + bridge sampling) then gives its credible
   interval;
 * **quality index** |Im λ|/|Re λ| of its coefficient below ``max_imag_ratio``: λ(ω) consistent over
-  the band, a coefficient and not a filter;
+  the band, a coefficient and not a filter; where the enlarged model misfits its data beyond the
+  adequacy bound, an index above the limit fails only when the frequency dependence of λ(ω) is resolved
+  against that misfit (:mod:`bayesnsi.loop.quality`; the step then says the index could not judge it,
+  ``LoopStep.index_unresolved``);
 * **record halves**: identified on each half of the record its coefficient keeps its sign and stays
   within a factor ``stability_factor`` (:mod:`bayesnsi.loop.halves`; a free body's in the force
   view its evidence scores);
@@ -58,6 +61,7 @@ from .halves import (
     half_overlap,
     without,
 )
+from .quality import MisfitReading, misfit_reading, quality_check
 from .results import Check, EffectScore, LoopStep
 from .separable import shared_fraction
 from .state import Baseline, LoopContext, measured_nrmse
@@ -124,18 +128,16 @@ ADMISSIBILITY = ("quality index", "dissipation")
 coefficient?); an effect failing one of them first does not use up one of the loop's ``n_tries``."""
 
 
-def _checks(context, entry, baseline, log_bf, coef, with_halves, halves_args, shared, rho2, feeds_energy, free_body):
-    """Every check of one effect (module notes), in :data:`CHECK_ORDER`."""
+def _checks(context, entry, baseline, log_bf, coef, quality, with_halves, halves_args, shared, rho2, feeds_energy,
+            free_body):
+    """Every check of one effect (module notes), in :data:`CHECK_ORDER`; ``quality`` is its quality-index check."""
     options = context.options
-    threshold, max_imag_ratio = options.threshold, options.max_imag_ratio
+    threshold = options.threshold
     out = [Check("log Bayes factor", float(log_bf), threshold, bool(log_bf > threshold),
                  f"log Bayes factor {log_bf:.2f} {'>' if log_bf > threshold else '<='} threshold {threshold:.2f}")]
     if not log_bf > threshold:  # the other checks are not made (they cost identifications)
         return tuple(out)
-    ratio = float(coef.imag_ratio)
-    relation = "<" if ratio < max_imag_ratio else ">="
-    out.append(Check("quality index", ratio, max_imag_ratio, bool(ratio < max_imag_ratio),
-                     f"quality index |Im|/|Re| = {ratio:.2f} {relation} {max_imag_ratio}"))
+    out.append(quality)
     if with_halves:
         out.append(Check(*half_check(*halves_args)))
     if shared:
@@ -159,6 +161,19 @@ def _checks(context, entry, baseline, log_bf, coef, with_halves, halves_args, sh
             f"{NEGATIVE_DISSIPATION}: coefficient {coef.value:.4g} < 0 of a dissipative velocity term feeds energy "
             "into every motion" if feeds_energy else f"dissipative coefficient {coef.value:.4g} >= 0"))
     return tuple(out)
+
+
+def _quality(context, trial, coef, needed: bool) -> tuple[Check, bool, MisfitReading]:
+    """The quality-index check of the effect (:func:`bayesnsi.loop.quality.quality_check`), whether it passed as
+    not resolved against the misfit, and the misfit reading (read only when ``needed`` and the index is at or
+    above ``max_imag_ratio``: one reconstruction of the enlarged model)."""
+    options = context.options
+    reading = MisfitReading()
+    if needed and not coef.imag_ratio < options.max_imag_ratio:
+        reading = misfit_reading(trial, context.signals, seed=context.evidence.seed)
+    check, unresolved = quality_check(coef.imag_ratio, options.max_imag_ratio, context.evidence.max_noise_ratio,
+                                      reading)
+    return check, unresolved, reading
 
 
 def _decision(checks, accept_quality_only: bool) -> tuple[str, bool]:
@@ -222,7 +237,8 @@ def check_effect(
     halves: tuple[float, float] = (math.nan, math.nan)
     too_short, rows, note = False, context.nsi.block_rows, ""
     feeds_energy = injects_energy(entry.effect.term, float(np.real(coef.value)))
-    sound = coef.imag_ratio < options.max_imag_ratio
+    quality, unresolved, reading = _quality(context, trial, coef, log_bf > threshold)
+    sound = quality.passed
     if log_bf > threshold and not sound and not (halves_if_unsound or options.accept_quality_only):
         log_bf_checked = False  # the quality index decides; the halves (two identifications) are not needed
     else:
@@ -250,11 +266,13 @@ def check_effect(
         terms = trial.candidate.terms
         shared, rho2 = shared_fraction(signals, terms[:-1], terms[-1], accepted, free_body)
     checks = _checks(
-        context, entry, baseline, log_bf, coef, log_bf_checked,
+        context, entry, baseline, log_bf, coef, quality, log_bf_checked,
         (halves, reference, options.stability_factor, too_short, skipped, note, signals.n_samples // 2, rows),
         shared, rho2, feeds_energy, free_body,
     )
     reason, quality_only = _decision(checks, options.accept_quality_only)
+    if reason == "accepted" and unresolved:
+        reason = f"accepted; {quality.text}"
     accepted_now = reason.startswith("accepted")
     ci95, intervals = (math.nan, math.nan), None
     if accepted_now:  # emcee only for what is kept: its credible intervals
@@ -279,6 +297,9 @@ def check_effect(
         search=search,
         checks=checks,
         quality_only=quality_only,
+        index_unresolved=unresolved and log_bf > threshold,
+        misfit_ratio=reading.misfit_ratio,
+        memory_resolution=reading.resolution,
     )
     return Verdict(step, float(entry.log_evidence), intervals, quality_only)
 

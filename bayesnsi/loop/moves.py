@@ -23,6 +23,7 @@ import numpy as np
 from ..exceptions import BayesNSIError, BayesNSIWarning
 from ..nsi import identify
 from .guards import Verdict, check_effect, documented, without
+from .quality import misfit_reading, quality_check
 from .results import EffectScore
 from .scoring import laplace_score, rank_effects
 from .state import Baseline, LoopContext, LoopState
@@ -92,7 +93,8 @@ def look_ahead(context: LoopContext, state: LoopState, pending: tuple[Verdict, E
     """Search the next effect from the model holding ``pending`` (``LoopOptions.lookahead``).
 
     The second effect must pass every guard against the model holding the first, and the
-    first one's quality index, in the model with both, must be below ``max_imag_ratio``. Every
+    first one's quality index, in the model with both, must pass its check (below ``max_imag_ratio``, or not
+    resolved against the misfit, :func:`bayesnsi.loop.quality.quality_check`). Every
     effect checked is appended to ``state.steps``, the search's scores to ``state.scores``. A second
     effect that passes its own checks while the first still fails its quality index is not rejected:
     its step keeps its checks (all passed) and says that the pair was declined for the first's index.
@@ -111,7 +113,6 @@ def look_ahead(context: LoopContext, state: LoopState, pending: tuple[Verdict, E
     """
     verdict, entry = pending
     p_step = verdict.step
-    max_imag_ratio = context.options.max_imag_ratio
     added = [*state.added, (p_step.effect.base, p_step.effect.location)]
     scored = rank_effects(context, entry.identified.candidate, added)
     search = state.record_scores(scored, verdict.log_evidence)
@@ -124,13 +125,13 @@ def look_ahead(context: LoopContext, state: LoopState, pending: tuple[Verdict, E
         )
         first_coef = trial.identified.coefficients[-2]
         step = second.step
-        if step.accepted and first_coef.imag_ratio >= max_imag_ratio:
+        first_check = _first_quality(context, trial, first_coef) if step.accepted else None
+        if first_check is not None and not first_check.passed:
             # not a rejection of this effect (it failed none of its own checks): the pair is declined
             step = replace(
                 step, accepted=False,
                 reason=f"not added: checked only beside {p_step.term.name} (look-ahead), where it passes its own "
-                f"checks; the pair is declined because {p_step.term.name} still fails its quality index "
-                f"|Im|/|Re| = {first_coef.imag_ratio:.2f} >= {max_imag_ratio} with it",
+                f"checks; the pair is declined because {p_step.term.name} still fails its {first_check.text} with it",
             )
         state.steps.append(step)
         if step.accepted:
@@ -145,6 +146,15 @@ def look_ahead(context: LoopContext, state: LoopState, pending: tuple[Verdict, E
             )
             return first, second, trial
     return None
+
+
+def _first_quality(context: LoopContext, trial: EffectScore, coef):
+    """The quality-index check of a pair's first effect in the model with both (:mod:`bayesnsi.loop.quality`)."""
+    options = context.options
+    reading = None
+    if not coef.imag_ratio < options.max_imag_ratio:
+        reading = misfit_reading(trial.identified, context.signals, index=-2, seed=context.evidence.seed)
+    return quality_check(coef.imag_ratio, options.max_imag_ratio, context.evidence.max_noise_ratio, reading)[0]
 
 
 def accept_pair(context: LoopContext, state: LoopState, pending, pair) -> None:

@@ -183,6 +183,13 @@ class LoopStep:
         True when the quality index is the only check the effect failed: the evidence favours it by
         more than the threshold and its record halves agree (``LoopOptions.accept_quality_only``
         accepts such an effect).
+    index_unresolved : bool
+        True when the quality index was at or above ``max_imag_ratio`` but passed because the model's
+        misfit leaves the frequency dependence of λ(ω) unresolved (:func:`bayesnsi.loop.quality.quality_check`):
+        the index could not judge the effect, and the step says so.
+    misfit_ratio, memory_resolution : float
+        κ and M of :class:`bayesnsi.loop.quality.MisfitReading` (NaN when not read: the index was below
+        ``max_imag_ratio`` or the Bayes factor below its threshold).
     """
 
     effect: Effect
@@ -207,6 +214,9 @@ class LoopStep:
     search: int | None = None
     checks: tuple[Check, ...] = ()
     quality_only: bool = False
+    index_unresolved: bool = False
+    misfit_ratio: float = math.nan
+    memory_resolution: float = math.nan
 
     @property
     def failed_checks(self) -> tuple[Check, ...]:

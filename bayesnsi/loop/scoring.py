@@ -163,7 +163,12 @@ def refine_gap(
     meaningful with the right gap (a gap 10 % too large inflates the stiffness by far more), so
     the gap of a promising clearance is refined by two rounds of a ``points``-point grid search
     of the Laplace log-evidence: first between the neighbouring grid gaps at the same location
-    (down to half the smallest, up to 1.5 times the largest), then within one spacing of the best.
+    (up to 1.5 times the largest), then within one spacing of the best; never below the smallest
+    grid gap. A clearance's force is a linear spring less a relay, ``x - g sign(x)`` outside the gap:
+    as the gap shrinks it becomes the linear spring at its location, which a linear part with model
+    error favours for what it absorbs, not for a clearance (the F-16: the evidence rose towards 0.25
+    standard deviations, where 98 % of the column is the relative displacement; below the smallest grid
+    gap, 0.5 standard deviations, the share exceeds 90 % for Gaussian motion, 95 % for a sine).
 
     Parameters
     ----------
@@ -188,7 +193,8 @@ def refine_gap(
         return entry
     nsi, evidence = nsi or NSIOptions(), _loop_evidence(evidence)
     grid = sorted({e.gap for e in effects if e.gap is not None and e.location == at})
-    lower = max((g for g in grid if g < gap), default=0.5 * gap)
+    floor = min(grid, default=gap)  # below the grid a clearance is a linear spring to the data (docstring)
+    lower = max((g for g in grid if g < gap), default=floor)
     upper = min((g for g in grid if g > gap), default=1.5 * gap)
     best = entry
     if correlations is None:
@@ -201,7 +207,7 @@ def refine_gap(
             if trial.log_evidence > best.log_evidence:
                 best = trial
         centre, step = best.effect.gap or gap, (upper - lower) / (points - 1)
-        lower, upper = max(centre - step, 0.5 * step), centre + step
+        lower, upper = max(centre - step, 0.5 * step, floor), centre + step
     return best
 
 

@@ -16,8 +16,11 @@ name                            chain      declared                        missi
                                                                            (250 N/m)
 ``"two-missing"``               two-DOF    20·v1|v1| @1                    sign(v2) @2 (1 N) and
                                                                            x1³ @1 (5e5 N/m³)
+``"hysteresis"``                two-DOF    none (linear)                   boucwen(x1, β = 150, γ = -50) @1
+                                                                           (400 N/m)
 ``"control-two-dof"``           two-DOF    20·v1|v1| @1                    nothing
 ``"control-three-dof"``         three-DOF  (x1-x2)³ @1-2                   nothing
+``"control-hysteresis"``        two-DOF    400·boucwen(x1, ...) @1         nothing
 ==============================  =========  ==============================  ==================================
 
 Sizes (measured on seeds 0-4, 30 s, noise-free, by :func:`effect_sizes`: rms of the effect's
@@ -42,6 +45,7 @@ import numpy as np
 
 from ..exceptions import InputDataError
 from ..models.dictionary import clearance_expression
+from ..models.expressions import MEMORY
 from ..models.terms import CandidateModel, Term
 from ..options import NSIOptions
 from . import cases as _cases  # noqa: F401  (registers the two- and three-DOF chains)
@@ -173,6 +177,7 @@ _COULOMB2 = ("sign(v)", Term("sign(v2)", 2), 1.0)
 _CUBIC12_3DOF = ("x^3", Term("(x1-x2)**3", [1, 2]), 2.0e5)
 _CUBIC1_2DOF = ("x^3", Term("x1**3", 1), 5.0e5)
 _CLEARANCE2 = ("clearance", Term(clearance_expression("x2", _CLEARANCE_GAP), 2), _CLEARANCE_STIFFNESS)
+_BOUCWEN1 = (MEMORY, Term("boucwen(x1, beta=150, gamma=-50)", 1), 400.0)  # yields at 10 mm
 
 # name -> (title, chain, declared [(type, term, coef)], missing [(type, term, coef)]); the chain is
 # the reference case of that name (structure, force and output DOFs, recommended NSI settings)
@@ -198,6 +203,10 @@ _DEFINITIONS: dict[str, tuple] = {
         "and cubic spring at DOF 1",
         "two-dof", [_QUAD], [_COULOMB2, _CUBIC1_2DOF],
     ),
+    "hysteresis": (
+        "Two-DOF chain, declared linear, undeclared Bouc-Wen hysteretic ground spring at DOF 1",
+        "two-dof", [], [_BOUCWEN1],
+    ),
     "control-two-dof": (
         "Negative control: two-DOF chain, declared = truth (quadratic damping at DOF 1)",
         "two-dof", [_QUAD], [],
@@ -205,6 +214,10 @@ _DEFINITIONS: dict[str, tuple] = {
     "control-three-dof": (
         "Negative control: three-DOF chain, declared = truth (cubic spring between DOFs 1 and 2)",
         "three-dof", [_CUBIC12_3DOF], [],
+    ),
+    "control-hysteresis": (
+        "Negative control: two-DOF chain, declared = truth (Bouc-Wen hysteretic ground spring at DOF 1)",
+        "two-dof", [_BOUCWEN1], [],
     ),
 }
 

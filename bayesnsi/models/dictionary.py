@@ -19,6 +19,7 @@ __all__ = [
     "Effect",
     "HARDENING_LIMIT",
     "HYSTERESIS",
+    "MEMORY_RATIO",
     "SMOOTH_FRICTION",
     "DIRECTIONAL",
     "MIN_REVERSALS",
@@ -29,6 +30,7 @@ __all__ = [
     "default_widths",
     "effect_dictionary",
     "hysteresis_effect",
+    "hysteretic_shape",
     "smooth_friction_effect",
     "velocity_reversals",
 ]
@@ -100,6 +102,27 @@ stiffens over about one std, a third or a ninth of it (dissipation needs β > 0:
 HARDENING_LIMIT = 0.3
 """Least ``(β + γ)`` times the displacement std a Bouc-Wen shape may have (grid and refinement): a loading
 branch that hardens faster grows exponentially over the record, a basis function, not hysteresis."""
+MEMORY_RATIO = 0.5
+"""Least β/|γ| of a Bouc-Wen shape (grid and refinement): with β → 0 the law is elastic, ``dz/dx = 1 - γ |z|``,
+a static spring the dictionary already offers (x|x|, x³, clearances) with no memory to speak of; on a
+hardening branch it means the unloading branch stiffens at least three times as fast as loading hardens."""
+
+
+def hysteretic_shape(shape: BoucWen, displacement_std: float) -> bool:
+    """True for a shape the loop offers: β > 0, β >= |γ|/2 and a loading branch within the hardening limit.
+
+    Parameters
+    ----------
+    shape : BoucWen
+    displacement_std : float
+        Std of the displacement it acts on [m].
+
+    Returns
+    -------
+    bool
+    """
+    return (shape.beta > 0 and shape.beta >= MEMORY_RATIO * abs(shape.gamma)
+            and shape.loading * displacement_std >= -HARDENING_LIMIT)
 
 
 def default_shapes(displacement_std: float, loading=SHAPE_LOADING, unloading=SHAPE_UNLOADING) -> list[BoucWen]:
@@ -111,7 +134,7 @@ def default_shapes(displacement_std: float, loading=SHAPE_LOADING, unloading=SHA
         Standard deviation of the displacement the element acts on (relative for a pair) [m].
     loading, unloading : sequence of float
         ``β + γ`` and ``β - γ`` times ``displacement_std`` (:data:`SHAPE_LOADING`,
-        :data:`SHAPE_UNLOADING`); pairs with β <= 0 are left out.
+        :data:`SHAPE_UNLOADING`); pairs that are not :func:`hysteretic_shape` are left out.
 
     Returns
     -------
@@ -122,7 +145,7 @@ def default_shapes(displacement_std: float, loading=SHAPE_LOADING, unloading=SHA
     for c in loading:
         for u in unloading:
             shape = BoucWen.from_branches(c / displacement_std, u / displacement_std)
-            if shape.beta > 0:
+            if hysteretic_shape(shape, displacement_std):
                 out.append(BoucWen(float(f"{shape.beta:.3g}"), float(f"{shape.gamma:.3g}")))
     return out
 

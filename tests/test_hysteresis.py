@@ -226,3 +226,30 @@ def test_one_period_of_a_record_gives_the_periodic_steady_state():
     from_rest = -extended_input(record, [term])[:, 1]
     assert from_rest[0] == 0.0 and np.allclose(from_rest, boucwen_path(term.expr.memory,
                                                                         response.displacement[:, 0]))
+
+
+def test_the_restoring_force_loop_is_drawn_from_the_record_and_the_steady_loop():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from types import SimpleNamespace
+
+    from bayesnsi.curves import hysteresis_loop
+    from bayesnsi.plots import plot_hysteresis_loop
+
+    term = Term("boucwen(x1, beta=800, gamma=-1100)", 1)
+    force, response = _sdof([term], [5e4], oversample=10, n_periods=1)
+    signals = Signals(force=force.samples, displacement=response.displacement, fs=750.0, input_dofs=(1,),
+                      output_dofs=(1,))
+    step = SimpleNamespace(term=term, coefficient=5e4)
+    curve = hysteresis_loop(step, signals)
+    assert np.allclose(curve.force, response.nonlinear_force[:, 0][np.isin(response.displacement[:, 0],
+                                                                             curve.displacement)], rtol=0.02,
+                       atol=0.02 * np.abs(curve.force).max())  # λ z along the record (data-rate rule)
+    assert curve.loop_force[0] == pytest.approx(curve.loop_force[-1]) and curve.reading.loop_area > 0
+    assert curve.reading.yield_displacement is None  # the benchmark's loading branch hardens
+    figure = plot_hysteresis_loop(step, signals, ChannelUnits("N", "m", "m/s"))
+    axes = figure.axes[0]
+    assert len(axes.lines) == 2 and "hysteretic stiffness" in axes.texts[0].get_text()
+    with pytest.raises(InputDataError, match="not a Bouc-Wen term"):
+        hysteresis_loop(SimpleNamespace(term=Term("x1**3", 1), coefficient=1.0), signals)

@@ -41,9 +41,10 @@ HELP = (
 
 @dataclass(frozen=True)
 class Node:
-    kind: str  # "num", "x", "v", "neg", "bin", "func", "memory" (value: BoucWen)
-    value: float | int | str | BoucWen = 0
+    kind: str  # "num", "x", "v", "neg", "bin", "func", "memory"
+    value: float | int | str = 0
     args: tuple[Node, ...] = ()
+    shape: BoucWen | None = None  # of a "memory" node
 
 
 class Parser:
@@ -205,7 +206,7 @@ class Parser:
                 f"{MEMORY}() needs {' and '.join(missing)} in {self.text!r}, e.g. 'boucwen(x1, beta=800, gamma=-1100)'"
             )
         shape = BoucWen(values["beta"], values["gamma"], values.get("n", 1.0))
-        return Node("memory", shape, (argument,))
+        return Node("memory", MEMORY, (argument,), shape)
 
 
 def _is_displacement(node: Node) -> bool:
@@ -248,7 +249,8 @@ def render(node: Node) -> str:
     if node.kind == "func":
         return f"{node.value}({render(node.args[0])})"
     if node.kind == "memory":
-        return f"{MEMORY}({render(node.args[0])},{node.value.text()})"  # type: ignore[union-attr]
+        assert node.shape is not None
+        return f"{MEMORY}({render(node.args[0])},{node.shape.text()})"
     left, right = (render(a) for a in node.args)
     if node.args[0].kind == "bin" and str(node.value) in "*/**":
         left = f"({left})"

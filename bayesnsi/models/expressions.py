@@ -201,7 +201,7 @@ def parse_expression(text: str) -> Expression:
         velocity_dofs=tuple(sorted(vs)),
         _tree=tree,
         _function=_compile(tree),
-        memory=tree.value if tree.kind == "memory" else None,  # type: ignore[arg-type]
+        memory=tree.shape,
         _argument=_compile(tree.args[0]) if tree.kind == "memory" else None,
     )
 
@@ -261,7 +261,7 @@ def _compile(node: Node) -> Callable:
         fn, f = _FUNCTIONS[str(node.value)], _compile(node.args[0])
         return lambda x, v: fn(f(x, v))
     if kind == "memory":  # along axis 0 of the displacement it follows, from z = 0 (module notes)
-        shape, g = node.value, _compile(node.args[0])
+        shape, g = node.shape, _compile(node.args[0])
         return lambda x, v: boucwen_path(shape, np.asarray(g(x, v), dtype=float))  # type: ignore[arg-type]
     f, g = (_compile(a) for a in node.args)
     if node.value == "**":

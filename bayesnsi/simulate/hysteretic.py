@@ -86,10 +86,11 @@ def simulate_hysteretic_response(
     memory = [k for k, t in enumerate(terms) if t.expr.memory is not None]
     static = [k for k, t in enumerate(terms) if t.expr.memory is None]
     L = np.stack([t.location_vector(n) for t in terms], axis=1) if terms else np.zeros((n, 0))
-    shapes = [terms[k].expr.memory for k in memory]
+    shapes = [s_ for k in memory if (s_ := terms[k].expr.memory) is not None]
+    arguments = [a for k in memory if (a := terms[k].expr.memory_argument) is not None]
     q_m = len(shapes)
     unit = np.eye(n)
-    rates = np.array([np.asarray(terms[k].expr.memory_argument(unit, unit), dtype=float) for k in memory])
+    rates = np.array([np.asarray(argument(unit, unit), dtype=np.float64) for argument in arguments])
     rates = rates.reshape(q_m, n)  # u̇_j = rates[j] · ẇ: the arguments are linear in the displacements
     # the augmented state y = [w; ẇ; z] obeys ẏ = A y + B f + (static terms) + (the z's nonlinear rates)
     size = 2 * n + q_m

@@ -144,7 +144,9 @@ class Expression:
         """The compiled closure ``f(x, v)`` without error-state handling or copying.
 
         For hot loops (time-stepping); may return a scalar or a view and may warn on invalid
-        arithmetic. Prefer :meth:`evaluate` elsewhere.
+        arithmetic. Prefer :meth:`evaluate` elsewhere. A ``boucwen`` term's closure follows axis 0
+        as time over a whole record: a time-stepping loop keeps z as a state instead
+        (:attr:`memory`, :attr:`memory_argument`, :func:`bayesnsi.models.hysteresis.boucwen_step`).
         """
         return self._function
 

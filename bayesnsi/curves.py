@@ -128,7 +128,7 @@ def hysteresis_loop(step, signals, cycles: float = 4.0, points: int = 512) -> Hy
     Parameters
     ----------
     step : object with ``term`` (a ``boucwen`` :class:`~bayesnsi.models.Term`) and ``coefficient`` or ``value``
-        E.g. an accepted step of :func:`bayesnsi.diagnose.close_the_loop`, or a coefficient of an
+        E.g. an accepted step of :func:`bayesnsi.loop.close_the_loop`, or a coefficient of an
         identified model (``result.coefficients[i]``).
     signals : Signals
         Measured signals holding the displacement(s) the term follows.

@@ -11,9 +11,9 @@ import warnings
 import numpy as np
 import pytest
 
-from bayesnsi.diagnose import close_the_loop
-from bayesnsi.diagnose.scoring import refine_shape, score_effects
 from bayesnsi.evidence.perturbation import noise_replicates
+from bayesnsi.loop import close_the_loop
+from bayesnsi.loop.scoring import refine_shape, score_effects
 from bayesnsi.models import BoucWen, CandidateModel, Term, hysteresis_effect
 from bayesnsi.models.dictionary import HYSTERESIS
 from bayesnsi.nsi import identify

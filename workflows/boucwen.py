@@ -40,8 +40,8 @@ from pathlib import Path
 import numpy as np
 
 from bayesnsi import Signals
-from bayesnsi.diagnose import close_the_loop
 from bayesnsi.io import atomic_write_json, atomic_write_text, prepare_output_dir, to_jsonable, versions
+from bayesnsi.loop import close_the_loop
 from bayesnsi.models import CandidateModel, Term
 from bayesnsi.models.dictionary import CLEARANCE, DEFAULT_EFFECT_TYPES, SMOOTH_FRICTION
 from bayesnsi.nsi import identify
@@ -115,7 +115,7 @@ def test_errors(result, tests: dict, nrmse: bool = False) -> dict:
             if nrmse:  # a validation record of whole steady periods (harmonic balance on the frequency route)
                 out[name] = float(result.reconstruct(signals, closed_loop=True).nrmse)
                 continue
-            if name == "multisine" and result.settings.get("domain") == "frequency":
+            if name == "multisine" and result.options.domain == "frequency":
                 steady = Signals(force=signals.force[PERIOD:], displacement=signals.displacement[PERIOD:], fs=FS,
                                  input_dofs=(1,), output_dofs=(1,), period=PERIOD)
                 error = steady.displacement - result.reconstruct(steady, closed_loop=True).predicted

@@ -11,7 +11,6 @@ import warnings
 import numpy as np
 import pytest
 
-from bayesnsi.evidence.perturbation import noise_replicates
 from bayesnsi.loop import close_the_loop
 from bayesnsi.loop.scoring import refine_shape, score_effects
 from bayesnsi.models import BoucWen, CandidateModel, Term, hysteresis_effect
@@ -23,6 +22,7 @@ from bayesnsi.options import EvidenceOptions, LoopOptions, NSIOptions
 from bayesnsi.signals import Signals
 from bayesnsi.simulate import simulate_hysteretic_response, undeclared_case
 from bayesnsi.simulate.multisine import multisine
+from bayesnsi.uncertainty.replicates import noise_replicates
 
 
 def quiet_identify(signals, candidate, nsi):

@@ -4,7 +4,9 @@
 measured signals, against the displacement and velocity at its location (relative ones for a
 term acting between two DOFs), thinned to a number of points a scatter plot can show.
 :func:`measured_frf` estimates the FRF of the data without a model (multiple-input H1), the
-curve an identified model is held against over the whole excited band.
+curve an identified model is held against over the whole excited band. :func:`hysteresis_loop` gives
+the restoring force of a Bouc-Wen term against the displacement it follows: its path over a few
+cycles of the record and its steady loop at the measured amplitude, with the physical reading.
 """
 
 from __future__ import annotations
@@ -14,8 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .exceptions import InputDataError
+from .models.hysteresis import HysteresisReading, boucwen_periodic, hysteresis_reading
 
-__all__ = ["EffectCurve", "MeasuredFRF", "effect_curve", "measured_frf"]
+__all__ = ["EffectCurve", "HysteresisLoop", "MeasuredFRF", "effect_curve", "hysteresis_loop", "measured_frf"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,6 +95,88 @@ def effect_curve(step, signals, max_points: int = 4000) -> EffectCurve:
         velocity_label=labels[1],
         title=f"{term.name}: λ = {step.coefficient:.4g}",
     )
+
+
+@dataclass(frozen=True, eq=False)
+class HysteresisLoop:
+    """The force λ z of a Bouc-Wen term against the displacement it follows (docs/method.md §12).
+
+    Attributes
+    ----------
+    displacement, force : ndarray, shape (n_window,)
+        The measured displacement (relative for an element) over a window of the record holding
+        about ``cycles`` periods of its dominant frequency, and λ z along the whole record's path there.
+    loop_displacement, loop_force : ndarray, shape (n_loop,)
+        One period of a sine at the reading's amplitude and λ z on it in periodic steady state (closed).
+    reading : HysteresisReading
+        Hysteretic stiffness, yield, loop area per cycle at that amplitude.
+    displacement_label, title : str
+    """
+
+    displacement: np.ndarray
+    force: np.ndarray
+    loop_displacement: np.ndarray
+    loop_force: np.ndarray
+    reading: HysteresisReading
+    displacement_label: str
+    title: str
+
+
+def hysteresis_loop(step, signals, cycles: float = 4.0, points: int = 512) -> HysteresisLoop:
+    """The restoring-force loop of a Bouc-Wen term on measured signals (docs/method.md §12).
+
+    Parameters
+    ----------
+    step : object with ``term`` (a ``boucwen`` :class:`~bayesnsi.models.Term`) and ``coefficient`` or ``value``
+        E.g. an accepted step of :func:`bayesnsi.loop.close_the_loop`, or a coefficient of an
+        identified model (``result.coefficients[i]``).
+    signals : Signals
+        Measured signals holding the displacement(s) the term follows.
+    cycles : float
+        Periods of the displacement's dominant frequency in the window of the measured path.
+    points : int
+        Samples of the steady loop.
+
+    Returns
+    -------
+    HysteresisLoop
+
+    Raises
+    ------
+    InputDataError
+        For a term without memory or one that reads a DOF that is not a measured output.
+    """
+    term = step.term
+    lam = float(np.real(step.coefficient if hasattr(step, "coefficient") else step.value))
+    shape, argument = term.expr.memory, term.expr.memory_argument
+    if shape is None or argument is None:
+        raise InputDataError(f"term {term.name} is not a Bouc-Wen term (boucwen(x, beta=..., gamma=...))")
+    missing = [d for d in term.expr.displacement_dofs if d not in signals.output_dofs]
+    if missing:
+        raise InputDataError(f"term {term.name} needs DOF {missing[0]}, which is not a measured output")
+    x, v = signals.state_rows(list(term.expr.displacement_dofs), [])
+    along = np.asarray(argument(x, v), dtype=float)
+    force = lam * np.asarray(term.evaluate(x, v))
+    reading = hysteresis_reading(shape, lam, along)
+    spectrum = np.abs(np.fft.rfft(along - along.mean()))
+    spectrum[0] = 0.0
+    dominant = max(int(np.argmax(spectrum)), 1) * float(signals.fs) / len(along)  # [Hz]
+    width = int(min(len(along), max(16, round(cycles * float(signals.fs) / dominant))))
+    start = (len(along) - width) // 2
+    sine = reading.amplitude * np.sin(2 * np.pi * np.arange(points + 1) / points)
+    z = boucwen_periodic(shape, sine[:-1])
+    dofs = term.expr.displacement_dofs
+    label = f"x{dofs[0]}" if len(dofs) == 1 else f"relative displacement ({_text(term)})"
+    return HysteresisLoop(
+        displacement=along[start : start + width], force=force[start : start + width],
+        loop_displacement=sine, loop_force=lam * np.append(z, z[:1]), reading=reading, displacement_label=label,
+        title=f"{term.name}: λ = {lam:.4g}",
+    )
+
+
+def _text(term) -> str:
+    canonical = term.expr.canonical
+    return canonical[canonical.index("(") + 1 : canonical.index(",")]
 
 
 @dataclass(frozen=True, eq=False)

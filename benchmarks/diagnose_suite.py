@@ -16,6 +16,9 @@ a gap grid) and default guards. Per case the table gives
   displacements, median) and the runs with NRMSE after ≤ before / 3 or ≤ 1.1 × that: the
   stricter reading of "at the noise floor", which the true model itself misses where the
   model has discretisation error (sign terms at 100 Hz, even upsampled twice);
+* ``val a/b``, ``val ≤ ½``: closed-loop simulation NRMSE on another realisation of the case (seed +
+  1000, same noise) of the final model over the declared one (median), and the runs where it is at
+  most half (a model that diverges there counts as not);
 * ``false add``: negative controls (and, for the others, additions that are not missing effects);
 * ``s``: mean wall time of one loop.
 
@@ -39,6 +42,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np
 
+from bayesnsi.exceptions import BayesNSIError
 from bayesnsi.loop import close_the_loop
 from bayesnsi.nsi import identify
 from bayesnsi.nsi.reconstruct import nrmse as _nrmse
@@ -58,8 +62,18 @@ def nsi_settings(case, bd_method=None, upsample=None) -> NSIOptions:
     return nsi
 
 
-def evaluate(case, loop, nsi=None) -> dict:
-    """Score one loop run against the truth of its case."""
+def closed_loop_nrmse(result, signals) -> float:
+    """Closed-loop simulation NRMSE of ``result`` on ``signals`` (inf when the simulation diverges)."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return float(result.reconstruct(signals, closed_loop=True).nrmse)
+    except (BayesNSIError, np.linalg.LinAlgError):
+        return float("inf")
+
+
+def evaluate(case, loop, nsi=None, validation=None) -> dict:
+    """Score one loop run against the truth of its case (and, closed loop, on another realisation)."""
     added = loop.added
     first = bool(added) and any(e.matches(added[0].effect.base, added[0].term) for e in case.missing)
     matched = [next((s for s in added if e.matches(s.effect.base, s.term)), None) for e in case.missing]
@@ -72,7 +86,11 @@ def evaluate(case, loop, nsi=None) -> dict:
     noise = _nrmse(case.signals.displacement, case.clean.displacement)[1]
     before = loop.start.reconstruct(case.signals).nrmse
     after = loop.final.reconstruct(case.signals).nrmse
+    val = (np.nan, np.nan) if validation is None else tuple(
+        closed_loop_nrmse(r, validation.signals) for r in (loop.start, loop.final))
     return dict(
+        val_before=val[0],
+        val_after=val[1],
         first=first,
         all=all(s is not None for s in matched) and not spurious,
         spurious=len(spurious),
@@ -107,15 +125,17 @@ def main() -> None:
           f"screen {'off' if args.no_screen else 'on'}")
     header = (
         f"{'case':18} {'noise':>5} {'first':>6} {'all':>6} {'coef err med/max':>17} {'within 10%':>10} "
-        f"{'after/before':>12} {'truth':>6} {'nrmse ok':>8} {'floor':>6} {'ok/floor':>8} {'false add':>9} {'s':>5}"
+        f"{'after/before':>12} {'truth':>6} {'nrmse ok':>8} {'floor':>6} {'ok/floor':>8} {'val a/b':>7} "
+        f"{'val ≤ ½':>7} {'false add':>9} {'s':>5}"
     )
     print(header)
     print("-" * len(header))
     for name in args.cases:
         for noise in args.noise:
             cases = undeclared_cases(name, range(args.seeds), noise, duration=args.duration)
+            others = undeclared_cases(name, range(1000, 1000 + args.seeds), noise, duration=args.duration)
             rows, times = [], []
-            for case in cases:
+            for case, other in zip(cases, others):
                 nsi = nsi_settings(case, args.bd_method, args.upsample)
                 start = time.perf_counter()
                 with warnings.catch_warnings():
@@ -123,13 +143,14 @@ def main() -> None:
                     evidence = EvidenceOptions(seed=case.seed)
                     loop = close_the_loop(case.signals, case.declared, options, nsi=nsi, evidence=evidence)
                 times.append(time.perf_counter() - start)
-                row = evaluate(case, loop, nsi)
+                row = evaluate(case, loop, nsi, other)
                 rows.append(row)
                 if args.verbose:
                     errs = ", ".join(f"{e:.3f}" for e in row["errors"])
                     print(
                         f"  seed {case.seed}: added {row['added'] or 'nothing'}; coef err [{errs}]; "
-                        f"nrmse {row['before']:.4f} -> {row['after']:.4f} (truth {row['truth']:.4f}); {times[-1]:.1f} s"
+                        f"nrmse {row['before']:.4f} -> {row['after']:.4f} (truth {row['truth']:.4f}); validation "
+                        f"{row['val_before']:.4f} -> {row['val_after']:.4f}; {times[-1]:.1f} s"
                     )
                     for step in loop.steps:
                         true = any(e.matches(step.effect.base, step.term) for e in case.missing)
@@ -153,9 +174,12 @@ def main() -> None:
             ok = "-" if control else f"{sum(r['nrmse_ok'] for r in rows)}/{n}"
             ok_noise = "-" if control else f"{sum(r['noise_ok'] for r in rows)}/{n}"
             noise_nrmse = np.median([r["noise"] for r in rows])
+            val_ratio = np.median([r["val_after"] / r["val_before"] for r in rows])
+            val_ok = "-" if control else f"{sum(r['val_after'] <= r['val_before'] / 2 for r in rows)}/{n}"
             print(
                 f"{name:18} {noise:5.1f} {first:>6} {allf:>6} {err:>17} {within:>10} {ratio:12.3f} {truth:6.4f} "
-                f"{ok:>8} {noise_nrmse:6.4f} {ok_noise:>8} {f'{false_add}/{n}':>9} {np.mean(times):5.1f}",
+                f"{ok:>8} {noise_nrmse:6.4f} {ok_noise:>8} {val_ratio:7.3f} {val_ok:>7} {f'{false_add}/{n}':>9} "
+                f"{np.mean(times):5.1f}",
                 flush=True,
             )
 

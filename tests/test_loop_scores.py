@@ -53,10 +53,18 @@ def test_each_step_lists_the_screened_effects_with_screen_rank_and_evidence(loop
     assert true["nrmse"] == pytest.approx(step.nrmse_after, rel=1e-12)
     screen = loop.options.screen
     out = [r for r in records if r["status"] == "screened out"]
-    assert len(out) == len(records) - screen and all(r["screen_rank"] > screen for r in out)
+    # the screen's places go to the effects without memory, the best Bouc-Wen grid point of each location besides
+    static = sorted((r for r in records if r["type"] != "boucwen"), key=lambda r: r["screen_rank"])
+    assert [r["status"] == "screened out" for r in static] == [False] * screen + [True] * (len(static) - screen)
+    for at in {tuple(r["at"]) for r in records if r["type"] == "boucwen"}:
+        best = min((r for r in records if r["type"] == "boucwen" and tuple(r["at"]) == at),
+                   key=lambda r: r["screen_rank"])
+        assert best["status"] != "screened out"
     assert all(math.isnan(r["log_evidence_laplace"]) and "not re-identified" in r["reason"] for r in out)
     kept = [r for r in records if r["status"] != "screened out"]
-    assert all(math.isfinite(r["log_bayes_factor"]) and math.isfinite(r["imag_ratio"]) for r in kept)
+    # (a Bouc-Wen shape that dissipates more than the data allow fails: its underlying linear model is unstable)
+    assert all(math.isfinite(r["log_bayes_factor"]) and math.isfinite(r["imag_ratio"]) for r in kept
+               if r["type"] != "boucwen" or r["status"] != "failed")
     assert [r["log_evidence_laplace"] for r in kept] == sorted((r["log_evidence_laplace"] for r in kept), reverse=True)
     assert all(r["reason"] for r in records)
 

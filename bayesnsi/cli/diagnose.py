@@ -19,8 +19,8 @@ def add_parser(sub) -> None:
         "diagnose",
         help="close the loop: find an effect the selected model lacks, add it, report before/after",
         description="Select a model as `bayesnsi select` does (or start from --start NAME), then search a "
-        "dictionary of effects (x², x|x|, x³, sign(v), v|v|, v³, x²·sign(v), clearances; at each measured DOF "
-        "and between neighbouring DOFs) for what its residual lacks; add an effect only when the Bayes factor, "
+        "dictionary of effects (x², x|x|, x³, sign(v), v|v|, v³, x²·sign(v), clearances, Bouc-Wen hysteresis; at "
+        "each measured DOF and between DOFs) for what its residual lacks; add an effect only when the Bayes factor, "
         "its quality index and its stability across record halves support it; repeat.",
         epilog="example: bayesnsi diagnose workflows/silverbox/silverbox.toml --start linear --out out/sb-loop",
     )

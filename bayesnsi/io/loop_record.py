@@ -36,6 +36,8 @@ def step_record(step, loop) -> dict[str, Any]:
     record: dict[str, Any] = {"type": effect.base, "at": list(effect.location), "gap": effect.gap}
     if effect.eps is not None:  # a tanh(v/eps) friction's width
         record["eps"] = effect.eps
+    if effect.shape is not None:  # a Bouc-Wen element's shape (also written in its term)
+        record["shape"] = {"beta": effect.shape.beta, "gamma": effect.shape.gamma, "n": effect.shape.n}
     return {
         "added": term_record(step.term),
         "effect_type": effect.name,

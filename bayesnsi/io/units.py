@@ -99,8 +99,8 @@ def term_unit(expr: str, units: ChannelUnits) -> str:
     """Unit of a nonlinear term's coefficient λ: force unit over the unit of n(x, v), when it is a product.
 
     Handles products and integer powers of ``x<k>``, ``v<k>``, ``abs(...)`` of them and ``sign``/``tanh``
-    (unitless), e.g. ``v1*abs(v1)`` -> ``N/(m/s)^2`` and ``x1**3`` -> ``N/m^3``; anything else (sums,
-    clearances) gives ``""``.
+    (unitless), e.g. ``v1*abs(v1)`` -> ``N/(m/s)^2`` and ``x1**3`` -> ``N/m^3``, and a Bouc-Wen
+    variable (``boucwen(x1, ...)`` -> ``N/m``); anything else (sums, clearances) gives ``""``.
 
     Parameters
     ----------
@@ -116,6 +116,8 @@ def term_unit(expr: str, units: ChannelUnits) -> str:
     if not units.force or not units.displacement:
         return UNSTATED
     text = re.sub(r"\s+", "", expr).replace("**", "^")
+    # a Bouc-Wen variable z has the unit of the displacement it follows: λ is a stiffness
+    text = re.sub(r"boucwen\(\(?([^(),]*?)\)?,[^()]*\)", lambda m: f"({m[1]})" if "-" in m[1] else m[1], text)
     text = re.sub(r"\(([xv])\d+-\1\d+\)", r"\g<1>0", text)  # relative motion across an element
     text = re.sub(r"(sign|tanh)\([^()]*\)", "1", text)  # unitless factors
     text = re.sub(r"abs\(([xv]\d+)\)", r"\1", text)

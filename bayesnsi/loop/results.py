@@ -389,7 +389,10 @@ def score_record(row: EffectScore, step: LoopStep | None = None, n_tries=None, s
         status, reason = "not checked", f"not among the n_tries = {n_tries} best by evidence"
     effect = row.effect
     return {
-        "type": effect.base, "at": list(effect.location), "gap": effect.gap, "eps": effect.eps, "term": row.term.name,
+        "type": effect.base, "at": list(effect.location), "gap": effect.gap, "eps": effect.eps,
+        "shape": None if effect.shape is None else {"beta": effect.shape.beta, "gamma": effect.shape.gamma,
+                                                    "n": effect.shape.n},
+        "term": row.term.name,
         "screen_rank": row.screen_rank, "screen_score": row.screen_score, "screen_view": row.screen_view,
         "screen_location": row.screen_location, "log_evidence_laplace": row.log_evidence,
         "log_bayes_factor": row.log_bayes_factor, "nrmse": row.nrmse,

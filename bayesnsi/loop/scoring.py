@@ -1,11 +1,12 @@
-"""Scoring the effects of a dictionary against a model: Laplace evidence, screen, clearance gaps.
+"""Scoring the effects of a dictionary against a model: Laplace evidence, screen, clearance gaps, Bouc-Wen shapes.
 
 Every effect ``e`` is added to the current candidate, the enlarged model is identified by NSI
 (sharing the current model's Hankel products, :func:`bayesnsi.nsi.hankel_correlations`) and scored
 by its Laplace log-evidence (a free, accurate approximation of the marginal evidence, docs/method.md §6).
 With the screen on, only the best ``LoopOptions.screen`` effects of the frequency-domain screen
 (:func:`bayesnsi.loop.screen.screen_effects`) are identified; clearances among the best have
-their gap refined off the grid (:func:`refine_gap`).
+their gap refined off the grid (:func:`refine_gap`), Bouc-Wen elements their shape (:func:`refine_shape`,
+:mod:`bayesnsi.loop.shapes`).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import replace
+from typing import cast
 
 import numpy as np
 
@@ -28,9 +30,10 @@ from .localise import screen_effects_periodic
 from .results import EffectScore
 from .screen import screen_effects
 from .screen_force import screen_effects_force
+from .shapes import displacement_spread, screened_shapes, search_shape, shape_fallbacks
 from .state import LoopContext
 
-__all__ = ["laplace_score", "rank_effects", "refine_gap", "score_effects"]
+__all__ = ["laplace_score", "rank_effects", "refine_gap", "refine_shape", "score_effects"]
 
 
 def laplace_score(result, signals, evidence: EvidenceOptions) -> tuple[float, float]:
@@ -211,11 +214,46 @@ def refine_gap(
     return best
 
 
+def refine_shape(
+    signals, candidate, entry: EffectScore, nsi: NSIOptions | None = None, evidence: EvidenceOptions | None = None,
+    *, correlations=None, budget: int = 30,
+) -> EffectScore:
+    """Refine the shape of a Bouc-Wen effect off the grid by its Laplace log-evidence (docs/method.md §12).
+
+    The compass search of :func:`bayesnsi.loop.shapes.search_shape` over the element's loading and
+    unloading branches, each shape scored as :func:`score_effects` scores an effect.
+
+    Parameters
+    ----------
+    signals, candidate, nsi, evidence, correlations
+        As in :func:`refine_gap`.
+    entry : EffectScore
+        A scored Bouc-Wen effect (any other effect is returned as it is).
+    budget : int
+        Most identifications.
+
+    Returns
+    -------
+    EffectScore
+        The best entry found (``entry`` itself when nothing beats it).
+    """
+    if entry.effect.shape is None:
+        return entry
+    nsi, evidence = nsi or NSIOptions(), _loop_evidence(evidence)
+    if correlations is None:
+        correlations = shared_correlations(signals, candidate, nsi)
+    return search_shape(entry, lambda effect: score_one(signals, candidate, effect, nsi, evidence, correlations),
+                        displacement_spread(signals, entry.effect), budget)
+
+
 def _screened(context: LoopContext, candidate, effects, exclude):
     """Split ``effects`` into the best ``screen`` by the screen (module notes) and the rest.
 
-    Effects already in the model or excluded are dropped first. Returns ``(kept effects, scores
-    of the rest, screen)``; the rest carry a NaN score (screened out, not re-identified), in screen
+    Effects already in the model or excluded are dropped first. The ``screen`` places go to the
+    effects without memory; the best ranked Bouc-Wen grid point of each location is kept besides
+    them (nine variants of one effect, ranked high by a screen that reads the residual's phase, would
+    crowd out the others; :func:`bayesnsi.loop.shapes.screened_shapes`). Returns ``(kept effects,
+    scores of the rest, screen)``; the rest carry a NaN score (screened out, not re-identified), in screen
     order; ``screen`` maps each kept effect's term name to its ``(rank, score, view, location level)`` (the
     data-only distortion level of its location on the periodic view, NaN otherwise).
     """
@@ -241,14 +279,16 @@ def _screened(context: LoopContext, candidate, effects, exclude):
         return effects, [], {}  # too short a record to screen: score them all
     screen = {e.term.name: (rank, float(score), view, located.get(e.term.name, math.nan))
               for rank, (e, score) in enumerate(ranked, start=1)}
+    ordered = cast("list[Effect]", [e for e, _ in ranked])
+    kept = screened_shapes(ordered, count)
     rest = [
         EffectScore(e, math.nan, screen_rank=rank, screen_score=float(score), screen_view=view,
                     screen_location=located.get(e.term.name, math.nan))
-        for rank, (e, score) in enumerate(ranked[count:], start=count + 1)
+        for rank, (e, (_, score)) in enumerate(zip(ordered, ranked), start=1) if e not in kept
     ]
     if len(effects) <= count:  # all re-identified, in dictionary order as without a screen
         return effects, [], screen
-    return [e for e, _ in ranked[:count]], rest, screen
+    return kept, rest, screen
 
 
 def _with_screen(entry: EffectScore, screen: dict, name: str | None = None) -> EffectScore:
@@ -262,6 +302,11 @@ def _with_screen(entry: EffectScore, screen: dict, name: str | None = None) -> E
 
 def rank_effects(context: LoopContext, candidate, exclude=(), effects=None, screen: bool = True) -> list[EffectScore]:
     """Scores of the effects against ``candidate``, with the gaps of the clearances among the best refined.
+
+    So are the shapes of the Bouc-Wen elements among the best: at each location the best grid point,
+    when it beats ``candidate`` itself (a log Bayes factor above 0) and every effect without memory
+    (:func:`refine_shape`): a two-parameter family searched off the grid fits model-form error too,
+    so its shape is searched where the grid already says memory explains the data best.
 
     Parameters
     ----------
@@ -289,12 +334,49 @@ def rank_effects(context: LoopContext, candidate, exclude=(), effects=None, scre
         execution=context.execution, correlations=correlations,
     )
     scored = [_with_screen(entry, ranks) for entry in scored]
+    if rest:
+        scored, rest = shape_fallbacks(scored, rest, lambda effect: score_one(
+            context.signals, candidate, effect, context.nsi, context.evidence, correlations))
     n_tries = context.options.n_tries
-    head = [  # a refined clearance keeps the screen rank of the grid gap it was refined from
-        _with_screen(refine_gap(context.signals, candidate, entry, effects, context.nsi, context.evidence,
-                                correlations=correlations), ranks, entry.term.name)
-        if np.isfinite(entry.log_evidence) and entry.effect.gap is not None
-        else entry
+    shaped: set = set()  # Bouc-Wen locations refined: the best grid point's search stands for the location's
+    current: list[float] = []  # the candidate's own Laplace log-evidence, computed when first needed
+    memoryless = max((e.log_evidence for e in scored if e.effect.shape is None), default=-math.inf)
+
+    def refinable(entry) -> bool:
+        if not np.isfinite(entry.log_evidence):
+            return False
+        if entry.effect.shape is not None:  # the best grid point of its location, better than the candidate
+            fresh = entry.effect.location not in shaped  # and than every effect without memory
+            shaped.add(entry.effect.location)
+            if fresh and not current:
+                current.append(_log_evidence(context, candidate))
+            return fresh and entry.log_evidence > max(current[0], memoryless)
+        return entry.effect.gap is not None
+
+    head = [  # a refined clearance (Bouc-Wen shape) keeps the screen rank of the grid point it was refined from
+        _with_screen(_refined(context, candidate, entry, effects, correlations), ranks, entry.term.name)
+        if refinable(entry) else entry
         for entry in scored[:n_tries]
     ]
-    return sorted(head + scored[n_tries:], key=lambda item: item.log_evidence, reverse=True) + rest
+    ranked = sorted(head + scored[n_tries:], key=lambda item: item.log_evidence, reverse=True)
+    unique = {entry.term.name: entry for entry in reversed(ranked)}  # two grid points refined to one shape: once
+    return [entry for entry in ranked if unique[entry.term.name] is entry] + rest
+
+
+def _log_evidence(context: LoopContext, candidate) -> float:
+    """The Laplace log-evidence of ``candidate`` itself (−inf when it cannot be identified)."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", BayesNSIWarning)
+            return float(laplace_score(identify(context.signals, candidate, context.nsi), context.signals,
+                                       context.evidence)[0])
+    except (BayesNSIError, np.linalg.LinAlgError):
+        return -math.inf
+
+
+def _refined(context: LoopContext, candidate, entry: EffectScore, effects, correlations) -> EffectScore:
+    """``entry`` with its clearance gap or Bouc-Wen shape refined off the grid."""
+    if entry.effect.shape is not None:
+        return refine_shape(context.signals, candidate, entry, context.nsi, context.evidence, correlations=correlations)
+    return refine_gap(context.signals, candidate, entry, effects, context.nsi, context.evidence,
+                      correlations=correlations)

@@ -30,12 +30,13 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..exceptions import BayesNSIError, BayesNSIWarning, ConfigError, LoopError
-from ..models import CandidateModel, default_gaps, default_widths, effect_dictionary
+from ..models import BoucWen, CandidateModel, default_gaps, default_shapes, default_widths, effect_dictionary
 from ..models.dictionary import (
     CLEARANCE,
     DEFAULT_EFFECT_TYPES,
     DIRECTIONAL,
     EFFECT_TYPES,
+    HYSTERESIS,
     MIN_REVERSALS,
     SMOOTH_FRICTION,
     Effect,
@@ -66,14 +67,16 @@ def loop_effects(signals, names=None) -> list[Effect]:
     signals : Signals
         Estimation data (its output DOFs, and their displacement spread for the clearance gaps).
     names : sequence of str, optional
-        Keys of :data:`bayesnsi.models.EFFECT_TYPES`, ``"clearance"`` and ``"tanh(v/eps)"``
-        (``LoopOptions.effects``); default :data:`bayesnsi.models.dictionary.DEFAULT_EFFECT_TYPES`,
-        clearances and tanh frictions. Every type acts at each measured DOF and across every pair of
-        them. Clearances are tried at every location with gaps of 0.5, 1 and 1.5 standard deviations
-        of the displacement they act on (the relative displacement for a pair; refined when one ranks
-        among the best); the smoothed friction ``tanh(v/eps)`` with ε = 0.25 and 0.5 standard
-        deviations of the velocity it acts on, written with its numeric ε
-        (:func:`bayesnsi.models.default_widths`).
+        Keys of :data:`bayesnsi.models.EFFECT_TYPES`, ``"clearance"``, ``"tanh(v/eps)"`` and
+        ``"boucwen"`` (``LoopOptions.effects``); default :data:`bayesnsi.models.dictionary.DEFAULT_EFFECT_TYPES`,
+        clearances, tanh frictions and Bouc-Wen elements. Every type acts at each measured DOF and
+        across every pair of them. Clearances are tried at every location with gaps of 0.5, 1 and 1.5
+        standard deviations of the displacement they act on (the relative displacement for a pair;
+        refined when one ranks among the best); the smoothed friction ``tanh(v/eps)`` with ε = 0.25
+        and 0.5 standard deviations of the velocity it acts on, written with its numeric ε
+        (:func:`bayesnsi.models.default_widths`); Bouc-Wen elements on the grid of
+        :func:`bayesnsi.models.default_shapes` from the std of the displacement they act on (shape
+        refined when one beats the model and every effect without memory; docs/method.md §12).
         The types that compare the two directions of motion
         (:data:`bayesnsi.models.dictionary.DIRECTIONAL`, e.g. ``|v|``) are kept only at locations
         whose velocity reverses at least ``MIN_REVERSALS`` times in each half of the record
@@ -88,12 +91,11 @@ def loop_effects(signals, names=None) -> list[Effect]:
     ConfigError
         For a name that is neither an effect type nor ``"clearance"``.
     """
-    names = (*DEFAULT_EFFECT_TYPES, CLEARANCE, SMOOTH_FRICTION) if names is None else tuple(names)
-    unknown = [n for n in names if n not in (CLEARANCE, SMOOTH_FRICTION) and n not in EFFECT_TYPES]
+    special = (CLEARANCE, SMOOTH_FRICTION, HYSTERESIS)
+    names = (*DEFAULT_EFFECT_TYPES, *special) if names is None else tuple(names)
+    unknown = [n for n in names if n not in special and n not in EFFECT_TYPES]
     if unknown:
-        raise ConfigError(
-            f"[diagnose] effects: unknown type(s) {unknown}; choose from {[*EFFECT_TYPES, CLEARANCE, SMOOTH_FRICTION]}"
-        )
+        raise ConfigError(f"[diagnose] effects: unknown type(s) {unknown}; choose from {[*EFFECT_TYPES, *special]}")
     gaps: dict[tuple[int, ...], Sequence[float]] | None = None
     if CLEARANCE in names:
         gaps = {at: tuple(default_gaps(float(np.std(x)))) for at, x in _location_motions(signals, "displacement")}
@@ -101,7 +103,12 @@ def loop_effects(signals, names=None) -> list[Effect]:
     if SMOOTH_FRICTION in names:
         found = {at: tuple(default_widths(float(np.std(v)))) for at, v in _location_motions(signals, "velocity")}
         widths = {at: w for at, w in found.items() if all(np.isfinite(w)) and min(w) > 0}
-    effects = effect_dictionary(signals.output_dofs, [t for t in EFFECT_TYPES if t in names], gaps=gaps, widths=widths)
+    shapes: dict[tuple[int, ...], Sequence[BoucWen]] | None = None
+    if HYSTERESIS in names:
+        spread = {at: float(np.std(x)) for at, x in _location_motions(signals, "displacement")}
+        shapes = {at: default_shapes(s) for at, s in spread.items() if np.isfinite(s) and s > 0}
+    effects = effect_dictionary(signals.output_dofs, [t for t in EFFECT_TYPES if t in names], gaps=gaps, widths=widths,
+                                shapes=shapes)
     if not any(e.base in DIRECTIONAL for e in effects):
         return effects
     half = signals.n_samples // 2

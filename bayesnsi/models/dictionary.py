@@ -8,6 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import ConfigError
+from .expressions import MEMORY
+from .hysteresis import BoucWen
 from .terms import Term
 
 __all__ = [
@@ -15,14 +17,20 @@ __all__ = [
     "EFFECT_TYPES",
     "DEFAULT_EFFECT_TYPES",
     "Effect",
+    "HARDENING_LIMIT",
+    "HYSTERESIS",
+    "MEMORY_RATIO",
     "SMOOTH_FRICTION",
     "DIRECTIONAL",
     "MIN_REVERSALS",
     "clearance_effect",
     "clearance_expression",
     "default_gaps",
+    "default_shapes",
     "default_widths",
     "effect_dictionary",
+    "hysteresis_effect",
+    "hysteretic_shape",
     "smooth_friction_effect",
     "velocity_reversals",
 ]
@@ -78,6 +86,90 @@ SMOOTH_FRICTION = "tanh(v/eps)"
 the data (:func:`default_widths`, :func:`smooth_friction_effect`). Unlike ``sign(v)`` it is smooth,
 so a frequency-route model holding it has a periodic steady state (harmonic balance); its
 coefficient is the friction force reached at |v| >> ε."""
+
+
+HYSTERESIS = MEMORY
+"""Type of a Bouc-Wen hysteretic element ``boucwen(x, beta=.., gamma=..)`` whose shape parameters are
+gridded from the data (:func:`default_shapes`, :func:`hysteresis_effect`; docs/method.md §12). Its
+coefficient is the hysteretic stiffness λ [N/m]."""
+
+SHAPE_LOADING: tuple[float, ...] = (-0.25, 0.5, 2.0)
+"""``(β + γ)`` of the default Bouc-Wen grid times the std of the displacement it acts on: the loading
+branch ``dz/dx = 1 - (β + γ) z`` hardens gently (-0.25), or levels off at twice or half the std."""
+SHAPE_UNLOADING: tuple[float, ...] = (1.0, 3.0, 9.0)
+"""``(β - γ)`` of the default grid times the displacement std: the unloading branch ``dz/dx = 1 + (β - γ) |z|``
+stiffens over about one std, a third or a ninth of it (dissipation needs β > 0: unloading above loading)."""
+HARDENING_LIMIT = 0.3
+"""Least ``(β + γ)`` times the displacement std a Bouc-Wen shape may have (grid and refinement): a loading
+branch that hardens faster grows exponentially over the record, a basis function, not hysteresis."""
+MEMORY_RATIO = 0.5
+"""Least β/|γ| of a Bouc-Wen shape (grid and refinement): with β → 0 the law is elastic, ``dz/dx = 1 - γ |z|``,
+a static spring the dictionary already offers (x|x|, x³, clearances) with no memory to speak of; on a
+hardening branch it means the unloading branch stiffens at least three times as fast as loading hardens."""
+
+
+def hysteretic_shape(shape: BoucWen, displacement_std: float) -> bool:
+    """True for a shape the loop offers: β > 0, β >= |γ|/2 and a loading branch within the hardening limit.
+
+    Parameters
+    ----------
+    shape : BoucWen
+    displacement_std : float
+        Std of the displacement it acts on [m].
+
+    Returns
+    -------
+    bool
+    """
+    return (shape.beta > 0 and shape.beta >= MEMORY_RATIO * abs(shape.gamma)
+            and shape.loading * displacement_std >= -HARDENING_LIMIT)
+
+
+def default_shapes(displacement_std: float, loading=SHAPE_LOADING, unloading=SHAPE_UNLOADING) -> list[BoucWen]:
+    """The Bouc-Wen shapes (n = 1) of the loop's grid at a location (docs/method.md §12).
+
+    Parameters
+    ----------
+    displacement_std : float
+        Standard deviation of the displacement the element acts on (relative for a pair) [m].
+    loading, unloading : sequence of float
+        ``β + γ`` and ``β - γ`` times ``displacement_std`` (:data:`SHAPE_LOADING`,
+        :data:`SHAPE_UNLOADING`); pairs that are not :func:`hysteretic_shape` are left out.
+
+    Returns
+    -------
+    list of BoucWen
+        One per (loading, unloading) pair, 3 significant digits.
+    """
+    out = []
+    for c in loading:
+        for u in unloading:
+            shape = BoucWen.from_branches(c / displacement_std, u / displacement_std)
+            if hysteretic_shape(shape, displacement_std):
+                out.append(BoucWen(float(f"{shape.beta:.3g}"), float(f"{shape.gamma:.3g}")))
+    return out
+
+
+def hysteresis_effect(at, shape: BoucWen) -> Effect:
+    """A Bouc-Wen hysteretic element at DOF ``k`` (on x_k) or across a pair ``(j, k)`` (on x_j - x_k).
+
+    Parameters
+    ----------
+    at : int or (int, int)
+        Location.
+    shape : BoucWen
+        Its shape, written in the term with 3 significant digits
+        (``"boucwen(x1-x2,beta=150,gamma=-50)"``), so that the term in results.json parses back as
+        it was identified.
+
+    Returns
+    -------
+    Effect
+    """
+    at = (int(at),) if np.ndim(at) == 0 else tuple(int(a) for a in at)
+    x = f"x{at[0]}-x{at[1]}" if len(at) == 2 else f"x{at[0]}"
+    shape = BoucWen(float(f"{shape.beta:.3g}"), float(f"{shape.gamma:.3g}"), float(f"{shape.n:.3g}"))
+    return Effect(HYSTERESIS, Term(f"{MEMORY}({x},{shape.text()})", at if len(at) == 2 else at[0]), shape=shape)
 
 
 def smooth_friction_effect(at, eps: float) -> Effect:
@@ -147,17 +239,25 @@ class Effect:
         Gap g [m] of a clearance (6 significant digits, as written in its term); None otherwise.
     eps : float or None
         Width ε [m/s] of a ``tanh(v/eps)`` friction (3 significant digits, as written); None otherwise.
+    shape : BoucWen or None
+        Shape of a Bouc-Wen element (as written in its term); None otherwise.
     """
 
     base: str
     term: Term
     gap: float | None = None
     eps: float | None = None
+    shape: BoucWen | None = None
 
     def __post_init__(self) -> None:
-        if self.base not in (CLEARANCE, SMOOTH_FRICTION) and self.base not in EFFECT_TYPES:
+        if self.base not in (CLEARANCE, SMOOTH_FRICTION, HYSTERESIS) and self.base not in EFFECT_TYPES:
             raise ConfigError(
-                f"effect type {self.base!r} unknown; choose from {[*EFFECT_TYPES, CLEARANCE, SMOOTH_FRICTION]}"
+                f"effect type {self.base!r} unknown; choose from "
+                f"{[*EFFECT_TYPES, CLEARANCE, SMOOTH_FRICTION, HYSTERESIS]}"
+            )
+        if (self.base == HYSTERESIS) != (self.shape is not None):
+            raise ConfigError(
+                f"a shape is given with, and only with, a {HYSTERESIS} effect; got {self.base!r}, shape {self.shape!r}"
             )
         if (self.base == CLEARANCE) != (self.gap is not None):
             raise ConfigError(
@@ -178,6 +278,8 @@ class Effect:
         """The type with its parameter, e.g. ``"x^3"``, ``"clearance g=0.015"`` or ``"tanh(v/eps) eps=0.00455"``."""
         if self.eps is not None:
             return f"{SMOOTH_FRICTION} eps={self.eps:.3g}"
+        if self.shape is not None:
+            return f"{HYSTERESIS} {self.shape.text().replace(',', ' ')}"
         return f"{CLEARANCE} g={self.gap:.6g}" if self.gap is not None else self.base
 
     def __str__(self) -> str:
@@ -210,6 +312,7 @@ def effect_dictionary(
     gaps: dict[tuple[int, ...], Sequence[float]] | None = None,
     pairs: Sequence[tuple[int, int]] | None = None,
     widths: dict[tuple[int, ...], Sequence[float]] | None = None,
+    shapes: dict[tuple[int, ...], Sequence[BoucWen]] | None = None,
 ) -> list[Effect]:
     """Effects at each measured DOF and between pairs of measured DOFs (docs/method.md §7).
 
@@ -227,11 +330,13 @@ def effect_dictionary(
         and payload sensors, whatever they are called).
     widths : mapping location -> sequence of float, optional
         Widths ε [m/s] of the ``tanh(v/eps)`` frictions to try at each location; none by default.
+    shapes : mapping location -> sequence of BoucWen, optional
+        Bouc-Wen elements to try at each location; none by default.
 
     Returns
     -------
     list of Effect
-        Per location, the ``types`` in order, then its clearances, then its tanh frictions.
+        Per location, the ``types`` in order, then its clearances, its tanh frictions, its Bouc-Wen elements.
 
     Raises
     ------
@@ -255,6 +360,8 @@ def effect_dictionary(
             out.append(clearance_effect(at, float(gap)))
         for eps in (widths or {}).get(at, ()):
             out.append(smooth_friction_effect(at, float(eps)))
+        for shape in (shapes or {}).get(at, ()):
+            out.append(hysteresis_effect(at, shape))
     return out
 
 

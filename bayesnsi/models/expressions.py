@@ -9,7 +9,15 @@ Grammar (whitespace ignored)::
     atom   := NUMBER | "x" INT | "v" INT | FUNC "(" expr ")" | "(" expr ")"
     FUNC   := "abs" | "sign" | "tanh"
 
+or, as a whole expression, a Bouc-Wen hysteretic variable (:mod:`bayesnsi.models.hysteresis`)::
+
+    memory := "boucwen" "(" DISP "," "beta" "=" NUMBER "," "gamma" "=" NUMBER ["," "n" "=" NUMBER] ")"
+    DISP   := "x" INT | "x" INT "-" "x" INT        (parentheses allowed; signed numbers allowed)
+
 ``x<k>`` is the displacement and ``v<k>`` the velocity of DOF ``k`` (numbered from 1).
+A ``boucwen`` term has memory: its value at a sample depends on the displacement history, so
+:meth:`Expression.evaluate` reads axis 0 of the evaluated displacement as time (z = 0 at the first
+sample, or the periodic steady state with ``periodic=True``).
 Exponents must be constants with magnitude at most :data:`MAX_EXPONENT`. Nothing is ever passed
 to ``eval``: the text is tokenised, parsed by recursive descent into a small tree and compiled
 into a closure over numpy functions.
@@ -17,51 +25,25 @@ into a closure over numpy functions.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..exceptions import ExpressionError, ShapeError
+from ._grammar import HELP, MAX_DOF, MAX_EXPONENT, MEMORY, Node, Parser, check_memory, render
+from .hysteresis import BoucWen, boucwen_path, boucwen_periodic
 
-__all__ = ["Expression", "parse_expression", "MAX_EXPONENT", "MAX_LENGTH", "MAX_DOF"]
+__all__ = ["Expression", "parse_expression", "MAX_EXPONENT", "MAX_LENGTH", "MAX_DOF", "MEMORY"]
 
-MAX_EXPONENT = 16.0
-"""Largest allowed magnitude of a constant exponent."""
 MAX_LENGTH = 400
 """Longest accepted expression text, in characters."""
-MAX_DOF = 100_000
-"""Largest DOF number an expression may read (far beyond any model this package identifies)."""
-_MAX_DEPTH = 40
 
 _FUNCTIONS: dict[str, Callable[[np.ndarray], np.ndarray]] = {
     "abs": np.abs,
     "sign": np.sign,
     "tanh": np.tanh,
 }
-_TOKEN = re.compile(
-    r"\s*(?:"
-    r"(?P<number>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)"
-    r"|(?P<state>[xv])(?P<dof>\d+)(?![A-Za-z_0-9])"
-    r"|(?P<name>[A-Za-z_][A-Za-z_0-9]*)"
-    r"|(?P<op>\*\*|[-+*/()])"
-    r")",
-    re.ASCII,  # digits and names in ASCII only: x١**3 (an Arabic-Indic one) is refused
-)
-_HELP = (
-    "allowed: x<k>, v<k> (k >= 1), numbers, + - * / **, abs(), sign(), tanh(), parentheses; "
-    "example: 'v1*abs(v1)' or '(x3-x4)**3'"
-)
-
-
-@dataclass(frozen=True)
-class _Node:
-    kind: str  # "num", "x", "v", "neg", "bin", "func"
-    value: float | int | str = 0
-    args: tuple[_Node, ...] = ()
-
-
 @dataclass(frozen=True)
 class Expression:
     """A parsed, validated term expression n(x, v).
@@ -80,8 +62,10 @@ class Expression:
     canonical: str
     displacement_dofs: tuple[int, ...]
     velocity_dofs: tuple[int, ...]
-    _tree: _Node = field(repr=False, compare=False)
+    _tree: Node = field(repr=False, compare=False)
     _function: Callable = field(repr=False, compare=False)
+    memory: BoucWen | None = field(default=None, compare=False)
+    _argument: Callable | None = field(default=None, repr=False, compare=False)
 
     @property
     def dofs(self) -> tuple[int, ...]:
@@ -112,7 +96,12 @@ class Expression:
         node = self._tree
         return node.kind == "func" and node.value == "sign" and bool(self.velocity_dofs) and not self.displacement_dofs
 
-    def evaluate(self, x, v):
+    @property
+    def memory_argument(self) -> Callable | None:
+        """For a ``boucwen`` term: the compiled closure ``f(x, v)`` of the displacement it follows; else None."""
+        return self._argument
+
+    def evaluate(self, x, v, periodic: bool = False):
         """Evaluate n(x, v).
 
         Parameters
@@ -120,7 +109,11 @@ class Expression:
         x, v : array_like, shape (n_dofs, ...), or mapping {k-1: array}
             DOF-major displacements [m] and velocities [m/s]: ``x[k-1]`` is DOF ``k``. Any
             trailing shape (samples, batch) is broadcast. A mapping holding only the DOFs the
-            expression reads avoids building full arrays for long records.
+            expression reads avoids building full arrays for long records. For a ``boucwen``
+            term the first trailing axis is time (module notes).
+        periodic : bool
+            For a ``boucwen`` term: the samples are one period, and z is its periodic steady
+            state (:func:`bayesnsi.models.hysteresis.boucwen_periodic`). Ignored otherwise.
 
         Returns
         -------
@@ -129,7 +122,11 @@ class Expression:
         """
         try:
             with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-                out = self._function(x, v)
+                if self.memory is not None and self._argument is not None:
+                    along = np.asarray(self._argument(x, v), dtype=float)
+                    out = boucwen_periodic(self.memory, along) if periodic else boucwen_path(self.memory, along)
+                else:
+                    out = self._function(x, v)
         except (IndexError, KeyError) as err:
             raise ShapeError(
                 f"expression {self.canonical!r} reads DOFs {list(self.dofs)}, which x or v does not hold "
@@ -147,7 +144,9 @@ class Expression:
         """The compiled closure ``f(x, v)`` without error-state handling or copying.
 
         For hot loops (time-stepping); may return a scalar or a view and may warn on invalid
-        arithmetic. Prefer :meth:`evaluate` elsewhere.
+        arithmetic. Prefer :meth:`evaluate` elsewhere. A ``boucwen`` term's closure follows axis 0
+        as time over a whole record: a time-stepping loop keeps z as a state instead
+        (:attr:`memory`, :attr:`memory_argument`, :func:`bayesnsi.models.hysteresis.boucwen_step`).
         """
         return self._function
 
@@ -177,171 +176,39 @@ def parse_expression(text: str) -> Expression:
         On any character, name, construct or exponent outside the grammar.
     """
     if not isinstance(text, str):
-        raise ExpressionError(f"a term expression must be a string, got {type(text).__name__}; {_HELP}")
+        raise ExpressionError(f"a term expression must be a string, got {type(text).__name__}; {HELP}")
     if len(text) > MAX_LENGTH:
         raise ExpressionError(f"expression is {len(text)} characters long, at most {MAX_LENGTH} allowed")
     if not text.strip():
-        raise ExpressionError(f"empty term expression; {_HELP}")
+        raise ExpressionError(f"empty term expression; {HELP}")
     foreign = next((c for c in text if not c.isascii() and (c.isdigit() or c.isnumeric())), None)
     if foreign is not None:
         raise ExpressionError(
             f"expression {text!r} holds the digit {foreign!r} (U+{ord(foreign):04X}), not one of 0-9; write DOFs and "
             "numbers with ASCII digits"
         )
-    parser = _Parser(text)
+    parser = Parser(text)
     tree = parser.parse()
+    check_memory(tree, text)
     xs: set[int] = set()
     vs: set[int] = set()
     _collect(tree, xs, vs)
     if not xs and not vs and not (tree.kind == "num" and float(tree.value) != 0.0):
         # a bare non-zero number is a constant force basis (an offset, e.g. "1"); anything else is a mistake
-        raise ExpressionError(f"expression {text!r} reads no displacement or velocity; {_HELP}")
+        raise ExpressionError(f"expression {text!r} reads no displacement or velocity; {HELP}")
     return Expression(
         text=text,
-        canonical=_render(tree),
+        canonical=render(tree),
         displacement_dofs=tuple(sorted(xs)),
         velocity_dofs=tuple(sorted(vs)),
         _tree=tree,
         _function=_compile(tree),
+        memory=tree.shape,
+        _argument=_compile(tree.args[0]) if tree.kind == "memory" else None,
     )
 
 
-class _Parser:
-    def __init__(self, text: str):
-        self.text = text
-        self.tokens = self._tokenise(text)
-        self.pos = 0
-        self.depth = 0
-
-    def _tokenise(self, text):
-        tokens, pos = [], 0
-        while pos < len(text):
-            if text[pos:].strip() == "":
-                break
-            m = _TOKEN.match(text, pos)
-            if m is None or m.end() == pos:
-                bad = text[pos:].lstrip()[:1]
-                raise ExpressionError(f"unexpected character {bad!r} in {text!r}; {_HELP}")
-            if m.group("number"):
-                tokens.append(("num", float(m.group("number"))))
-            elif m.group("state"):
-                dof = int(m.group("dof"))
-                if dof > MAX_DOF:
-                    raise ExpressionError(f"DOF {dof} in {self.text!r} is beyond {MAX_DOF}; DOFs are numbered from 1")
-                if dof < 1:
-                    raise ExpressionError(f"DOFs are numbered from 1, found {m.group(0).strip()!r} in {text!r}")
-                tokens.append((m.group("state"), dof))
-            elif m.group("name"):
-                name = m.group("name")
-                if name not in _FUNCTIONS:
-                    raise ExpressionError(f"unknown name {name!r} in {text!r}; {_HELP}")
-                tokens.append(("func", name))
-            else:
-                tokens.append(("op", m.group("op")))
-            pos = m.end()
-        return tokens
-
-    def peek(self):
-        return self.tokens[self.pos] if self.pos < len(self.tokens) else ("end", None)
-
-    def take(self, kind=None, value=None):
-        tok = self.peek()
-        if (kind and tok[0] != kind) or (value is not None and tok[1] != value):
-            want = value if value is not None else kind
-            found = "end of expression" if tok[0] == "end" else repr(tok[1])
-            raise ExpressionError(f"expected {want!r} but found {found} in {self.text!r}; {_HELP}")
-        self.pos += 1
-        return tok
-
-    def parse(self):
-        node = self.expr()
-        if self.peek()[0] != "end":
-            raise ExpressionError(f"unexpected {self.peek()[1]!r} in {self.text!r}; {_HELP}")
-        return node
-
-    def _enter(self):
-        self.depth += 1
-        if self.depth > _MAX_DEPTH:
-            raise ExpressionError(f"expression {self.text[:40]!r}... nests deeper than {_MAX_DEPTH} levels")
-
-    def expr(self):
-        self._enter()
-        node = self.term()
-        while self.peek() in (("op", "+"), ("op", "-")):
-            op = self.take()[1]
-            node = _Node("bin", op, (node, self.term()))
-        self.depth -= 1
-        return node
-
-    def term(self):
-        node = self.unary()
-        while self.peek() in (("op", "*"), ("op", "/")):
-            op = self.take()[1]
-            node = _Node("bin", op, (node, self.unary()))
-        return node
-
-    def unary(self):
-        self._enter()
-        tok = self.peek()
-        if tok == ("op", "-"):
-            self.take()
-            node = _Node("neg", 0, (self.unary(),))
-        elif tok == ("op", "+"):
-            self.take()
-            node = self.unary()
-        else:
-            node = self.power()
-        self.depth -= 1
-        return node
-
-    def power(self):
-        base = self.atom()
-        if self.peek() == ("op", "**"):
-            self.take()
-            exponent = self.unary()
-            value = _constant_value(exponent)
-            if value is None:
-                raise ExpressionError(f"exponents must be constant numbers in {self.text!r}")
-            if not np.isfinite(value) or abs(value) > MAX_EXPONENT:
-                raise ExpressionError(
-                    f"exponent {value:g} in {self.text!r} is outside [-{MAX_EXPONENT:g}, {MAX_EXPONENT:g}]"
-                )
-            return _Node("bin", "**", (base, _Node("num", value)))
-        return base
-
-    def atom(self):
-        kind, value = self.peek()
-        if kind == "num":
-            self.take()
-            return _Node("num", value)
-        if kind in ("x", "v"):
-            self.take()
-            return _Node(kind, value)
-        if kind == "func":
-            self.take()
-            self.take("op", "(")
-            arg = self.expr()
-            self.take("op", ")")
-            return _Node("func", value, (arg,))
-        if (kind, value) == ("op", "("):
-            self.take()
-            node = self.expr()
-            self.take("op", ")")
-            return node
-        found = "end of expression" if kind == "end" else repr(value)
-        raise ExpressionError(f"expected a number, x<k>, v<k>, function or '(' but found {found} in {self.text!r}")
-
-
-def _constant_value(node: _Node):
-    if node.kind == "num":
-        return float(node.value)
-    if node.kind == "neg":
-        inner = _constant_value(node.args[0])
-        return None if inner is None else -inner
-    return None
-
-
-def _collect(node: _Node, xs: set, vs: set) -> None:
+def _collect(node: Node, xs: set, vs: set) -> None:
     if node.kind == "x":
         xs.add(node.value)
     elif node.kind == "v":
@@ -350,7 +217,7 @@ def _collect(node: _Node, xs: set, vs: set) -> None:
         _collect(arg, xs, vs)
 
 
-def _sign_of_velocity(node: _Node) -> bool:
+def _sign_of_velocity(node: Node) -> bool:
     if node.kind == "func" and node.value == "sign":
         xs: set[int] = set()
         vs: set[int] = set()
@@ -358,23 +225,6 @@ def _sign_of_velocity(node: _Node) -> bool:
         if vs:
             return True
     return any(_sign_of_velocity(arg) for arg in node.args)
-
-
-def _render(node: _Node) -> str:
-    if node.kind == "num":
-        return f"{node.value:g}"
-    if node.kind in ("x", "v"):
-        return f"{node.kind}{node.value}"
-    if node.kind == "neg":
-        return f"-({_render(node.args[0])})" if node.args[0].kind == "bin" else f"-{_render(node.args[0])}"
-    if node.kind == "func":
-        return f"{node.value}({_render(node.args[0])})"
-    left, right = (_render(a) for a in node.args)
-    if node.args[0].kind == "bin" and str(node.value) in "*/**":
-        left = f"({left})"
-    if node.args[1].kind == "bin" or (str(node.value) in "-/" and node.args[1].kind == "neg"):
-        right = f"({right})"
-    return f"{left}{node.value}{right}"
 
 
 _BINARY = {
@@ -395,7 +245,7 @@ def _small_power(a: np.ndarray, p: int):
     return square if p == 2 else square * a if p == 3 else square * square
 
 
-def _compile(node: _Node) -> Callable:
+def _compile(node: Node) -> Callable:
     kind = node.kind
     if kind == "num":
         c = float(node.value)
@@ -412,6 +262,9 @@ def _compile(node: _Node) -> Callable:
     if kind == "func":
         fn, f = _FUNCTIONS[str(node.value)], _compile(node.args[0])
         return lambda x, v: fn(f(x, v))
+    if kind == "memory":  # along axis 0 of the displacement it follows, from z = 0 (module notes)
+        shape, g = node.shape, _compile(node.args[0])
+        return lambda x, v: boucwen_path(shape, np.asarray(g(x, v), dtype=float))  # type: ignore[arg-type]
     f, g = (_compile(a) for a in node.args)
     if node.value == "**":
         p = float(node.args[1].value)

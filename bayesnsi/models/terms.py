@@ -85,9 +85,9 @@ class Term:
             loc[self.at[1] - 1] = -1.0
         return loc
 
-    def evaluate(self, x, v) -> np.ndarray:
-        """Basis function n(x, v); see :meth:`Expression.evaluate` for the DOF-major layout."""
-        return self.expr.evaluate(x, v)
+    def evaluate(self, x, v, periodic: bool = False) -> np.ndarray:
+        """Basis function n(x, v); see :meth:`Expression.evaluate` for the DOF-major layout and ``periodic``."""
+        return self.expr.evaluate(x, v, periodic)
 
     def __str__(self) -> str:
         return self.name

@@ -171,6 +171,7 @@ class _Realisation:
         averaged = Signals(
             force=self.force_time, displacement=_time(x_spec, period), velocity=_time(v_spec, period),
             fs=signals.fs, input_dofs=signals.input_dofs, output_dofs=signals.output_dofs,
+            period=period,  # one period: a term with memory is evaluated in periodic steady state
         )
         spectra = np.fft.rfft(extended_input(averaged, self.terms, self.velocity_method, "sample"), axis=0) / period
         spectra[:, : self.f_mean.shape[1]] = self.f_mean

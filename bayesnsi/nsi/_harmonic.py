@@ -7,7 +7,8 @@ its closed-loop response is the periodic solution of
 
 on those lines, with x(t) the inverse DFT of X (the other lines empty, in prediction as in the
 fitted model) and ẋ its exact spectral derivative, the basis evaluated as in identification
-(point values, as :func:`bayesnsi.nsi.feedback.extended_input` takes them). No initial state is estimated and
+(point values, as :func:`bayesnsi.nsi.feedback.extended_input` takes them; a term with memory in its
+periodic steady state over the period, docs/method.md §12). No initial state is estimated and
 nothing is integrated in time: a time simulation of the black-box model from a state fixed on a
 few samples diverged within the first samples on the simulated ground vibration test for every
 friction model, while this solution is what the test measured after its transient periods. The
@@ -195,29 +196,88 @@ def periodic_closed_loop(result, signals: Signals, free=None) -> np.ndarray:
 
     extra = np.zeros((2, period, n_out)) if free is None else np.asarray(free, dtype=float)[:, :period]
 
-    def update(X):
+    def inputs(X):
         x, v = time_of(X)
-        x, v = x + extra[0], v + extra[1]
-        u_n = np.fft.rfft(_basis(result, x, v), axis=0)[lines] / period
-        return linear + np.einsum("koq,kq->ko", G[:, :, m:], u_n)
+        return np.fft.rfft(_basis(result, x + extra[0], v + extra[1]), axis=0)[lines] / period
+
+    def update(X):
+        return linear + np.einsum("koq,kq->ko", G[:, :, m:], inputs(X))
 
     X = linear
     if result.terms:
         switching = tuple(t.name for t in result.terms if t.expr.switches_with_velocity)
-        X = _solve(update, linear, result.candidate.name, switching)
+        start = linear
+        if any(t.expr.memory is not None for t in result.terms):
+            update, start = _memory_linearised(result, G[:, :, m:], linear, inputs, time_of)
+        X = _solve(update, start, result.candidate.name, switching)
     x, _ = time_of(X)
     return np.tile(x + extra[0], (signals.n_samples // period, 1))
 
 
 def _basis(result, x: np.ndarray, v: np.ndarray) -> np.ndarray:
     """``-n_i(x, v)`` of the model's terms on its own response (n_samples, q); a term that is zero there (a
-    clearance whose gap the motion never reaches) is a zero force, not an identification failure."""
+    clearance whose gap the motion never reaches) is a zero force, not an identification failure. The
+    samples are one period: a term with memory is its periodic steady state (docs/method.md §12)."""
     rows = {int(d) - 1: k for k, d in enumerate(result.output_dofs)}
     xs = {row: x[:, k] for row, k in rows.items()}
     vs = {row: v[:, k] for row, k in rows.items()}
-    columns = [-np.broadcast_to(np.asarray(term.expr.function(xs, vs), dtype=float), (len(x),))
+    columns = [-np.broadcast_to(np.asarray(term.evaluate(xs, vs, periodic=True) if term.expr.memory is not None
+                                           else term.expr.function(xs, vs), dtype=float), (len(x),))
                for term in result.terms]
     return np.column_stack(columns) if columns else np.zeros((len(x), 0))
+
+
+def _memory_linearised(result, G_n: np.ndarray, linear: np.ndarray, inputs, time_of, passes: int = 4):
+    """The harmonic-balance map with the Bouc-Wen terms' equivalent linear part moved to the left, and its start.
+
+    A hysteretic term ``λ z`` is stiff at small amplitude (dz/dx = 1): its feedback through the
+    underlying linear model has a loop gain far above one near the linear model's resonance, which
+    repels the damped fixed point. With ``-n_i ≈ -κ_i a_i(x)`` (``a_i = c_i · x`` the displacement the
+    term follows, ``κ_i`` its complex equivalent stiffness per unit λ on a periodic response, least
+    squares over the positive lines: its imaginary part is the loop's dissipation) the equation
+    ``X = L + G_N U(X)`` is solved as ``X = (I + G_N K)⁻¹ (L + G_N (U(X) + K X))`` per line,
+    ``K[i] = κ_i c_i``: the same fixed points, a contracting map when K is the equivalent stiffness
+    at the solution. K is found by ``passes`` rounds of the equivalent linearisation (describing
+    function): K at X, then X = (I + G_N K)⁻¹ L; that X is the start.
+
+    Returns
+    -------
+    (callable, ndarray)
+        The map and its start.
+    """
+    rows = np.array(result.output_dofs) - 1
+    n_dofs = int(max(max(rows) + 1, max(max(t.dofs) for t in result.terms)))
+    n_out = len(rows)
+    unit = np.zeros((n_dofs, n_out))
+    unit[rows, np.arange(n_out)] = 1.0
+    directions = [None if t.expr.memory_argument is None else np.asarray(t.expr.memory_argument(unit, unit), float)
+                  for t in result.terms]
+
+    def equivalent(X):
+        x = time_of(X)[0]
+        states = np.zeros((n_dofs, len(x)))
+        states[rows] = x.T
+        positive = slice(1, len(x) // 2)
+        gain = np.zeros((len(result.terms), n_out), dtype=complex)
+        for i, (term, direction) in enumerate(zip(result.terms, directions)):
+            if direction is None:
+                continue
+            along = np.fft.rfft(np.asarray(term.expr.memory_argument(states, states), dtype=float))[positive]
+            z = np.fft.rfft(term.evaluate(states, states, periodic=True))[positive]
+            power = float(np.real(np.vdot(along, along)))
+            gain[i] = (np.vdot(along, z) / power if power > 0 else 0.0) * direction
+        return gain, np.eye(n_out)[None] + np.einsum("koq,qj->koj", G_n, gain)
+
+    X = linear
+    for _ in range(passes):
+        gain, system = equivalent(X)
+        X = np.linalg.solve(system, linear[..., None])[..., 0]
+
+    def update(X):
+        right = linear + np.einsum("koq,kq->ko", G_n, inputs(X) + X @ gain.T)
+        return np.linalg.solve(system, right[..., None])[..., 0]
+
+    return update, X
 
 
 def _solve(update, start: np.ndarray, name: str, switching: tuple[str, ...] = ()) -> np.ndarray:
@@ -344,7 +404,7 @@ def periodic_affine(result, signals: Signals) -> tuple[np.ndarray, np.ndarray, n
     one = Signals(force=np.fft.irfft(force.mean(axis=0) * period, period, axis=0),
                   displacement=np.fft.irfft(x_mean * period, period, axis=0),
                   velocity=np.fft.irfft(v_spec * period, period, axis=0), fs=signals.fs,
-                  input_dofs=result.input_dofs, output_dofs=result.output_dofs)
+                  input_dofs=result.input_dofs, output_dofs=result.output_dofs, period=period)
     u_n = np.fft.rfft(extended_input(one, result.terms, "fourth", "sample")[:, m:], axis=0)[lines] / period
     per_unit = G[:, :, m:] / result.coefficient_values[None, None, :] * u_n[:, None, :]  # (K, l, q)
     signatures = time_of(np.broadcast_to(per_unit, (n_periods,) + per_unit.shape))

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..exceptions import UnstableModelError
+from ..models.hysteresis import boucwen_step
 
 __all__ = ["closed_loop_response", "divergence_bound"]
 
@@ -23,7 +24,10 @@ def closed_loop_response(
     """The identified model's free response in closed loop: its displacements and velocities (docs/method.md §5).
 
     The nonlinear inputs ``n_i`` are evaluated on the model's own output displacements and
-    velocities (velocity output ``C A_c x``) at each sample, on the model's grid. A third axis of
+    velocities (velocity output ``C A_c x``) at each sample, on the model's grid. A term with
+    memory (``boucwen``, docs/method.md §12) is an internal state of the model: z = 0 at the first
+    sample, advanced from sample to sample along the model's output displacement by the rule of
+    its identification (:func:`bayesnsi.models.hysteresis.boucwen_step`). A third axis of
     ``force`` simulates that many records at once (one pass over the samples).
 
     Parameters
@@ -84,7 +88,7 @@ def closed_loop_response(
     b_force, d_force = B[:, :m], D[:, :m]
     outputs = np.vstack([C, c_vel])  # displacement and velocity outputs in one product
     x = np.array(np.broadcast_to(np.asarray(x0, dtype=float).reshape(A.shape[0], -1), (A.shape[0], n_rec)))
-    functions = [term.expr.function for term in terms]
+    functions = [_Memory(term.expr, n_rec) if term.expr.memory is not None else term.expr.function for term in terms]
     if averaged:
         out, vel = _interval_mean_loop(A, (b_force, b_nl, d_force), outputs, force, functions, x, rows, n_dofs,
                                        (bound, 1.0 / fs, int(subsamples), result.candidate.name, int(stride)))
@@ -103,6 +107,9 @@ def closed_loop_response(
                 xs[rows] = yk
                 for idx, function in enumerate(functions):
                     nl[idx] = function(xs, vs)
+            for function in functions:
+                if isinstance(function, _Memory):
+                    function.commit()
             if k % stride == 0:
                 out[k // stride], vel[k // stride] = yk, vs[rows]
             x = A @ x + b_force @ force[k] - b_nl @ nl
@@ -141,6 +148,38 @@ def _check_bounded(x: np.ndarray, k: int, n_samples: int, bound: float, name: st
         )
 
 
+class _Memory:
+    """A ``boucwen`` term's state in a closed-loop simulation: z and the displacement it last followed."""
+
+    def __init__(self, expr, n_rec: int) -> None:
+        self.shape, self.argument = expr.memory, expr.memory_argument
+        self.z = np.zeros(n_rec)
+        self.at: np.ndarray | None = None
+        self.pending: tuple[np.ndarray, np.ndarray] | None = None
+
+    def advanced(self, xs, vs) -> tuple[np.ndarray, np.ndarray]:
+        """z at the displacement of ``xs`` (not kept) and that displacement."""
+        at = np.array(self.argument(xs, vs), dtype=float)  # a copy: the argument may be a view of ``xs``
+        return (self.z.copy() if self.at is None else boucwen_step(self.shape, self.z, at - self.at)), at
+
+    def __call__(self, xs, vs) -> np.ndarray:
+        """z at the current sample, kept by :meth:`commit` (the last call of a fixed-point iteration wins)."""
+        self.pending = self.advanced(xs, vs)
+        return self.pending[0]
+
+    def commit(self) -> None:
+        if self.pending is not None:
+            self.z, self.at = self.pending
+            self.pending = None
+
+    def interval(self, start, end, vs) -> np.ndarray:
+        """The trapezoid mean of z over an interval from the displacement ``start`` to ``end``; keeps z at its start."""
+        self(start, vs)
+        self.commit()
+        z_end = boucwen_step(self.shape, self.z, np.array(self.argument(end, vs), dtype=float) - self.at)
+        return 0.5 * (self.z + z_end)
+
+
 def _interval_mean_loop(A, gains, outputs, force, functions, x, rows, n_dofs, settings):
     """:func:`closed_loop_response` with interval-mean nonlinear inputs (predictor-corrector per sample)."""
     (b_force, b_nl, d_force), (bound, dt, subsamples, name, stride) = gains, settings
@@ -151,6 +190,7 @@ def _interval_mean_loop(A, gains, outputs, force, functions, x, rows, n_dofs, se
     out, vel = _kept_arrays(n_samples, stride, n_out, n_rec)
     xs = np.full((n_dofs, subsamples, n_rec), np.nan)
     vs = np.full((n_dofs, subsamples, n_rec), np.nan)
+    ends = np.full((2, n_dofs, n_rec), np.nan)  # the interval's start and end, for a term with memory
     nl = np.zeros((len(functions), n_rec))
     with np.errstate(over="ignore", invalid="ignore"):  # a diverging state is caught every 64 samples
         for k in range(n_samples):
@@ -163,7 +203,11 @@ def _interval_mean_loop(A, gains, outputs, force, functions, x, rows, n_dofs, se
             y0, v0, y1, v1 = y_now[:, None], v_now[:, None], ahead[:n_out, None], ahead[n_out:, None]
             xs[rows] = h00 * y0 + h10 * v0 + h01 * y1 + h11 * v1
             vs[rows] = v0 + s * (v1 - v0)
+            ends[0][rows], ends[1][rows] = y_now, ahead[:n_out]
             for idx, function in enumerate(functions):
+                if isinstance(function, _Memory):
+                    nl[idx] = function.interval(ends[0], ends[1], None)
+                    continue
                 value = function(xs, vs)
                 nl[idx] = add(value, axis=0) * weight if np.ndim(value) == 2 else value  # a constant: itself
             x = free - b_nl @ nl

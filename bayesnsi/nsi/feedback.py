@@ -45,7 +45,9 @@ def extended_input(
         ``subsamples`` points with displacement interpolated by cubic Hermite polynomials (using
         the velocities as slopes) and velocity linearly. "average" suits discontinuous terms,
         "sample" smooth ones (measurements in ``docs/measurements.md``); "auto" (default) takes
-        "average" when a term contains sign(), else "sample".
+        "average" when a term contains sign(), else "sample". A ``boucwen`` term (memory,
+        docs/method.md §12) is integrated along the sampled displacement; its interval mean is
+        the trapezoid of its point values.
     subsamples : int
         Quadrature points per interval for "average".
 
@@ -80,12 +82,15 @@ def extended_input(
     if input_hold == "average":
         v_dofs = sorted(set(v_dofs) | set(x_dofs))  # Hermite interpolation uses the slopes
     x, v = signals.state_rows(x_dofs, v_dofs, velocity_method)
+    periodic = signals.period is not None and signals.period == signals.n_samples  # one period: steady state
     columns = [force]
     for term in terms:
         if term.expr.is_constant:  # an offset: the same force at every sample (exact interval mean)
             columns.append(np.full((len(force), 1), -float(term.expr.function({}, {}))))
             continue
-        if input_hold == "average":
+        if term.expr.memory is not None:
+            value = -_memory_input(term, x, v, periodic, input_hold == "average")
+        elif input_hold == "average":
             value = -_interval_mean(term, x, v, signals.dt, subsamples)
         else:
             value = -term.evaluate(x, v)
@@ -193,6 +198,19 @@ def _band_limited_interval_mean(signal: np.ndarray) -> np.ndarray:
     half_phase = np.pi * np.arange(spectrum.shape[0]) / n  # ωΔt/2
     gain = np.exp(1j * half_phase) * np.sinc(half_phase / np.pi)
     return np.fft.irfft(spectrum * gain[:, None], n=n, axis=0)
+
+
+def _memory_input(term: Term, x: dict, v: dict, periodic: bool, average: bool) -> np.ndarray:
+    """A ``boucwen`` term along the record: point values, or their trapezoid over each interval.
+
+    On a record of exactly one period (``periodic``) z is the periodic steady state and the last
+    interval closes the period; otherwise the last sample keeps its point value.
+    """
+    value = term.evaluate(x, v, periodic)
+    if not average:
+        return value
+    following = np.concatenate([value[1:], value[:1] if periodic else value[-1:]])
+    return 0.5 * (value + following)
 
 
 def _interval_mean(term: Term, x: dict, v: dict, dt: float, subsamples: int) -> np.ndarray:

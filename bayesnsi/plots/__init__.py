@@ -4,6 +4,7 @@ Axes carry units: pass ``units`` (:func:`bayesnsi.io.units.data_units` of a conf
 :class:`bayesnsi.io.units.ChannelUnits`); without them the axes say "data units".
 """
 
+from .hysteresis import plot_hysteresis_loop
 from .nsi import (
     plot_coefficient_spectra,
     plot_coefficient_spectrum,
@@ -36,4 +37,5 @@ __all__ = [
     "plot_posterior_pairs",
     "plot_traces",
     "plot_effect_force",
+    "plot_hysteresis_loop",
 ]

@@ -17,6 +17,7 @@ from .cases import (
 )
 from .excitation import Excitation, band_limited_gaussian, fft_interpolate, from_samples
 from .gvt import GVT_BAND_HZ, GVT_JOINT, GVT_SENSORS, GVT_SHAKER, GVTRecord, gvt_records, gvt_structure
+from .hysteretic import simulate_hysteretic_response
 from .integrate import Response, add_output_noise, simulate_response
 from .multisine import multisine, multisine_lines
 from .records import CaseSetup
@@ -51,6 +52,7 @@ __all__ = [
     # integration
     "Response",
     "simulate_response",
+    "simulate_hysteretic_response",
     "add_output_noise",
     "rk4_modal_error",
     # reference cases

@@ -186,6 +186,8 @@ def simulate_response(
     for term in terms:
         if max(term.dofs) > n:
             raise InputDataError(f"term {term.name} reads or acts on DOF {max(term.dofs)} but the model has {n} DOFs")
+        if term.expr.memory is not None:
+            raise InputDataError(f"term {term.name} has memory: simulate it with simulate_hysteretic_response")
 
     h = 2.0 / fs_fine
     n_out = (n_fine - 1) // decimation + 1

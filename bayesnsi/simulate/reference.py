@@ -23,6 +23,7 @@ import numpy as np
 from .._limits import check_allocation
 from ..exceptions import InputDataError
 from ..signals import Signals
+from .hysteretic import simulate_hysteretic_response
 from .integrate import Response, add_output_noise, simulate_response
 from .records import CaseSetup, ReferenceCase
 from .structures import modal_parameters
@@ -263,7 +264,9 @@ def run_setup(setup: CaseSetup, seeds: list, noise_percent: float) -> tuple[Refe
     rngs = [np.random.default_rng(s) for s in seeds]
     excitations = [setup.excitation(rng) for rng in rngs]
     force_fine = np.stack([e.fine for e in excitations]) * setup.force_factor
-    response = simulate_response(
+    hysteretic = any(t.expr.memory is not None for t in setup.terms)  # z as a state of the integration
+    simulator = simulate_hysteretic_response if hysteretic else simulate_response
+    response = simulator(
         setup.M,
         setup.C,
         setup.K,

@@ -16,8 +16,11 @@ name                            chain      declared                        missi
                                                                            (250 N/m)
 ``"two-missing"``               two-DOF    20·v1|v1| @1                    sign(v2) @2 (1 N) and
                                                                            x1³ @1 (5e5 N/m³)
+``"hysteresis"``                two-DOF    none (linear)                   boucwen(x1, β = 150, γ = -50) @1
+                                                                           (300 N/m)
 ``"control-two-dof"``           two-DOF    20·v1|v1| @1                    nothing
 ``"control-three-dof"``         three-DOF  (x1-x2)³ @1-2                   nothing
+``"control-hysteresis"``        two-DOF    300·boucwen(x1, ...) @1         nothing
 ==============================  =========  ==============================  ==================================
 
 Sizes (measured on seeds 0-4, 30 s, noise-free, by :func:`effect_sizes`: rms of the effect's
@@ -25,7 +28,8 @@ force over the rms of the linear restoring force ``(K w)_k`` at its DOF, or of t
 joining the pair): Coulomb at DOF 2 16-18 %, cubic pair 13-17 % (the lightly damped 1.85 Hz mode
 of the three-DOF chain makes its amplitude vary, see :func:`~bayesnsi.simulate.three_dof`),
 quadratic damping 25-27 %, clearance 21-30 % (|x2| exceeds the gap 33-42 % of the time),
-two-missing 16-18 % (Coulomb) and 21-29 % (cubic).
+two-missing 16-18 % (Coulomb) and 21-29 % (cubic), hysteresis 31-36 % (the Bouc-Wen element yields
+at 10 mm, about the std of x1; it dissipates more than the chain's 1 N s/m dampers).
 :func:`effect_sizes` recomputes them for any realisation.
 
 The clearance gap (15 mm) is a round number that is *not* on the loop's default gap grid
@@ -42,6 +46,7 @@ import numpy as np
 
 from ..exceptions import InputDataError
 from ..models.dictionary import clearance_expression
+from ..models.expressions import MEMORY
 from ..models.terms import CandidateModel, Term
 from ..options import NSIOptions
 from . import cases as _cases  # noqa: F401  (registers the two- and three-DOF chains)
@@ -173,6 +178,7 @@ _COULOMB2 = ("sign(v)", Term("sign(v2)", 2), 1.0)
 _CUBIC12_3DOF = ("x^3", Term("(x1-x2)**3", [1, 2]), 2.0e5)
 _CUBIC1_2DOF = ("x^3", Term("x1**3", 1), 5.0e5)
 _CLEARANCE2 = ("clearance", Term(clearance_expression("x2", _CLEARANCE_GAP), 2), _CLEARANCE_STIFFNESS)
+_BOUCWEN1 = (MEMORY, Term("boucwen(x1, beta=150, gamma=-50)", 1), 300.0)  # N/m; yields at 1/(β+γ) = 10 mm
 
 # name -> (title, chain, declared [(type, term, coef)], missing [(type, term, coef)]); the chain is
 # the reference case of that name (structure, force and output DOFs, recommended NSI settings)
@@ -198,6 +204,10 @@ _DEFINITIONS: dict[str, tuple] = {
         "and cubic spring at DOF 1",
         "two-dof", [_QUAD], [_COULOMB2, _CUBIC1_2DOF],
     ),
+    "hysteresis": (
+        "Two-DOF chain, declared linear, undeclared Bouc-Wen hysteretic ground spring at DOF 1",
+        "two-dof", [], [_BOUCWEN1],
+    ),
     "control-two-dof": (
         "Negative control: two-DOF chain, declared = truth (quadratic damping at DOF 1)",
         "two-dof", [_QUAD], [],
@@ -205,6 +215,10 @@ _DEFINITIONS: dict[str, tuple] = {
     "control-three-dof": (
         "Negative control: three-DOF chain, declared = truth (cubic spring between DOFs 1 and 2)",
         "three-dof", [_CUBIC12_3DOF], [],
+    ),
+    "control-hysteresis": (
+        "Negative control: two-DOF chain, declared = truth (Bouc-Wen hysteretic ground spring at DOF 1)",
+        "two-dof", [_BOUCWEN1], [],
     ),
 }
 

@@ -1,0 +1,168 @@
+"""The Bouc-Wen elements of the loop's dictionary: which grid points a search scores, and their shape search.
+
+A Bouc-Wen element (docs/method.md §12) comes in nine grid shapes per location
+(:func:`bayesnsi.models.default_shapes`): variants of one effect. The screen's places go to the
+effects without memory, and the best-ranked grid point of each location is re-identified besides
+them (:func:`screened_shapes`; the next ones when it fails to identify, :func:`shape_fallbacks`);
+a grid point that beats the model and every effect without memory has its shape searched off the
+grid (:func:`search_shape`). The functions take the scorer of one effect (an :class:`EffectScore`
+of the enlarged model) from :mod:`bayesnsi.loop.scoring`, which calls them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+
+import numpy as np
+
+from ..models import BoucWen, Effect
+from ..models.dictionary import hysteresis_effect, hysteretic_shape
+from .results import EffectScore
+
+__all__ = ["SHAPE_RESOLUTION", "SHAPE_STEPS", "displacement_spread", "screened_shapes", "search_shape",
+           "shape_fallbacks"]
+
+SHAPE_STEPS = (0.5, 0.55)
+"""First steps of the Bouc-Wen shape search in ``asinh((β + γ) σ)`` and ``log((β - γ) σ)`` (σ: std of the
+displacement the element acts on); about half the default grid's spacing."""
+SHAPE_RESOLUTION = 1.0 / 16
+"""The search stops once its steps are this fraction of :data:`SHAPE_STEPS`."""
+
+
+def displacement_spread(signals, effect: Effect) -> float:
+    """Std σ of the displacement a Bouc-Wen effect acts on, on ``signals`` (NaN for another effect).
+
+    Parameters
+    ----------
+    signals : Signals
+    effect : Effect
+
+    Returns
+    -------
+    float
+    """
+    expr = effect.term.expr
+    if expr.memory_argument is None:
+        return float("nan")
+    rows, _ = signals.state_rows(list(expr.displacement_dofs), [])
+    return float(np.std(expr.memory_argument(rows, {})))
+
+
+def search_shape(entry: EffectScore, score: Callable[[Effect], EffectScore], sigma: float,
+                 budget: int = 30) -> EffectScore:
+    """Refine the shape of a Bouc-Wen effect off the grid by its Laplace log-evidence (docs/method.md §12).
+
+    A compass search over the loading and unloading branches, in ``asinh((β + γ) σ)`` and
+    ``log((β - γ) σ)``: the four neighbours at the current steps are scored, the best that beats the
+    current point becomes it, and the steps halve when none does, until they reach
+    :data:`SHAPE_RESOLUTION` of :data:`SHAPE_STEPS` or ``budget`` identifications were made. Only
+    shapes with memory are tried (:func:`bayesnsi.models.dictionary.hysteretic_shape`: β > 0 and at
+    least |γ|/2, a loading branch that hardens no faster than ``HARDENING_LIMIT``); a shape whose
+    identification fails (e.g. its underlying linear model comes out unstable: a hysteresis that
+    dissipates too much leaves the linear damping negative) scores −inf and is passed over. n is kept.
+
+    Parameters
+    ----------
+    entry : EffectScore
+        A scored Bouc-Wen effect (any other effect is returned as it is).
+    score : callable
+        ``score(effect) -> EffectScore``: the candidate with ``effect`` added, identified and scored.
+    sigma : float
+        Std of the displacement the element acts on (:func:`displacement_spread`).
+    budget : int
+        Most identifications.
+
+    Returns
+    -------
+    EffectScore
+        The best entry found (``entry`` itself when nothing beats it).
+    """
+    shape, at = entry.effect.shape, entry.effect.location
+    if shape is None or shape.unloading <= 0 or not sigma > 0:
+        return entry
+    best, seen = entry, {entry.term.name}
+    steps = list(SHAPE_STEPS)
+    while budget > 0 and steps[0] >= SHAPE_RESOLUTION * SHAPE_STEPS[0]:
+        current = best.effect.shape
+        assert current is not None
+        point = (np.arcsinh(current.loading * sigma), np.log(current.unloading * sigma))
+        moved = False
+        for axis, sign in ((0, 1), (0, -1), (1, 1), (1, -1)):
+            trial_point = list(point)
+            trial_point[axis] += sign * steps[axis]
+            trial_shape = BoucWen.from_branches(np.sinh(trial_point[0]) / sigma, np.exp(trial_point[1]) / sigma,
+                                                current.n)
+            if not hysteretic_shape(trial_shape, sigma) or budget <= 0:
+                continue
+            trial_effect = hysteresis_effect(at, trial_shape)
+            if trial_effect.term.name in seen:
+                continue
+            seen.add(trial_effect.term.name)
+            budget -= 1
+            trial = score(trial_effect)
+            if trial.log_evidence > best.log_evidence:
+                best, moved = trial, True
+        if not moved:
+            steps = [step / 2 for step in steps]
+    return best
+
+
+def screened_shapes(ordered: list[Effect], count: int) -> list[Effect]:
+    """The effects a screen keeps: its ``count`` best without memory, and the best Bouc-Wen grid point of each location.
+
+    Parameters
+    ----------
+    ordered : list of Effect
+        The effects in screen order, best first.
+    count : int
+        The screen's places (``LoopOptions.screen``).
+
+    Returns
+    -------
+    list of Effect
+    """
+    kept = [e for e in ordered if e.shape is None][:count]
+    located: set = set()
+    for e in ordered:
+        if e.shape is not None and e.location not in located:
+            located.add(e.location)
+            kept.append(e)
+    return kept
+
+
+def shape_fallbacks(scored: list[EffectScore], rest: list[EffectScore], score: Callable[[Effect], EffectScore],
+                    tries: int = 3) -> tuple[list[EffectScore], list[EffectScore]]:
+    """At a location whose screened Bouc-Wen grid point failed, the next grid points there, until one identifies.
+
+    Parameters
+    ----------
+    scored : list of EffectScore
+        The re-identified effects.
+    rest : list of EffectScore
+        The screened-out ones, in screen order.
+    score : callable
+        As in :func:`search_shape`.
+    tries : int
+        Most grid points tried per location.
+
+    Returns
+    -------
+    (list of EffectScore, list of EffectScore)
+        ``scored`` (best first) and ``rest`` with the entries moved from the one to the other.
+    """
+    finite = {e.effect.location for e in scored if e.effect.shape is not None and np.isfinite(e.log_evidence)}
+    failed = {e.effect.location for e in scored if e.effect.shape is not None} - finite
+    if not failed:
+        return scored, rest
+    scored, rest = list(scored), list(rest)
+    for location in sorted(failed):
+        for waiting in [r for r in rest if r.effect.shape is not None and r.effect.location == location][:tries]:
+            rest.remove(waiting)
+            entry = score(waiting.effect)
+            scored.append(replace(entry, screen_rank=waiting.screen_rank, screen_score=waiting.screen_score,
+                                  screen_view=waiting.screen_view, screen_location=waiting.screen_location))
+            if np.isfinite(entry.log_evidence):
+                break
+    scored.sort(key=lambda item: item.log_evidence, reverse=True)
+    return scored, rest

@@ -360,7 +360,7 @@ def adequacy_findings(
             f"the selected model {selected!r} holds {', '.join(chosen.unresolved)} whose quality index exceeds "
             f"{max_imag_ratio:g} but is not resolved against the model's misfit (its residual is "
             f"{chosen.noise_ratio:.3g}x the noise): the index cannot judge it (docs/method.md §7)",
-            subject, values={"terms": list(chosen.unresolved), "limit": max_imag_ratio}))
+            subject, values={"terms": tuple(chosen.unresolved), "limit": max_imag_ratio}))
     if chosen is not None and not chosen.quality_ok:
         out.append(Finding(
             "adequacy.quality_index",

@@ -27,7 +27,7 @@ frequency route; ``bayesnsi diagnose --start linear`` adds nothing (every effect
 noise, not the model error; select widens the intervals of an inadequate model by its residual
 over the noise (7.2x here: ±6.2 %, docs/method.md §11).
 
-    .venv/bin/python benchmarks/hysteresis_trial.py --out /tmp/bw
+    .venv/bin/python benchmarks/bouc_wen.py --out /tmp/bw
     .venv/bin/bayesnsi select /tmp/bw/bw.toml --out /tmp/bw/sel
     .venv/bin/bayesnsi diagnose /tmp/bw/bw.toml --start linear --out /tmp/bw/loop
 """
@@ -46,7 +46,7 @@ M, C, K = 2.0, 10.0, 5e4
 ALPHA, BETA, GAMMA, DELTA = 5e4, 1e3, 0.8, -1.1
 FS, P, UP = 750.0, 8192, 20
 
-CONFIG = """# Bouc-Wen benchmark system (benchmarks/hysteresis_trial.py): the files as the benchmark ships them
+CONFIG = """# Bouc-Wen benchmark system (benchmarks/bouc_wen.py): the files as the benchmark ships them
 seed = 0
 [data]
 files = {{ u = "uest.csv", y = "yest.csv" }}

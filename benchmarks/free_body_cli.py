@@ -24,7 +24,7 @@ before and after (force prediction for a one-DOF free body, else the measured qu
 loop), the number of warnings select gave, and the loop's short-horizon simulation error (1 s
 windows) before and after (free bodies).
 
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/free_body_trial.py --out /tmp/fbtrial-bench [--cases twomass-1um]
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/free_body_cli.py --out /tmp/fbtrial-bench [--cases twomass-1um]
 """
 
 from __future__ import annotations

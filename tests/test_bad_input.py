@@ -20,6 +20,7 @@ from bayesnsi.exceptions import (
 from bayesnsi.models import parse_expression
 from bayesnsi.nsi import StateSpaceModel
 from bayesnsi.options import EvidenceOptions, NSIOptions
+from tests._helpers.experiments import experiment_config as _experiment
 
 RNG = np.random.default_rng(0)
 F, X = RNG.standard_normal((400, 1)), RNG.standard_normal((400, 2))
@@ -106,28 +107,6 @@ def test_empty_candidate_name_and_duplicate_terms():
 
 # ---------------------------------------------------------------------------------------------
 # the rest of the catalogue (issue 6): files and configs, candidate lists, physics, MCMC, CLI
-
-
-def _experiment(folder, edit=None, csv_columns=None):
-    """A small valid experiment (CSV + config) in ``folder``, optionally edited; returns the config path."""
-    from bayesnsi.io import dump_config
-
-    n = 300
-    rng = np.random.default_rng(1)
-    columns = csv_columns or {"f2": rng.normal(size=n), "x1": rng.normal(size=n), "x2": rng.normal(size=n)}
-    lines = [",".join(["t", *columns])]
-    lines += [",".join([repr(k / 100.0)] + [repr(float(v[k])) for v in columns.values()]) for k in range(n)]
-    (folder / "data.csv").write_text("\n".join(lines) + "\n")
-    raw = {
-        "data": {"file": "data.csv", "fs": 100.0, "inputs": {"f2": 2}, "outputs": {"x1": 1, "x2": 2}},
-        "nsi": {"block_rows": 10, "order": 4},
-        "candidates": [{"name": "cubic", "terms": [{"expr": "x1**3", "at": 1}]}],
-    }
-    if edit is not None:
-        edit(raw)
-    path = folder / "experiment.toml"
-    path.write_text(dump_config(raw))
-    return path
 
 
 def _set(section, key, value):

@@ -1,7 +1,7 @@
 """Adequacy of a free body (issue 14): its force residual against the force noise, not the drift.
 
 The records are a carriage without spring, ``M q'' + Fv q' + Fc sign(q') = tau``, held by a PD
-position loop running at 10x the output rate (semi-implicit Euler, as in tests/test_free_body.py); the
+position loop running at 10x the output rate (semi-implicit Euler, as in tests/_helpers/carriage.py); the
 applied force carries a smooth disturbance (below the filter's band edge, so it is force the model
 must explain) and the *recorded* force a white sensor noise of known std ``SIGMA_F`` that the
 carriage never feels. Reference for the noise level: ``SIGMA_F`` times the noise gain of the
@@ -135,7 +135,7 @@ def test_parallel_filtering_of_the_nonlinear_columns():
     assert rms(fs=FS, cutoff_hz=cutoff) < 0.4 * rms()
 
 
-EMPS = Path(__file__).resolve().parents[2] / "shared" / "data" / "emps" / "DATA_EMPS.mat"
+EMPS = Path(__file__).resolve().parents[3] / "shared" / "data" / "emps" / "DATA_EMPS.mat"
 
 
 @pytest.mark.skipif(not EMPS.exists(), reason="EMPS data not present")

@@ -35,8 +35,11 @@ from bayesnsi import cli
 from bayesnsi.exceptions import BayesNSIError, ConfigError
 from bayesnsi.io import dump_config, load_config
 from bayesnsi.options import EvidenceOptions, LoopOptions
-
-from .test_fuzz import _SANE, CACHE_EXAMPLES, FOLDER, _outcome, _patched, _scalars
+from tests._helpers.fuzz import CACHE_EXAMPLES, FOLDER
+from tests._helpers.fuzz import SANE as _SANE
+from tests._helpers.fuzz import outcome as _outcome
+from tests._helpers.fuzz import patched as _patched
+from tests._helpers.fuzz import scalars as _scalars
 
 # ---------------------------------------------------------------------------------------------
 # [evidence] and [diagnose] tables

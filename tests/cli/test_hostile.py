@@ -16,9 +16,8 @@ import pytest
 from bayesnsi.cli import main
 from bayesnsi.exceptions import OutputExistsError
 from bayesnsi.io.results import output_folder
-
-from .test_bad_input import _experiment
-from .test_reliability import EXTRA_CANDIDATES, default_signals
+from tests._helpers.experiments import EXTRA_CANDIDATES, default_signals
+from tests._helpers.experiments import experiment_config as _experiment
 
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 CLI = [sys.executable, "-m", "bayesnsi.cli"]

@@ -12,8 +12,7 @@ import pytest
 
 from bayesnsi._text import printable
 from bayesnsi.cli import main
-
-from .test_bad_input import _experiment
+from tests._helpers.experiments import experiment_config as _experiment
 
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 

@@ -3,7 +3,7 @@
 References are independent of the collapsed formulas: the joint log posterior of
 :class:`~bayesnsi.evidence._target.Target` integrated over (log σ, ρ) by brute-force Gauss-Legendre
 quadrature at fixed λ; the closed-form evidence of the affine model (itself checked against brute
-force in tests/test_evidence.py); and the joint emcee + bridge estimator the collapsed one replaced.
+force in tests/evidence/test_evidence.py); and the joint emcee + bridge estimator the collapsed one replaced.
 """
 
 import numpy as np
@@ -22,9 +22,8 @@ from bayesnsi.evidence import (
 )
 from bayesnsi.evidence._target import Target
 from bayesnsi.evidence.collapsed import CollapsedTarget
-
-from .conftest import base_seed
-from .test_evidence import make_affine, make_priors
+from tests._helpers.affine import make_affine, make_priors
+from tests._helpers.cases import base_seed
 
 QUICK = {"n_walkers": 32, "n_steps": 600, "n_burn": 100}
 

@@ -12,13 +12,11 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 from scipy.linalg import toeplitz
-from scipy.signal import lfilter
 
 from bayesnsi.evidence import (
     ARPrior,
     CoefficientPrior,
     NoisePrior,
-    Priors,
     closed_form_log_evidence,
     coefficient_prior,
     compare_evidence,
@@ -38,44 +36,14 @@ from bayesnsi.evidence import (
 )
 from bayesnsi.exceptions import ConvergenceWarning, InputDataError, ShapeError
 from bayesnsi.nsi import AffineReconstruction
-
-from .conftest import base_seed
+from tests._helpers.affine import make_affine, make_priors
+from tests._helpers.cases import base_seed
 
 # tolerances, named by meaning
 EXACT_REL = 1e-9  # sufficient statistics vs direct sums (floating point only)
 EVIDENCE_NAT = 0.1  # SPEC/EVIDENCE: accept max(0.1 nat, 3 SE) against the exact value
 LAPLACE_NAT = 0.1  # EVIDENCE.md: Laplace is a cross-check within 0.1 nat on these problems
 QUICK = {"n_walkers": 32, "n_steps": 1000, "n_burn": 200}  # shorter runs keep the suite fast
-
-
-def make_affine(n_samples, n_channels, q, rng, sigma=0.5, rho=0.0, coefficients=None, smooth=False):
-    """Synthetic affine reconstruction ``y = ŷ₀ + G λ + e`` with Gaussian (AR(1)) noise ``e``.
-
-    The NSI estimate is replaced by the least-squares estimate, as NSI would give.
-    """
-    g = rng.standard_normal((n_samples, n_channels, q))
-    if smooth:  # low-pass signatures, like structural responses
-        kernel = np.hanning(15)
-        g = np.apply_along_axis(lambda x: np.convolve(x, kernel, mode="same"), 0, g)
-    lam = rng.standard_normal(q) if coefficients is None else np.asarray(coefficients, dtype=float)
-    noise = sigma * rng.standard_normal((n_samples, n_channels))
-    if rho:  # stationary AR(1): e_0 ~ N(0, σ²/(1-ρ²)), e_t = ρ e_{t-1} + w_t
-        noise[0] /= np.sqrt(1 - rho**2)
-        noise = lfilter([1.0], [1.0, -rho], noise, axis=0)
-    baseline = rng.standard_normal((n_samples, n_channels))
-    measured = baseline + g @ lam + noise
-    ls = np.linalg.lstsq(g.reshape(-1, q), (measured - baseline).reshape(-1), rcond=None)[0] if q else lam
-    return AffineReconstruction(
-        measured=measured, baseline=baseline, signatures=g, estimate=ls, names=tuple(f"k{i}" for i in range(q))
-    )
-
-
-def make_priors(affine, scale=3.0):
-    q = affine.signatures.shape[2]
-    return Priors(
-        coefficients=CoefficientPrior(affine.names, np.full(q, scale)),
-        noise=NoisePrior.from_std(affine.measured.std(axis=0)),
-    )
 
 
 def residuals(affine, lam):

@@ -18,8 +18,7 @@ from bayesnsi.noise import measured_noise_std
 from bayesnsi.nsi.reconstruct import initial_state
 from bayesnsi.nsi.statespace import StateSpaceModel, decay_lengths
 from bayesnsi.signals import Signals
-
-from .test_evidence import make_affine, make_priors
+from tests._helpers.affine import make_affine, make_priors
 
 
 def _damped_model(rng) -> StateSpaceModel:

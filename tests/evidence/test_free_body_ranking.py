@@ -5,7 +5,7 @@ it predicts from the measured motion, with the inverse model's linear part ``[a,
 mass, viscous damping, stiffness and the constant force offset - profiled out
 (:func:`bayesnsi.evidence.candidate_affine`, docs/method.md §11). Reference record: a carriage
 with Coulomb friction and an offset in a PD position loop, integrated independently here (fine-step
-semi-implicit Euler, as tests/test_free_body.py). On the measured EMPS axis (skipped without the
+semi-implicit Euler, as tests/_helpers/carriage.py). On the measured EMPS axis (skipped without the
 data) the same likelihood ranks direction-dependent viscous friction above the symmetric curvature
 v|v| (benchmarks/emps_ranking.py: the six velocity plateaus give Fv 155 forwards, 229 N s/m
 backwards).
@@ -27,7 +27,7 @@ from bayesnsi.signals import Signals
 
 FS = 200.0
 FAST = EvidenceOptions(n_steps=300, n_burn=100, likelihood="ar1", compare=())
-EMPS = Path(__file__).resolve().parents[2] / "shared" / "data" / "emps" / "DATA_EMPS.mat"
+EMPS = Path(__file__).resolve().parents[3] / "shared" / "data" / "emps" / "DATA_EMPS.mat"
 
 
 def _carriage(seed=1, duration=60.0, sub=10, mass=95.0, fv=200.0, fc=20.0, offset=-3.0):
@@ -98,7 +98,7 @@ def test_emps_direction_dependent_damping_beats_the_symmetric_curvature():
     """Measured EMPS: Coulomb + v+ (Fv by direction) > Coulomb + v|v| > Coulomb = Coulomb + offset (log Z, AR(1))."""
     from bayesnsi.io import load_config, load_signals
 
-    config = load_config(Path(__file__).resolve().parents[1] / "workflows" / "emps" / "emps.toml")
+    config = load_config(Path(__file__).resolve().parents[2] / "workflows" / "emps" / "emps.toml")
     signals = load_signals(config)
     scores = {
         name: _log_z(signals, terms, config.nsi)

@@ -14,8 +14,7 @@ from bayesnsi.models import Term
 from bayesnsi.nsi import identify
 from bayesnsi.options import EvidenceOptions, NSIOptions
 from bayesnsi.simulate import simulate_cases
-
-from .conftest import twin_case
+from tests._helpers.cases import twin_case
 
 
 def test_evidence_prefers_smaller_nested_model():

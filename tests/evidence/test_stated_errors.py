@@ -2,7 +2,7 @@
 
 The exact reference is the quadrature over at most three coefficients of the collapsed integrand
 (:func:`bayesnsi.evidence.quadrature_log_evidence`); it is checked here against the closed form
-(quadrature over the noise parameters, itself checked against brute force in tests/test_evidence.py)
+(quadrature over the noise parameters, itself checked against brute force in tests/evidence/test_evidence.py)
 wherever both exist. Against it, each sampled path's error divided by its stated Monte-Carlo error
 must have an rms of at most 1.3 over seeds of the two-DOF paper case (models 1 and 2, white and AR(1)
 residuals; docs/measurements.md has the longer study, ``benchmarks/evidence_errors.py``).
@@ -25,9 +25,8 @@ from bayesnsi.exceptions import InputDataError
 from bayesnsi.nsi import identify
 from bayesnsi.options import EvidenceOptions
 from bayesnsi.simulate.reference import case_setup, run_setup
-
-from .conftest import base_seed
-from .test_evidence import make_affine, make_priors
+from tests._helpers.affine import make_affine, make_priors
+from tests._helpers.cases import base_seed
 
 QUICK_JOINT = {"n_walkers": 32, "n_steps": 600, "n_burn": 100}  # emcee over all parameters, short runs
 RMS_Z = 1.3  # rms of error / stated error over the seeds

@@ -17,8 +17,7 @@ from bayesnsi.cli import main
 from bayesnsi.exceptions import OutputExistsError
 from bayesnsi.io._lock import LOCK_FILENAME, folder_lock
 from bayesnsi.io.results import output_folder
-
-from .test_bad_input import _experiment
+from tests._helpers.experiments import experiment_config as _experiment
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="lock takeover and file types are POSIX")
 

@@ -2,15 +2,13 @@
 
 Whatever the input, the result is a value or a :class:`~bayesnsi.exceptions.BayesNSIError`
 subclass - never another exception. The number of examples follows the hypothesis profile
-registered in conftest.py (``BAYESNSI_HYPOTHESIS_PROFILE=long`` for thousands).
+registered in tests/conftest.py (``BAYESNSI_HYPOTHESIS_PROFILE=long`` for thousands).
 """
 
 import functools
 import io
 import json
 import math
-import os
-import tempfile
 import warnings
 import zipfile
 from pathlib import Path
@@ -30,36 +28,10 @@ from bayesnsi.io import (
     read_signals,
 )
 from bayesnsi.models import parse_expression
-
-FOLDER = Path(tempfile.mkdtemp(prefix="bayesnsi-fuzz-"))
-N_ROWS = 120
-
-
-def _write_valid_csv(path: Path) -> None:
-    rng = np.random.default_rng(0)
-    names = ["t", "f2", "x1", "x2", "v1", "v2", "a1"]
-    rows = [",".join(names)]
-    for k in range(N_ROWS):
-        rows.append(",".join([repr(k / 100.0)] + [repr(float(v)) for v in rng.normal(size=len(names) - 1)]))
-    path.write_text("\n".join(rows) + "\n")
-
-
-_write_valid_csv(FOLDER / "data.csv")
-
-
-def _outcome(call):
-    """Run ``call``; a BayesNSIError is a valid outcome, anything else fails the test."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # warnings are results too; only exceptions are judged
-        try:
-            result = call()
-        except BayesNSIError as err:
-            assert str(err).strip(), "an error needs a message"
-            event(f"error: {type(err).__name__}")
-            return err
-    event(f"result: {type(result).__name__}")
-    return result
-
+from tests._helpers.fuzz import CACHE_EXAMPLES, FOLDER
+from tests._helpers.fuzz import outcome as _outcome
+from tests._helpers.fuzz import patched as _patched
+from tests._helpers.fuzz import scalars as _scalars
 
 # ---------------------------------------------------------------------------------------------
 # expressions
@@ -94,10 +66,6 @@ def test_expression_parser_gives_expression_or_bayesnsi_error(text):
 # ---------------------------------------------------------------------------------------------
 # configs
 
-_scalars = (
-    st.integers(-5, 300) | st.integers(-(2**63), 2**63 - 1) | st.floats(allow_nan=True, allow_infinity=True)
-    | st.booleans() | st.text(max_size=8) | st.sampled_from(["auto", "ar1", "white", "robust", "fourth", "time"])
-)
 _values = st.recursive(
     _scalars,
     lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=4), inner, max_size=3),
@@ -150,10 +118,6 @@ _config = st.fixed_dictionaries(
         "meta": _values, "extra": _values,
     },
 )
-_SANE = {
-    "data": {"file": "data.csv", "fs": 100.0, "inputs": {"f2": 2}, "outputs": {"x1": 1, "x2": 2}},
-    "candidates": [{"name": "m", "terms": [{"expr": "x1**3", "at": 1}]}],
-}
 
 
 def _load_everything(path):
@@ -161,17 +125,6 @@ def _load_everything(path):
     signals = load_signals(config)
     segments = load_validation(config)
     return config, signals, segments
-
-
-def _patched(patch):
-    """The sane config with some sections replaced or, where both are tables, updated."""
-    document = {key: (dict(value) if isinstance(value, dict) else value) for key, value in _SANE.items()}
-    for key, value in patch.items():
-        if isinstance(value, dict) and isinstance(document.get(key), dict):
-            document[key].update(value)
-        else:
-            document[key] = value
-    return document
 
 
 _KEYS = {
@@ -289,7 +242,6 @@ def test_csv_loader_on_arbitrary_bytes(content):
 # CacheWarning naming the entry - never another exception, never more than 2 s per entry.
 # These run 60 examples by default, 10 000 under BAYESNSI_HYPOTHESIS_PROFILE=long.
 
-CACHE_EXAMPLES = 10_000 if os.environ.get("BAYESNSI_HYPOTHESIS_PROFILE") == "long" else 60
 _cache_settings = settings(max_examples=CACHE_EXAMPLES, deadline=2000)
 CACHE_KEY = "a" * 64
 

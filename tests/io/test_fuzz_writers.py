@@ -166,6 +166,6 @@ def test_fuzz_a_planted_lock_is_taken_or_refused_within_seconds(kind, data, old)
 @given(_NAME, st.booleans(), st.lists(_PLANT, max_size=6), st.binary(max_size=5000), st.booleans(),
        st.sampled_from(["file", "folder", "fifo", "link to /dev/zero", "dangling link"]), _LOCK_BYTES, st.booleans())
 def test_fuzz_writers_and_lock_long(target_name, sub, plants, content, force, kind, data, old):
-    """The long profile of both properties (``pytest -m slow tests/test_fuzz_writers.py``)."""
+    """The long profile of both properties (``pytest -m slow tests/io/test_fuzz_writers.py``)."""
     _check_write(target_name, sub, plants, content, force)
     _check_lock(kind, data, old)

@@ -24,10 +24,9 @@ from bayesnsi.io import load_config, load_signals
 from bayesnsi.io._store import write_container
 from bayesnsi.io.cache import ResultCache
 from bayesnsi.options import NSIOptions
-
-from .test_bad_input import _experiment
-from .test_fnsi import CUBIC, _record
-from .test_safe_writing import select_config  # noqa: F401 - the two-DOF record shared with the writers' tests
+from tests._helpers.experiments import experiment_config as _experiment
+from tests._helpers.multisine_chain import CUBIC
+from tests._helpers.multisine_chain import periodic_record as _record
 
 RNG = np.random.default_rng(0)
 F, X = RNG.standard_normal((400, 1)), RNG.standard_normal((400, 2))
@@ -86,7 +85,7 @@ def test_one_channel_mapped_twice_is_refused_at_load(tmp_path, copy):
         load_signals(load_config(config))
 
 
-def test_a_fixed_virtual_stiffness_on_a_grounded_record_is_told_loudly(tmp_path, select_config):  # noqa: F811
+def test_a_fixed_virtual_stiffness_on_a_grounded_record_is_told_loudly(tmp_path, select_config):
     config = tmp_path / "grounded.toml"
     text = select_config.read_text().replace('file = "two_dof.csv"', f'file = "{select_config.parent / "two_dof.csv"}"')
     config.write_text(text.replace("[nsi]\n", "[nsi]\nvirtual_stiffness = 1e4\n"))

@@ -10,8 +10,7 @@ import pytest
 from bayesnsi.evidence import SamplerRecord
 from bayesnsi.exceptions import InputDataError
 from bayesnsi.io.posterior import NETCDF_ENGINE, posterior_filename, read_posterior, write_posteriors
-
-from .test_plots import _posterior
+from tests._helpers.posteriors import posterior_samples as _posterior
 
 SAMPLER = SamplerRecord(name="emcee", version="3.1.6", moves=("StretchMove",), weights=(1.0,), n_walkers=4,
                         n_steps=130, n_burn=10, parameters="all parameters")
@@ -82,8 +81,7 @@ def test_posterior_group_carries_the_honest_intervals_and_the_given_linear_part_
 
 def test_posterior_file_names_the_sampler_that_ran(tmp_path):
     from bayesnsi.evidence import evidence_from_statistics, sufficient_statistics
-
-    from .test_evidence import make_affine, make_priors
+    from tests._helpers.affine import make_affine, make_priors
 
     affine = make_affine(2000, 2, 1, np.random.default_rng(5), smooth=True)
     stats = sufficient_statistics(affine, ar_order=1)

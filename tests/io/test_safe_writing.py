@@ -17,30 +17,10 @@ from bayesnsi.cli import main
 from bayesnsi.exceptions import OutputExistsError
 from bayesnsi.io.posterior import write_posteriors
 from bayesnsi.io.results import atomic_write_text, output_folder
-
-from .test_plots import _posterior
+from tests._helpers.posteriors import posterior_samples as _posterior
 
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 CLI = [sys.executable, "-m", "bayesnsi.cli"]
-
-SELECT_CONFIG = (
-    '[data]\nfile = "two_dof.csv"\nfs = 100.0\ninputs = { f2 = 2 }\noutputs = { x1 = 1, x2 = 2 }\n'
-    "[nsi]\nblock_rows = 40\norder = 4\n"
-    '[evidence]\nn_steps = 400\nn_burn = 100\nlikelihood = "white"\ncompare = []\ninterval = "posterior"\n'
-    '[[candidates]]\nname = "model 1"\nterms = [{ expr = "x1**3", at = 1 }]\n'
-)
-
-
-@pytest.fixture(scope="module")
-def select_config(tmp_path_factory):
-    """A two-DOF record (10 s) with one candidate and a short MCMC: a select of about 2 s."""
-    folder = tmp_path_factory.mktemp("safe_writing")
-    csv = folder / "two_dof.csv"
-    assert main(["simulate", "two-dof", "--seed", "1", "--duration", "10", "--out", str(csv), "--quiet"]) == 0
-    path = folder / "select.toml"
-    path.write_text(SELECT_CONFIG)
-    return path
-
 
 def _evidences():
     posterior = _posterior(1)

@@ -15,8 +15,8 @@ from bayesnsi.io import dump_config, load_config, load_signals
 from bayesnsi.nsi import identify
 from bayesnsi.options import EvidenceOptions, NSIOptions
 from bayesnsi.signals import Signals
-
-from .test_free_body import FC, _free_body_record
+from tests._helpers.carriage import FC, OFFSET
+from tests._helpers.carriage import free_body_record as _free_body_record
 
 
 def _mat_config(tmp_path, **data):
@@ -195,8 +195,6 @@ def test_offset_is_a_constant_force_read_at_dc():
     from bayesnsi.models import Term
     from bayesnsi.models.dictionary import effect_dictionary
     from bayesnsi.nsi import force_prediction
-
-    from .test_free_body import OFFSET
 
     assert Term("1", 1).expr.is_constant and not Term("sign(v1)", 1).expr.is_constant
     with pytest.raises(ExpressionError, match="reads no displacement"):

@@ -21,7 +21,7 @@ from bayesnsi.models import Term
 from bayesnsi.simulate.undeclared import undeclared_case
 from bayesnsi.uncertainty.intervals import Intervals, ParameterInterval
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EMPS = ROOT.parent / "shared" / "data" / "emps" / "DATA_EMPS.mat"
 
 

@@ -9,16 +9,12 @@ import numpy as np
 import pytest
 
 from bayesnsi.exceptions import ConfigError, InputDataError, OrderError
-from bayesnsi.models import Term
 from bayesnsi.nsi import identify
 from bayesnsi.options import NSIOptions
 from bayesnsi.signals import Signals
-from bayesnsi.simulate import add_output_noise, chain_system, multisine, simulate_response
-
-FS, P, N_PERIODS, TRANSIENT = 100.0, 1000, 10, 4
-K3 = 1e5
-MCK = chain_system([1.0, 1.5], [800.0, 1000.0], [2.0, 2.0])  # issue 17, "What must be true" item 3
-CUBIC = [Term("x1**3", 1)]
+from bayesnsi.simulate import add_output_noise, multisine, simulate_response
+from tests._helpers.multisine_chain import CUBIC, FS, K3, MCK, N_PERIODS, TRANSIENT, P
+from tests._helpers.multisine_chain import periodic_record as _record
 
 
 def _exact_frequencies() -> np.ndarray:
@@ -27,21 +23,6 @@ def _exact_frequencies() -> np.ndarray:
     Ac = np.block([[np.zeros((2, 2)), np.eye(2)], [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]])
     s = np.linalg.eigvals(Ac)
     return np.sort(np.abs(s[s.imag > 0]) / (2 * np.pi))
-
-
-def _record(seed: int = 0, rms: float = 5.0, noise: float = 2.0, k3: float = K3, kind: str = "full") -> Signals:
-    """10 periods of a random-phase multisine (0.5-20 Hz) in steady state; 2 % output noise.
-
-    The slowest mode decays as e^{-0.28 t}: one 10 s period leaves 6 % of the start transient, so
-    four leading periods are simulated and dropped.
-    """
-    rng = np.random.default_rng(seed)
-    force = multisine(P, FS, (0.5, 20.0), rms, rng, n_periods=N_PERIODS + TRANSIENT, kind=kind)
-    response = simulate_response(*MCK, [2], force.fine, FS * force.oversample, force.oversample,
-                                 CUBIC if k3 else [], [k3] if k3 else [])
-    signals = Signals(force=response.force, displacement=add_output_noise(response.displacement, noise, rng),
-                      fs=FS, input_dofs=(2,), output_dofs=(1, 2), period=P)
-    return signals.segment(TRANSIENT * P, (N_PERIODS + TRANSIENT) * P)
 
 
 @pytest.fixture(scope="module")

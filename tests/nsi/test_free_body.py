@@ -18,29 +18,8 @@ from bayesnsi.nsi import identify
 from bayesnsi.nsi.free_body import free_frf, stabilise
 from bayesnsi.options import NSIOptions
 from bayesnsi.signals import Signals
-
-MASS, FV, FC, OFFSET = 95.0, 200.0, 20.0, -3.0
-FS = 200.0
-
-
-def _free_body_record(seed: int = 0, duration: float = 60.0, sub: int = 10):
-    rng = np.random.default_rng(seed)
-    n = int(duration * FS)
-    h = 1.0 / (FS * sub)
-    t = np.arange(n * sub) * h
-    ref = sum(0.05 * np.sin(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi)) for f in rng.uniform(0.1, 1.0, 5))
-    disturbance = rng.normal(0.0, 5.0, n)
-    kp, kv = 4000.0, 600.0
-    q = v = tau = 0.0
-    qs, taus = np.empty(n), np.empty(n)
-    for k in range(n * sub):
-        if k % sub == 0:
-            tau = kp * (ref[k] - q) - kv * v + disturbance[k // sub]
-            qs[k // sub], taus[k // sub] = q, tau
-        v += h * (tau - FV * v - FC * np.sign(v) - OFFSET) / MASS
-        q += h * v
-    qs = qs + rng.normal(0.0, 1e-6, n)  # encoder-like measurement noise
-    return qs, taus
+from tests._helpers.carriage import FC, FS, FV, MASS
+from tests._helpers.carriage import free_body_record as _free_body_record
 
 
 @pytest.fixture(scope="module")

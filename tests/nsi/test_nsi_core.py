@@ -12,8 +12,7 @@ from bayesnsi.models import CandidateModel, Term
 from bayesnsi.nsi import StateSpaceModel, _hankel, identify, select_order
 from bayesnsi.options import NSIOptions
 from bayesnsi.signals import Signals
-
-from .conftest import zoh_chain
+from tests._helpers.cases import zoh_chain
 
 TIGHT = 1e-6  # relative agreement of noise-free exact recoveries
 

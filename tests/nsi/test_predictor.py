@@ -9,8 +9,7 @@ from bayesnsi.exceptions import SpuriousPoleWarning
 from bayesnsi.nsi import affine_reconstruction, identify, predictor_reconstruction
 from bayesnsi.options import NSIOptions
 from bayesnsi.simulate import simulate_case
-
-from .conftest import twin_case
+from tests._helpers.cases import twin_case
 
 
 def _identify(signals, candidate, options=None):

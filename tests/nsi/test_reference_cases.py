@@ -13,8 +13,7 @@ from bayesnsi.exceptions import BayesNSIError, SpuriousPoleWarning
 from bayesnsi.nsi import identify
 from bayesnsi.options import EvidenceOptions, NSIOptions
 from bayesnsi.simulate import simulate_case, simulate_cases
-
-from .conftest import twin_case
+from tests._helpers.cases import twin_case
 
 N_SEEDS = 20
 

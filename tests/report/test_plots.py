@@ -8,16 +8,11 @@ import pytest
 from matplotlib.figure import Figure
 
 from bayesnsi.curves import effect_curve
-from bayesnsi.evidence.posterior import PosteriorSamples
 from bayesnsi.exceptions import InputDataError
-from bayesnsi.models import Term
 from bayesnsi.plots import plot_effect_force, plot_posterior_pairs, plot_traces
 from bayesnsi.signals import Signals
-
-
-class _Step:  # what plot_effect_force reads from a loop step without a residual force
-    def __init__(self, expr, at, coefficient):
-        self.term, self.coefficient = Term(expr, at), coefficient
+from tests._helpers.posteriors import LoopStep as _Step
+from tests._helpers.posteriors import posterior_samples as _posterior
 
 
 @pytest.fixture(scope="module")
@@ -31,26 +26,6 @@ def signals():
         fs=100.0,
         input_dofs=(2,),
         output_dofs=(1, 2),
-    )
-
-
-def _posterior(q, n_chains=32, n_draws=120):
-    rng = np.random.default_rng(2)
-    names = tuple(f"term {k}" for k in range(q))
-    samples = rng.normal(size=(n_chains, n_draws, q + 1))
-    return PosteriorSamples(
-        samples=samples,
-        log_posterior=-0.5 * (samples**2).sum(axis=-1),
-        param_names=names + ("log sigma x1",),
-        coefficient_names=names,
-        channel_names=("x1",),
-        likelihood="white",
-        ar_order=0,
-        acceptance_fraction=np.full(n_chains, 0.4),
-        autocorr_time=np.ones(q + 1),
-        autocorr_reliable=True,
-        mode=np.zeros(q + 1),
-        mode_covariance=np.eye(q + 1),
     )
 
 

@@ -31,8 +31,8 @@ from bayesnsi.plots import (
     plot_traces,
 )
 from bayesnsi.report.document import FIGURE_DPI, figure_png
-
-from .test_plots import _posterior, _Step
+from tests._helpers.posteriors import LoopStep as _Step
+from tests._helpers.posteriors import posterior_samples as _posterior
 
 SI = ChannelUnits(force="N", displacement="m", velocity="m/s")
 VOLTS = ChannelUnits(force="V", displacement="V", velocity="V/s")

@@ -16,25 +16,7 @@ from bayesnsi.cli import main
 from bayesnsi.exceptions import CacheWarning
 from bayesnsi.io.cache import CACHE_DIRNAME, ENTRY_SUFFIX, ResultCache, load_entry
 from bayesnsi.options import EvidenceOptions, ExecutionOptions
-
-EXTRA_CANDIDATES = """
-[[candidates]]
-name = "linear"
-terms = []
-
-[[candidates]]
-name = "cubic 1"
-terms = [{ expr = "x1**3", at = 1 }]
-
-[[candidates]]
-name = "quadratic damping 2"
-terms = [{ expr = "v2*abs(v2)", at = 2 }]
-
-[evidence]
-n_steps = 400
-n_burn = 100
-compare = []
-"""
+from tests._helpers.experiments import EXTRA_CANDIDATES, default_signals
 
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
@@ -64,16 +46,6 @@ def _numbers(out):
 def _entries(out):
     folder = out / CACHE_DIRNAME
     return {p.name: p.stat().st_mtime_ns for p in folder.glob(f"*{ENTRY_SUFFIX}")} if folder.is_dir() else {}
-
-
-def default_signals() -> None:
-    """``preexec_fn`` of a command the tests signal: SIGINT and SIGTERM at their default disposition.
-
-    A job started in the background by a shell (``make test &``) inherits an ignored SIGINT, which
-    Python keeps ignored; a terminal's foreground job, which these tests stand for, has the default.
-    """
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, signal.SIG_DFL)
 
 
 def _start_select(config, out):

@@ -18,8 +18,6 @@ from bayesnsi.cli import main
 from bayesnsi.evidence import chain_bytes, check_chain_memory
 from bayesnsi.exceptions import InputDataError
 
-from .test_safe_writing import select_config  # noqa: F401 - a module fixture shared with the writers' tests
-
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 CLI = [sys.executable, "-m", "bayesnsi.cli"]
 LINUX = sys.platform.startswith("linux")
@@ -143,7 +141,7 @@ def _address_space(n_bytes: int):
 @pytest.mark.parametrize("evidence", ["n_walkers = 10000\nn_steps = 30000\nn_burn = 100",
                                       "n_steps = 10000000\nn_burn = 100"])
 def test_sampler_settings_within_their_limits_but_too_large_together_are_refused_at_once(
-    tmp_path, select_config, evidence  # noqa: F811
+    tmp_path, select_config, evidence
 ):
     config = tmp_path / "big.toml"
     config.write_text(select_config.read_text().replace("n_steps = 400\nn_burn = 100", evidence)
@@ -157,7 +155,7 @@ def test_sampler_settings_within_their_limits_but_too_large_together_are_refused
     assert time.monotonic() - start < 60
 
 
-def test_a_run_in_which_every_candidate_failed_exits_2_with_a_summary(tmp_path, select_config, capsys,  # noqa: F811
+def test_a_run_in_which_every_candidate_failed_exits_2_with_a_summary(tmp_path, select_config, capsys,
                                                                       monkeypatch):
     import bayesnsi.evidence
 

@@ -1,6 +1,6 @@
 """Intervals of an inadequate model are widened by its residual-to-noise ratio (issue 15, method §11).
 
-Reference: on the simulated Bouc-Wen system (benchmarks/hysteresis_trial.py, seeds 1, 3, 4, 5, time
+Reference: on the simulated Bouc-Wen system (benchmarks/bouc_wen.py, seeds 1, 3, 4, 5, time
 route) the cubic coefficient scattered 3.2 % (sd) over the realisations while each noise-replicate
 95 % interval was +-0.8 %; the residual was 7.2x the period-to-period noise, and the intervals
 widened by it are +-6.2 %, against the +-6.3 % that scatter implies.

@@ -1,4 +1,4 @@
-"""A new user's trial on a Bouc-Wen hysteretic record (the public benchmark's system, simulated).
+"""A Bouc-Wen hysteretic record (the public benchmark's system, simulated) through select and diagnose.
 
 nonlinearbenchmark.org's Bouc-Wen benchmark (Noël & Schoukens 2016): m = 2 kg, c = 10 N s/m,
 k = 5e4 N/m, hysteretic force z with z' = α ẏ - β (γ |ẏ| |z|^(ν-1) z + δ ẏ |z|^ν), α = 5e4 N/m,
@@ -144,7 +144,7 @@ def equation_error(u, y, f_max):
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("hysteresis-trial"))
+    parser.add_argument("--out", type=Path, default=Path("bouc-wen"))
     parser.add_argument("--periods", type=int, default=5)
     parser.add_argument("--noise", type=float, default=0.03, help="output noise, fraction of the output std")
     parser.add_argument("--seeds", type=int, nargs=2, default=(1, 2), help="estimation and validation seeds")

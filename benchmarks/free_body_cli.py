@@ -1,4 +1,4 @@
-"""Free bodies that are not the EMPS axis: the trial of a new user with new measured data.
+"""Free bodies that are not the EMPS axis, run through the command line at default settings.
 
 Records are simulated here by an independent semi-implicit Euler integration at 20x the output rate
 (500 Hz output, 60 s, a second realisation for ``[[validation]]``), written as CSV with a units row
@@ -24,7 +24,7 @@ before and after (force prediction for a one-DOF free body, else the measured qu
 loop), the number of warnings select gave, and the loop's short-horizon simulation error (1 s
 windows) before and after (free bodies).
 
-    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/free_body_cli.py --out /tmp/fbtrial-bench [--cases twomass-1um]
+    OMP_NUM_THREADS=1 .venv/bin/python benchmarks/free_body_cli.py --out /tmp/free-bodies [--cases twomass-1um]
 """
 
 from __future__ import annotations

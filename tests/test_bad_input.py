@@ -81,7 +81,7 @@ def test_unstable_identified_model_is_refused():
     growing = np.exp(0.02 * t) * np.c_[np.sin(0.3 * t), np.cos(0.21 * t)] + 1e-3 * X
     with pytest.raises(UnstableModelError, match="unstable") as info:
         identify(Signals(F, growing, 100.0, [1], [1, 2]), None, NSIOptions(block_rows=5, order=2))
-    # the message names the unstable pole, the one of largest |z| among them (a trial of a 12-DOF chain found
+    # the message names the unstable pole, the one of largest |z| among them (on a 12-DOF chain it once said
     # "try another order" without a frequency)
     import re
 
@@ -106,7 +106,7 @@ def test_empty_candidate_name_and_duplicate_terms():
 
 
 # ---------------------------------------------------------------------------------------------
-# the rest of the catalogue (issue 6): files and configs, candidate lists, physics, MCMC, CLI
+# the rest of the catalogue: files and configs, candidate lists, physics, MCMC, CLI
 
 
 def _set(section, key, value):
@@ -277,7 +277,7 @@ def test_expression_dof_bounds_and_missing_rows():
 
 
 # ---------------------------------------------------------------------------------------------
-# hostile input (issue 13): files that are not measurements, huge or deep files, nonsense configs
+# hostile input: files that are not measurements, huge or deep files, nonsense configs
 
 
 def _write_raw_config(folder, data_file: str, extra: str = "", fs: str = "100.0"):

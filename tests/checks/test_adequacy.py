@@ -1,4 +1,4 @@
-"""Model adequacy beside the evidence (issue 15): residual vs noise, quality index, validation, orders.
+"""Model adequacy beside the evidence: residual vs noise, quality index, validation, orders.
 
 References: the simulated two-DOF case (SPEC 8.1) whose true model is 20 v1|v1| at DOF 1 and
 whose output noise is 2 % of each channel's std: the true model's open-loop residual is at the

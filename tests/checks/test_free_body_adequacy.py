@@ -1,4 +1,4 @@
-"""Adequacy of a free body (issue 14): its force residual against the force noise, not the drift.
+"""Adequacy of a free body: its force residual against the force noise, not the drift.
 
 The records are a carriage without spring, ``M q'' + Fv q' + Fc sign(q') = tau``, held by a PD
 position loop running at 10x the output rate (semi-implicit Euler, as in tests/_helpers/carriage.py); the
@@ -107,12 +107,12 @@ def test_free_body_validating_worse_is_reported_without_tolerance():
             quality_index=0.01, quality_ok=True, validation_nrmse=nrmse, quantity=quantity,
         )
 
-    # the EMPS figures of issue 14: the selected Coulomb + v|v| predicts the pulses' force 5 % worse
+    # the EMPS figures (workflows/README.md): the selected Coulomb + v|v| predicts the pulses' force 5 % worse
     force = {"Coulomb + v|v|": check("Coulomb + v|v|", 0.0647, "force"), "Coulomb": check("Coulomb", 0.0616, "force")}
     (message,) = [m for m in messages(adequacy_findings(force, "Coulomb + v|v|")) if "validates worse" in m]
     assert "'Coulomb'" in message and "force-prediction" in message and "+5 %" in message
     assert not [m for m in messages(adequacy_findings(force, "Coulomb")) if "validates worse" in m]
-    # a closed-loop simulation keeps the 10 % tolerance of issue 15
+    # a closed-loop simulation keeps the 10 % tolerance of the adequacy check
     moved = {n: check(n, c.validation_nrmse, "displacement") for n, c in force.items()}
     assert not [m for m in messages(adequacy_findings(moved, "Coulomb + v|v|")) if "validates worse" in m]
 

@@ -1,4 +1,4 @@
-"""Errors in the measured quantity (issue 17 item 5; SPEC §9 last bullet)."""
+"""Errors in the measured quantity (SPEC §9 last bullet)."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from bayesnsi.signals import Signals
 from bayesnsi.simulate import add_output_noise, chain_system, multisine, simulate_response
 
 FS, P, K3, TRANSIENT = 100.0, 1000, 1e5, 4
-MCK = chain_system([1.0, 1.5], [800.0, 1000.0], [2.0, 2.0])  # issue 17 two-DOF chain
+MCK = chain_system([1.0, 1.5], [800.0, 1000.0], [2.0, 2.0])  # the two-DOF chain of the frequency-route tests
 CUBIC = [Term("x1**3", 1)]
 BAND = (0.4, 30.0)
 

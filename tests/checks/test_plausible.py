@@ -1,10 +1,9 @@
 """``Selection.plausible``: the most probable candidate whose model passes every physical check.
 
-Trial with new data (a swept beam at a nearly linear level, accelerometers): the evidence selected a
-sign() of a noisy velocity with P > 0.9999 over linear (4.6e4 nat) although its coefficient was
-negative (it feeds energy in) and it failed the quality index; four warnings
-said so, but the answer named it. The answer, the command line and results.json now also name the most
-probable candidate that passes the checks.
+On a swept beam at a nearly linear level (accelerometers) the evidence can select a sign() of a noisy
+velocity with P > 0.9999 over linear (4.6e4 nat) although its coefficient is negative (it feeds energy
+in) and it fails the quality index. The answer, the command line and results.json then also name the
+most probable candidate that passes the checks.
 """
 
 from __future__ import annotations
@@ -26,8 +25,8 @@ def _selection(checks):
     names = list(checks)
     outcomes = tuple(SimpleNamespace(name=n, status="ok", evidences={"ar1": object()}, result=object(), error=None)
                      for n in names)
-    # far behind the first, every probability is 0: the log evidence ranks them (a trial's sweep: the true cubic
-    # 4.7e5 nat above linear, both P = 0, and "linear" was named)
+    # far behind the first, every probability is 0: the log evidence ranks them (a swept beam: the true cubic
+    # 4.7e5 nat above linear, both P = 0: the cubic must be named)
     log_evidence = {"Coulomb": 3693791.8, "cubic": 3501481.3, "linear": 3028984.9}
     table = pd.DataFrame({"prior": [0.2] * len(names), "log_evidence_ar1": [log_evidence[n] for n in names],
                           "p_ar1": [1.0 if n == "Coulomb" else 0.0 for n in names]},
@@ -63,8 +62,8 @@ def test_the_answer_says_the_selected_model_fails_and_names_the_plausible_one():
 
 
 def test_an_inadequate_plausible_model_is_named_as_such():
-    # trial (10-DOF chain, 1e6 samples): the true model failed the quality index (before the robust band mean)
-    # and "linear", 76.6x the noise it passes on, was named as the plausible model without a word on its fit
+    # a 10-DOF chain, 1e6 samples: when the true model fails the quality index, "linear" (76.6x the noise it
+    # passes on) may be the plausible model, and its fit must be named with it
     from bayesnsi.report.choices import inadequacy_note, plausible_text
 
     linear = SimpleNamespace(quality_ok=True, energy_input=(), unsupported=(), adequate=False, noise_ratio=76.6)

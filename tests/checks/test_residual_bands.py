@@ -1,9 +1,9 @@
-"""The residual against the noise band by band (bayesnsi.checks.residual_bands; issue 15, model adequacy).
+"""The residual against the noise band by band (bayesnsi.checks.residual_bands, model adequacy).
 
-The bug (trial of a swept three-mode beam measured by accelerometers): a model that lacked the third
-mode passed the adequacy check - its displacement residual was 1.2x the integrated noise over the
-whole record, where the 1/ω⁴ noise of integrated accelerations hides a high mode - and nothing said
-the data held a mode the model did not. The band check compares the residual with the noise band by
+On a swept three-mode beam measured by accelerometers, a model that lacks the third mode passes the
+whole-record adequacy check - its displacement residual is 1.2x the integrated noise over the whole
+record, where the 1/ω⁴ noise of integrated accelerations hides a high mode - so the check must also
+say that the data hold a mode the model does not. The band check compares the residual with the noise band by
 band, against the noise as the model passes it on (its nonlinear inputs are computed from the noisy
 data). References: the missing mode's frequency from the chain's own modal analysis
 (:func:`bayesnsi.simulate.modal_parameters`); the right and wrong candidates of the paper's cases.

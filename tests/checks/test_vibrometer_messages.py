@@ -1,9 +1,9 @@
-"""Messages from a new-user trial: a 4-DOF chain measured by a laser vibrometer under a periodic multisine.
+"""Messages for a chain measured by a laser vibrometer under a periodic multisine.
 
-The trial (its own RK4 simulator) found: a sensor layout without the driving point refused with the
-wrong fix; a validation file in mm/s beside an estimation file in m/s (no units rows) validated every
-candidate at NRMSE 0.999 without a word; a wrong period (8000 for 8192) warned without naming the
-period the force has; the report said "integrated from velocitys".
+A sensor layout without the driving point is refused with the fix (a driving point); a validation file
+in mm/s beside an estimation file in m/s (no units rows) is named, not validated at NRMSE 0.999 in
+silence; a wrong period (8000 for 8192) names the period the force has; the report says "integrated
+from velocities".
 """
 
 from __future__ import annotations
@@ -121,7 +121,7 @@ def test_final_model_check_carries_its_validation_error():
 
 def test_periodic_noise_draws_carry_the_forces_scatter():
     # the noise replicates and the adequacy yardstick perturb the force by its own period scatter: 0.5 % noise on
-    # the measured force left the f1 and ζ1 intervals covering 4 of 11 seeds of the trial
+    # the measured force left the f1 and ζ1 intervals covering 4 of 11 seeds when the force scatter was left out
     from bayesnsi.noise import noise_model
 
     noisy = _periodic(0.005)

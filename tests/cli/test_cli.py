@@ -95,7 +95,7 @@ def test_failed_candidate_is_reported_and_others_complete(two_dof_config, tmp_pa
 
 
 def test_every_candidate_failing_exits_2_and_keeps_the_errors(two_dof_config, tmp_path, capsys):
-    # issue 13: exit 0 with "selected: None" when every candidate failed
+    # not exit 0 with "selected: None" when every candidate failed
     text = two_dof_config.read_text().split("[[candidates]]")[0]
     text += '\n[[candidates]]\nname = "constant"\nterms = [{ expr = "x1 - x1 + 1e-300*x1", at = 1 }]\n'
     config = tmp_path / "cfg.toml"
@@ -123,7 +123,7 @@ def test_bad_input_exits_2_with_one_line(two_dof_config, tmp_path, capsys, edit,
     config.write_text(text.replace('file = "two_dof.csv"', f'file = "{two_dof_config.with_suffix(".csv")}"'))
     code = main(["select", str(config), "--out", str(tmp_path / "o"), "--quiet"])
     err = capsys.readouterr().err
-    assert code == 2  # "too few": every candidate fails; results.json keeps each error (issue 13)
+    assert code == 2  # "too few": every candidate fails; results.json keeps each error
     assert message in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
 
 

@@ -1,7 +1,7 @@
-"""``diagnose --start`` (issue 14): results.json keeps the ranking's selection beside the start.
+"""``diagnose --start``: results.json keeps the ranking's selection beside the start.
 
-Before the fix the payload's ``selected`` was overwritten with the ``--start`` candidate, so that the
-EMPS run from a linear start said "selected: linear" while the ranking gave another model P = 1.
+The payload's ``selected`` is the ranking's, not the ``--start`` candidate: an EMPS run from a linear
+start must not say "selected: linear" while the ranking gives another model P = 1.
 """
 
 from __future__ import annotations
@@ -40,8 +40,8 @@ def test_diagnose_from_a_start_keeps_the_selected_model(tmp_path):
 
 
 def test_a_start_that_failed_to_identify_says_why(tmp_path, capsys):
-    # trial of a 12-DOF chain: "--start 'linear' is not an identified candidate" when the linear candidate
-    # had failed (unstable at that order); the message now says it failed, why, and what to change
+    # a start candidate that failed (unstable at that order) is not "not an identified candidate": the
+    # message says it failed, why, and what to change
     csv = tmp_path / "qd.csv"
     assert main(["simulate", "quadratic-damping", "--seed", "0", "--out", str(csv), "--quiet"]) == 0
     config = csv.with_suffix(".toml")
@@ -55,8 +55,8 @@ def test_a_start_that_failed_to_identify_says_why(tmp_path, capsys):
 
 
 def test_the_default_start_is_the_plausible_model_when_the_selected_one_fails_a_check(tmp_path, monkeypatch, capsys):
-    # trial: the evidence selected a sign() with a negative coefficient (negative dissipation); the loop
-    # would have started from a model that is not physical. It starts from Selection.plausible instead.
+    # the evidence selects a sign() with a negative coefficient (negative dissipation): the loop does not
+    # start from a model that is not physical but from Selection.plausible.
     import bayesnsi.selection as selection_module
 
     monkeypatch.setattr(selection_module.Selection, "plausible", property(lambda self: "declared"))
@@ -69,13 +69,13 @@ def test_the_default_start_is_the_plausible_model_when_the_selected_one_fails_a_
     assert main(["diagnose", str(config), "--out", str(out), "--quiet", "--no-figures", "--max-steps", "1"]) == 0
     results = json.loads((out / "results.json").read_text())
     assert results["selected"] == "truth" and results["start"] == "declared" and results["plausible"] == "declared"
-    # a trial's diagnose printed nothing of this (select does, even with --quiet): now it says it as select does
+    # diagnose says it as select does (even with --quiet)
     err = capsys.readouterr().err
     assert "the selected model fails a physical check" in err and "passes every check: declared" in err
 
 
 def test_diagnose_prints_the_final_coefficients_with_their_intervals(tmp_path, capsys):
-    # a trial's diagnose ran 12 minutes after "closing the loop" without a word and never printed the final model
+    # after "closing the loop" diagnose prints the final model, not only the files it wrote
     csv = tmp_path / "qd.csv"
     assert main(["simulate", "quadratic-damping", "--seed", "0", "--out", str(csv), "--quiet"]) == 0
     config = csv.with_suffix(".toml")

@@ -1,4 +1,4 @@
-"""Hostile input (issue 13): output folders, locks, schedulers that hang, signals, exit codes."""
+"""Hostile input: output folders, locks, schedulers that hang, signals, exit codes."""
 
 import errno
 import json
@@ -341,7 +341,7 @@ def test_signal_stops_the_worker_processes(signum, code, slow_config, tmp_path):
 
 
 def test_missing_dask_extra_is_named(monkeypatch):
-    # dask is the optional extra bayesnsi[dask] (issue 12): without it --scheduler says what to install
+    # dask is the optional extra bayesnsi[dask]: without it --scheduler says what to install
     from bayesnsi import _dispatch
     from bayesnsi.exceptions import SchedulerError
 

@@ -1,4 +1,4 @@
-"""What the `identify` command costs beyond the identification (issue 16, benchmarks/identify_command.py).
+"""What the `identify` command costs beyond the identification (benchmarks/identify_command.py).
 
 The command reads plain numeric CSV files with numpy's reader (pandas only for files it does not
 take), imports neither pandas, matplotlib nor scipy.signal with ``--no-figures``, and simulates

@@ -1,4 +1,4 @@
-"""The collapsed evidence estimator (issue 15, item 4): noise parameters integrated out, λ sampled.
+"""The collapsed evidence estimator: noise parameters integrated out, λ sampled.
 
 References are independent of the collapsed formulas: the joint log posterior of
 :class:`~bayesnsi.evidence._target.Target` integrated over (log σ, ρ) by brute-force Gauss-Legendre
@@ -186,8 +186,8 @@ def test_noise_below_the_prior_floor_draws_rho_like_the_joint_sampler():
 
 def test_rho_quadrature_over_many_draws_is_blockwise_and_small():
     """ρ̂ near the prior bound for every draw (integrated accelerations: the residual's ρ ≈ 1) sends every
-    integral to the 64-node quadrature; over 1e5 draws x 3 channels it is done in blocks (the trial that found
-    this peaked at 1.3 GB in `select` of a 58 400-sample record), each block equal to the integrals one by one."""
+    integral to the 64-node quadrature; over 1e5 draws x 3 channels it is done in blocks (at once it
+    peaked at 1.3 GB in `select` of a 58 400-sample record), each block equal to the integrals one by one."""
     import tracemalloc
 
     rng = np.random.default_rng(base_seed() + 307)

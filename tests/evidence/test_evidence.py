@@ -205,7 +205,7 @@ def test_closed_form_equals_brute_force_quadrature():
 @pytest.mark.parametrize("n_samples", [1000, 10_000, 100_000, 1_000_000])
 @pytest.mark.parametrize("q", [1, 2, 3, 4])
 def test_bridge_evidence_matches_closed_form(q, n_samples):
-    # issue 3, criterion 1: q = 1..4 coefficients, 10^3..10^6 samples
+    # acceptance (docs/accuracy.md): q = 1..4 coefficients, 10^3..10^6 samples
     rng = np.random.default_rng(base_seed() + 100 * q + n_samples % 97)
     affine = make_affine(n_samples, 2, q, rng)
     result = marginal_evidence(affine, make_priors(affine), "white", rng=rng, **QUICK)

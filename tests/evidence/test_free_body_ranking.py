@@ -1,4 +1,4 @@
-"""The free-body evidence (issue 14): the inverse-model force likelihood, offset profiled; one-line failures.
+"""The free-body evidence: the inverse-model force likelihood, offset profiled; one-line failures.
 
 A free body (rigid-body pole, identified with a virtual spring) is scored by default on the force
 it predicts from the measured motion, with the inverse model's linear part ``[a, v, x, 1]`` -
@@ -109,7 +109,7 @@ def test_emps_direction_dependent_damping_beats_the_symmetric_curvature():
         }.items()
     }
     assert scores["Coulomb + v+"] > scores["Coulomb + v|v|"] + 100  # 185 nat measured
-    assert scores["Coulomb + v|v|"] > scores["Coulomb"] + 20  # 62 nat measured: the issue's acceptance 3 not met
+    assert scores["Coulomb + v|v|"] > scores["Coulomb"] + 20  # 62 nat measured
 
 
 def test_free_body_is_scored_on_the_profiled_force_residual_whatever_the_residual_option():

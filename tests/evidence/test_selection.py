@@ -41,7 +41,7 @@ def test_evidence_prefers_smaller_nested_model():
 
 
 def test_negative_stiffness_twin_true_model_ranked_first():
-    """Issue criterion: on the negative-stiffness twin (SPEC 8.3, seed 0, recommended settings:
+    """On the negative-stiffness twin (SPEC 8.3, seed 0, recommended settings:
     upsample 4) the marginal evidence (AR(1), innovations of the errors-in-variables predictor,
     emcee + bridge sampling) ranks the true Table 8 model 2 first, above the superset model 4
     whose extra α3·sign(ż) is truly absent. Measured (Laplace, seeds 0-4): model 4 below model 2

@@ -1,4 +1,4 @@
-"""Result cache under hostile input (issue 13): entries cannot run code, touch the disk or
+"""Result cache under hostile input: entries cannot run code, touch the disk or
 allocate beyond the limit; anything not valid is recomputed with a CacheWarning; a cached
 outcome is identical to a fresh one."""
 

@@ -310,7 +310,7 @@ def test_term_acts_at_unknown_dof(tmp_path):
         (lambda r: r["candidates"][0]["terms"][0].update(at=[1, 1]), ("terms[1]", "two different DOFs")),
         (lambda r: r["candidates"][0]["terms"][0].update(prior_scale=0), ("prior_scale", "positive")),
         (lambda r: r["evidence"].update(proposal={"a": 1}), ("[evidence]", "'proposal'")),
-        # issue 13 item 8: [evidence] numbers checked at load, not when every candidate has failed
+        # [evidence] numbers checked at load, not when every candidate has failed
         (
             lambda r: r["evidence"].update(n_burn=2000),
             ("[evidence] n_burn (2000) must be smaller than n_steps (1500)",),

@@ -200,7 +200,7 @@ def test_select_segment():
 
 
 # ---------------------------------------------------------------------------------------------
-# accelerations only: config -> integrate on load -> identify (the path)
+# accelerations only: config -> integrate on load -> identify (the accelerations-only path)
 
 
 CANDIDATES = [{"name": "model 1", "terms": [{"expr": "v1*abs(v1)", "at": 1}]}]

@@ -1,4 +1,4 @@
-"""``[data] files``: one channel per file, as benchmark data are shipped (trial on a Bouc-Wen-like record).
+"""``[data] files``: one channel per file, as benchmark data are shipped (a Bouc-Wen-like record).
 
 nonlinearbenchmark.org ships e.g. ``uval_multisine.csv`` and ``yval_multisine.csv``: input and output
 apart, one headerless column of numbers each. Before ``files``, such data could only be read after

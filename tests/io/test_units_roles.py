@@ -1,9 +1,9 @@
 """A file's units row against the role [data] gives each column, and validation files against the estimation file.
 
-Trials with new data: velocity columns (m/s) mapped as accelerations were integrated twice without a word
-(exit 0, the true model unstable); acceleration columns (m/s^2) mapped as outputs were identified as
-displacements; a validation file in g beside an estimation file in m/s^2 gave a validation error of 0.90
-and no message. Each is now an InputDataError that names the column, its unit and the fix.
+Velocity columns (m/s) mapped as accelerations would be integrated twice without a word (exit 0, the true
+model unstable); acceleration columns (m/s^2) mapped as outputs would be identified as displacements; a
+validation file in g beside an estimation file in m/s^2 would give a validation error of 0.90 and no
+message. Each is an InputDataError that names the column, its unit and the fix.
 """
 
 from __future__ import annotations
@@ -72,7 +72,7 @@ def test_a_validation_file_in_other_units_is_refused(tmp_path):
     _write(tmp_path / "val.csv", "s,N,m,m", seed=1)
     assert [name for name, _ in load_validation(config)] == ["other"]
     # the same unit spelled another way is the same unit; a [data] units label converts nothing, so the
-    # files' own rows are still compared (a trial labelled g-valued columns "g" and validated on m/s^2)
+    # files' own rows are still compared (g-valued columns labelled "g", validated on m/s^2)
     _write(tmp_path / "est.csv", "s,N,m/s^2,m/s^2")
     _write(tmp_path / "val.csv", "s,N,m s^-2,m/s2", seed=1)
     accelerations = "accelerations = { c1 = 1, c2 = 2 }\nintegrate = { band_hz = [1, 40] }\n"

@@ -1,7 +1,7 @@
 """Closing the loop (SPEC 7) on simulated data with undeclared effects, and negative controls.
 
 Data: :mod:`bayesnsi.simulate.undeclared` (the two- and three-DOF chains of SPEC 8 with effects
-that the declared candidate lacks; truth known from the simulation). Criteria of issue 4: the
+that the declared candidate lacks; truth known from the simulation). Criteria (docs/accuracy.md): the
 right type and location found first, its coefficient within 10 %, NRMSE after at most a third of
 NRMSE before or at the noise floor (the NRMSE of the true model identified by NSI on the same
 data), and nothing added to a negative control. The full statistics over seeds and noise levels
@@ -159,7 +159,7 @@ def test_accepted_step_reports_closed_loop_errors_and_residual_force(coulomb):
 
 def test_accepted_steps_posterior_interval_holds_its_estimate(coulomb):
     # the posterior given the linear part is centred on its own mean, outside its narrow interval from the
-    # NSI estimate on a trial (1.92647e8 against [1.92726e8, 1.92768e8]): the step reports it moved onto λ
+    # NSI estimate (once 1.92647e8 against [1.92726e8, 1.92768e8]): the step reports it moved onto λ
     _, loop = coulomb
     for step in loop.added:
         low, high = step.ci95

@@ -1,4 +1,4 @@
-"""Issue 14: gains in the config, the noise prior's floor, a free body's evidence (force residual)."""
+"""Free bodies with friction: gains in the config, the noise prior's floor, the force residual's evidence, the loop."""
 
 from __future__ import annotations
 

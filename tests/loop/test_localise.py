@@ -1,4 +1,4 @@
-"""Data-only localisation of a nonlinearity on periodic data and the loop's periodic screen (issue 17)."""
+"""Data-only localisation of a nonlinearity on periodic data and the loop's periodic screen."""
 
 from __future__ import annotations
 

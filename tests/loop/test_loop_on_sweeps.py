@@ -1,9 +1,9 @@
 """The loop's record-half check on swept-sine tests (docs/method.md §7, the "stable coefficient" guard).
 
-Trial with new data (a beam swept 10-400 Hz, accelerometers): the loop rejected the true cubic spring as
+On a beam swept 10-400 Hz (accelerometers) the half check would reject the true cubic spring as
 "unstable across record halves: 5.4e7 vs -1.2e10" - the second half of a sweep never drives the first
 mode, so the halves are two different experiments and their coefficients need not agree. The check
-is now skipped when the halves' forces excite different bands (:func:`bayesnsi.loop.guards.half_overlap`).
+is skipped when the halves' forces excite different bands (:func:`bayesnsi.loop.guards.half_overlap`).
 Reference: the two-DOF chain with a cubic spring k3 = 5e5 at DOF 1 (the simulated truth), swept 1-30 Hz.
 """
 

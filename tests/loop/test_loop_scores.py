@@ -1,4 +1,4 @@
-"""Per-effect screen and evidence scores of each loop search (issue 16), and the loop's
+"""Per-effect screen and evidence scores of each loop search, and the loop's
 ``--lookahead/--no-lookahead`` and ``--effects`` flags of ``bayesnsi diagnose``.
 
 Data: the two-DOF chain of :func:`bayesnsi.simulate.undeclared_case` with quadratic damping at DOF 1

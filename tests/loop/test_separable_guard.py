@@ -1,4 +1,4 @@
-"""The loop's "separable" guard and select's unsupported-term warning (issue 14).
+"""The loop's "separable" guard and select's unsupported-term warning.
 
 References: the squared partial correlation is recomputed here independently with
 ``numpy.linalg.lstsq`` residuals and ``numpy.corrcoef``; on the EMPS axis (three velocity plateaus)

@@ -1,4 +1,4 @@
-"""The tanh(v/eps) friction effect of the loop's dictionary and the negative-dissipation guard (issue 17)."""
+"""The tanh(v/eps) friction effect of the loop's dictionary and the negative-dissipation guard."""
 
 import numpy as np
 import pytest

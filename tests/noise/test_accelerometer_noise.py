@@ -1,12 +1,11 @@
 """Accelerometer noise of a record integrated in time (no whole periods): replicates and adequacy.
 
-The bug (trial of an F-16-like sweep of noisy accelerations): the noise replicates and the adequacy
-check estimated a white displacement noise by high-order differences of the integrated
-displacement, which holds the accelerometer noise only in the integration band (1/ω⁴ near f_lo):
-the replicates added ~0 noise (intervals ~0 wide) and the true model's residual read hundreds of
-times the "noise". The loader now estimates the noise on the accelerations before integration and
-keeps it with the recipe (Signals.acceleration_noise); replicates integrate white acceleration
-noise by that recipe. Full study: ``benchmarks/accelerometer_intervals.py``.
+On an F-16-like sweep of noisy accelerations, a white displacement noise estimated by high-order
+differences of the integrated displacement holds the accelerometer noise only in the integration band
+(1/ω⁴ near f_lo): replicates at that level add ~0 noise (intervals ~0 wide) and the true model's
+residual reads hundreds of times the "noise". The loader therefore estimates the noise on the
+accelerations before integration and keeps it with the recipe (Signals.acceleration_noise);
+replicates integrate white acceleration noise by that recipe. Full study: ``benchmarks/accelerometer_intervals.py``.
 """
 
 from __future__ import annotations

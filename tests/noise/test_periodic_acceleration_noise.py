@@ -1,10 +1,9 @@
-"""Trial "new user with a GVT file" (F-16 style): what it found broken, pinned.
+"""The noise of a periodic record of integrated accelerations (an F-16-style GVT file), and its messages.
 
-Noise replicates of a periodic record of integrated accelerations: the displacement noise lies in
-the integration band only, where high-order differences see almost nothing, so the replicates
-added ~1e-3 of the real noise and the default intervals came out ~1000x too narrow (trial: k3
-interval [1.9890e7, 1.9967e7] held neither the true 2e7 nor a width the data support). On whole
-periods the replicate noise is now drawn from the period-to-period scatter.
+The displacement noise lies in the integration band only, where high-order differences see almost
+nothing: replicates drawn at that level add ~1e-3 of the real noise and the intervals come out ~1000x
+too narrow (k3 in [1.9890e7, 1.9967e7], holding neither the true 2e7 nor a width the data support).
+On whole periods the replicate noise is drawn from the period-to-period scatter.
 """
 
 from __future__ import annotations
@@ -52,7 +51,7 @@ def test_replicate_noise_level_of_integrated_periodic_accelerations_is_the_perio
     result = identify(signals, CUBIC, NSIOptions(domain="frequency", order=4))
     noise_std, coefs, *_ = noise_replicates(result, signals, NSIOptions(domain="frequency", order=4), n_replicates=2)
     truth = x_noise.std(axis=0)
-    # the differences see the band-limited noise as almost nothing (the bug): far below the truth
+    # the differences see the band-limited noise as almost nothing: far below the truth
     assert np.all(white_noise_std(signals.displacement) < 0.05 * truth)
     # the period scatter estimates it (8 periods; the 1/ω² weight leaves few effective lines: ~5 % error)
     assert np.allclose(noise_std, truth, rtol=0.1)
@@ -226,7 +225,7 @@ def test_a_periodic_record_without_period_gets_a_note_naming_the_period(tmp_path
 
 
 def test_predictor_noise_of_integrated_periodic_accelerations_is_the_period_scatter():
-    """The errors-in-variables predictor (default evidence residual) read 5e-18 m of noise on the trial."""
+    """The errors-in-variables predictor (default evidence residual) reads the period scatter, not 5e-18 m."""
     from bayesnsi.noise import measured_noise_std
 
     signals, x_noise, v_noise = _integrated_record(0)

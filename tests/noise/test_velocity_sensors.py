@@ -1,9 +1,8 @@
 """Velocity sensors alone (a laser vibrometer): integrated once on load, their noise kept.
 
-The gap (trial of a two-shaker chain measured by a vibrometer, velocities only): the loader took
-``integrate`` for accelerations only, so a velocity-only test could not be loaded, and its message
-("add accelerations") led the user to map velocities as accelerations, which integrated them twice
-without a word. ``[data] velocities`` with ``integrate`` and no ``outputs`` now integrates them once
+A two-shaker chain measured by a vibrometer (velocities only) must load without mapping velocities
+as accelerations, which would integrate them twice without a word: ``[data] velocities`` with
+``integrate`` and no ``outputs`` integrates them once
 (:func:`bayesnsi.preprocess.integrate_velocity`), keeps the white velocity noise with the recipe
 (:class:`bayesnsi.noise.integrated.AccelerationNoise`, ``measured = "velocity"``) for the noise
 replicates and the adequacy check, and reports errors in velocity.
@@ -135,8 +134,8 @@ def test_config_messages_for_velocity_sensors(tmp_path):
 
 
 def test_modes_below_the_integration_band_are_set_aside():
-    # trial of a swept beam integrated from 8 Hz: order 6 gave 30 and 120 Hz and a "mode" at 1.6 Hz
-    # (ζ = 0.99), listed as physical and setting the default averaging band below the data
+    # a swept beam integrated from 8 Hz: order 6 gives 30 and 120 Hz and a "mode" at 1.6 Hz (ζ = 0.99),
+    # which must not be listed as physical nor set the default averaging band below the data
     from bayesnsi.nsi.identify import informed_modes
     from bayesnsi.nsi.physics import Mode
     from bayesnsi.signals import Signals
@@ -154,8 +153,8 @@ def test_modes_below_the_integration_band_are_set_aside():
 
 
 def test_heavily_damped_mode_at_the_integration_corner_is_set_aside():
-    # trial of an accelerometer chain integrated from 1 Hz at order 10: a 1.33-1.41 Hz "mode" with ζ 0.42-0.45
-    # (the integrated noise, largest at the band's lower edge) was reported as f1 of every candidate
+    # an accelerometer chain integrated from 1 Hz at order 10: a 1.33-1.41 Hz "mode" with ζ 0.42-0.45 (the
+    # integrated noise, largest at the band's lower edge) must not be reported as f1 of every candidate
     from bayesnsi.nsi.identify import informed_modes
     from bayesnsi.nsi.physics import Mode
     from bayesnsi.signals import Signals

@@ -1,8 +1,8 @@
 """The default averaging band of λ(ω) ends at the highest identified mode (docs/method.md §4 and 10).
 
-A new-user trial (a 12-DOF chain with a clearance) and the chain simulated again found the clearance
-stiffness 2-25 % low, with |Im|/|Re| up to 0.67, when the band reached 10 % past the highest mode:
-above it λ(ω) is a ratio of two falling, noisy FRFs.
+On a 12-DOF chain with a clearance, a band reaching 10 % past the highest mode reads the clearance
+stiffness 2-25 % low, with |Im|/|Re| up to 0.67: above the highest mode λ(ω) is a ratio of two
+falling, noisy FRFs.
 """
 
 import warnings

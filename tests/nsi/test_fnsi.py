@@ -1,4 +1,4 @@
-"""Frequency-domain NSI on periodic data (issue 17, SPEC 11): accuracy, result object, errors."""
+"""Frequency-domain NSI on periodic data (SPEC 11): accuracy, result object, errors."""
 
 from __future__ import annotations
 
@@ -30,7 +30,7 @@ def record() -> Signals:
     return _record()
 
 
-def test_frequency_route_meets_the_issue_17_accuracy(record):
+def test_frequency_route_recovers_k3_and_the_frequencies_on_a_noisy_multisine(record):
     result = identify(record, CUBIC, NSIOptions(domain="frequency", order=4))
     assert result.settings["domain"] == "frequency" and result.settings["n_periods"] == N_PERIODS
     k3 = result.coefficient_values[0]

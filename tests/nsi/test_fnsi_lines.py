@@ -1,4 +1,4 @@
-"""Frequency route on the fitted lines (issue 17, docs/method.md §11): the open-loop residual the
+"""Frequency route on the fitted lines (docs/method.md §11): the open-loop residual the
 evidence scores, and the quality index weighted by where the data inform λ(ω)."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The FNSI refinement's vectorised inner loop (issue 17 item 3, speed) gives the numbers of the
+"""The FNSI refinement's vectorised inner loop (for speed) gives the numbers of the
 general weighted least squares, and its Jacobian is that of the projected residual."""
 
 from __future__ import annotations

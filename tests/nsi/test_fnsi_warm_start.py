@@ -14,7 +14,7 @@ from bayesnsi.signals import Signals
 from bayesnsi.simulate import add_output_noise, chain_system, multisine, simulate_response
 
 FS, P, N_PERIODS, TRANSIENT = 100.0, 1000, 4, 4
-MCK = chain_system([1.0, 1.5], [800.0, 1000.0], [2.0, 2.0])  # the issue-17 two-DOF chain, k3 = 1e5 at DOF 1
+MCK = chain_system([1.0, 1.5], [800.0, 1000.0], [2.0, 2.0])  # the frequency-route tests' chain, k3 = 1e5 at DOF 1
 OPTIONS = NSIOptions(domain="frequency", order=4, band_hz=(0.5, 20.0))
 
 

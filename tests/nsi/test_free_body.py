@@ -1,6 +1,6 @@
-"""Free bodies (issue 14): a rigid-body pole identifies, physical parameters, force prediction.
+"""Free bodies: a rigid-body pole identifies, physical parameters, force prediction.
 
-The reference record is built here by an independent fine-step integration (semi-implicit Euler
+The reference record is built by an independent fine-step integration (tests/_helpers/carriage.py) (semi-implicit Euler
 at 10× the output rate) of a carriage without spring, ``M q'' + Fv q' + Fc sign(q') + offset =
 tau``, held by a PD position loop as the measured EMPS axis is; the true parameters are the
 reference values.
@@ -62,7 +62,7 @@ def test_without_the_stabilising_spring_the_free_body_fails(carriage):
 def test_coulomb_free_body_recovers_mass_damping_friction(carriage):
     result = _identify(carriage, [("sign(v1)", 1)])
     (phys,) = result.physical_parameters
-    # tolerances: issue 14's targets on the measured axis (M 2 %, Fv and Fc 5 %)
+    # tolerances: the targets on the measured EMPS axis (M 2 %, Fv and Fc 5 %)
     assert phys.mass == pytest.approx(MASS, rel=0.02)
     assert phys.damping == pytest.approx(FV, rel=0.05)
     assert result.coefficient_values[0] == pytest.approx(FC, rel=0.05)

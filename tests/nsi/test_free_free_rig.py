@@ -1,13 +1,13 @@
-"""Free-free two-mass rig (trial of a free body that is not the EMPS axis).
+"""Free-free two-mass rig: a free body that is not a single carriage.
 
 Two carriages on rails joined by a spring and a damper, no spring and no damper to ground, force
 on mass 1, Coulomb friction on mass 2, both positions measured (encoder-like noise). The record is
 built here by an independent fine-step semi-implicit Euler integration; the reference values are
 the simulated parameters: elastic mode f = √(k(1/m1 + 1/m2))/2π, ζ = c ω/(2k), Fc.
 
-Before the fix the true candidate failed with UnstableModelError: the virtual spring's mode of a
-body with no damping to ground is undamped and its estimate fell just outside the unit circle
-(:mod:`bayesnsi.nsi._virtual_mode`); the rigid-body double pole was reported as a 0.004 Hz mode.
+The virtual spring's mode of a body with no damping to ground is undamped and its estimate may fall
+just outside the unit circle: the true candidate must identify (:mod:`bayesnsi.nsi._virtual_mode`),
+and the rigid-body double pole must not be reported as a 0.004 Hz mode.
 """
 
 from __future__ import annotations

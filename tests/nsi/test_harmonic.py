@@ -1,4 +1,4 @@
-"""Closed-loop prediction of periodic records by harmonic balance (issue 17; bayesnsi.nsi._harmonic)."""
+"""Closed-loop prediction of periodic records by harmonic balance (bayesnsi.nsi._harmonic)."""
 
 from __future__ import annotations
 

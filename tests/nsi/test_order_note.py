@@ -1,8 +1,8 @@
 """``order = "auto"`` says when a later gap of the singular values is nearly as large as the one it chose.
 
-Trials with new data: on a swept-sine beam measured by accelerometers (modes 30, 120, 300 Hz) "auto"
-took order 2 (the first mode dominates the integrated displacement: gaps 1.99 after order 2, 1.32 after
-4, 1.77 after 14) and nothing said that the model lacked two modes. Reference singular values are built
+On a swept-sine beam measured by accelerometers (modes 30, 120, 300 Hz) "auto" takes order 2 (the first
+mode dominates the integrated displacement: gaps 1.99 after order 2, 1.32 after 4, 1.77 after 14); the
+note says that a later gap is nearly as large, so the model may lack modes. Reference singular values are built
 from the gaps they must have; the paper's two-DOF case must stay silent (its order 4 is right).
 """
 
@@ -35,7 +35,7 @@ def test_a_later_gap_nearly_as_large_is_named():
     with pytest.warns(OrderWarning, match=r'order "auto" took 2'):
         assert auto_order(s, 38) == 2
     assert order_note(_singular_values({2: 1.7, 4: 2.5, 8: 1.0}), 4, 38) is None  # later gaps below half
-    # a trial's chain: "auto" took max_order (40), no gap standing out: said too
+    # "auto" takes max_order (40) when no gap stands out: said too
     assert "the largest order it considers" in order_note(_singular_values({40: 0.3}, n=60), 40, 40)
 
 

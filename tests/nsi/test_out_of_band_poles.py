@@ -1,4 +1,4 @@
-"""Time route: an unstable pole outside [nsi] band_hz is mirrored with a warning, not a failure (issue 17, item 4)."""
+"""Time route: an unstable pole outside [nsi] band_hz is mirrored with a warning, not a failure."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from bayesnsi.signals import Signals
 from bayesnsi.simulate import add_output_noise, chain_system, simulate_response
 
 FS = 100.0
-MCK = chain_system([1.0, 1.5], [800.0, 1000.0], [2.0, 2.0])  # the issue-17 two-DOF chain
+MCK = chain_system([1.0, 1.5], [800.0, 1000.0], [2.0, 2.0])  # the two-DOF chain of the frequency-route tests
 
 
 def _exact_hz() -> np.ndarray:

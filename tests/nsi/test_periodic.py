@@ -1,4 +1,4 @@
-"""Periodic data (issue 17, SPEC 11): multisines, period-averaged spectra, best linear approximation."""
+"""Periodic data (SPEC 11): multisines, period-averaged spectra, best linear approximation."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from bayesnsi.simulate import (
 )
 
 FS, P = 100.0, 512
-MCK = chain_system([1.0, 1.5], [800.0, 1000.0], [2.0, 2.0])  # the two-DOF chain of issue 17
+MCK = chain_system([1.0, 1.5], [800.0, 1000.0], [2.0, 2.0])  # the two-DOF chain of the frequency-route tests
 
 
 def _realisations(k3: float, n_real: int = 6, n_periods: int = 4, seed: int = 0, rms: float = 20.0):

@@ -1,7 +1,7 @@
 """Paper reference cases (SPEC 8): NSI against the simulators' exact values.
 
 Exact references: modal parameters of the simulators' M, C, K (eig of the state matrix) and
-the true coefficients used in the simulation. Tolerances are the issue's acceptance criteria.
+the true coefficients used in the simulation. Tolerances are the acceptance criteria of docs/accuracy.md.
 """
 
 import warnings
@@ -125,7 +125,7 @@ def test_beam_wrong_candidates_clearly_worse(beam):
 
 
 def test_beam_evidence_selects_the_true_model(beam):
-    """Issue 3, criterion 2: on the beam, candidate {x13², x13³} (model 3) gets posterior > 0.95
+    """On the beam, candidate {x13², x13³} (model 3) gets posterior > 0.95
     under the marginal evidence (AR(1), emcee + bridge sampling); models 1 and 2 are either
     rejected as unstable (their reason kept) or scored."""
     from bayesnsi.evidence import candidate_evidence, compare_evidence

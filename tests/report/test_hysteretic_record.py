@@ -1,9 +1,9 @@
-"""A new user's trial on a Bouc-Wen-like hysteretic record (nonlinearbenchmark.org's layout).
+"""What select and diagnose say on a Bouc-Wen-like hysteretic record (nonlinearbenchmark.org's layout).
 
 The benchmark drives its system with a full random-phase multisine (every line of 5-150 Hz), ships
 input and output as separate headerless single-column files, and its hysteresis has internal
-state that no static n(y, ydot) represents. Each test pins a problem the trial found
-(the simulation and the measured numbers are in the trial report, /tmp/bwtrial).
+state that no static n(y, ydot) represents: no candidate is adequate. Each test checks a message of
+that case (the simulated system: ``benchmarks/bouc_wen.py``).
 """
 
 from __future__ import annotations
@@ -199,9 +199,8 @@ def test_diagnose_prints_what_it_added_and_the_validation_error_before_and_after
 
 
 def test_no_harmonic_balance_of_a_sign_friction_model_names_the_switching_term():
-    # Trial, frequency route: 'Coulomb' (sign(v1), -14.4 N) had no periodic steady state and the
-    # validation error read "the model is unstable in feedback", while 'smoothed friction'
-    # (tanh(v1/0.01), -14.9 N) settled: the discontinuity, not an instability, is the likely cause.
+    # frequency route: 'Coulomb' (sign(v1), -14.4 N) has no periodic steady state while 'smoothed friction'
+    # (tanh(v1/0.01), -14.9 N) settles: the message names the discontinuity, not "unstable in feedback".
     import pytest
 
     from bayesnsi.exceptions import UnstableModelError
@@ -214,8 +213,8 @@ def test_no_harmonic_balance_of_a_sign_friction_model_names_the_switching_term()
 
 
 def test_report_answer_qualifies_the_probability_when_no_candidate_is_adequate(tmp_path, capsys):
-    # Trial: "Selected: cubic + Coulomb, posterior probability > 0.9999" led the answer while every candidate
-    # left 6-8x the sensor noise; only a warning further down said the probabilities rank wrong models.
+    # every candidate leaves 6-8x the sensor noise: the answer must not lead with "Selected: ..., posterior
+    # probability > 0.9999" alone but say that the probabilities rank wrong models.
     import json
 
     from bayesnsi.cli import main
@@ -239,8 +238,8 @@ def test_report_answer_qualifies_the_probability_when_no_candidate_is_adequate(t
 
 
 def test_a_selected_model_whose_validation_failed_is_not_said_to_be_inf_percent_worse():
-    # Trial, frequency route with residual = "reconstruction": the selected 'cubic + Coulomb' had no periodic
-    # steady state on the validation record and the warning read "closed-loop NRMSE inf against 0.184 (+inf %)".
+    # frequency route, residual = "reconstruction": the selected 'cubic + Coulomb' has no periodic steady state on
+    # the validation record; the warning says it could not be validated, not "NRMSE inf (+inf %)".
     from bayesnsi.checks.adequacy import ModelCheck, adequacy_findings
 
     def check(name, nrmse):
@@ -256,8 +255,8 @@ def test_a_selected_model_whose_validation_failed_is_not_said_to_be_inf_percent_
 
 
 def test_a_look_ahead_row_of_the_loop_table_names_the_rejected_term_it_was_tried_with():
-    # Trial, time route from 'linear': x1**3 was rejected at step 1 and the table then showed "step 2" rows
-    # (clearance, x|x|) with NRMSE before 0.215 - the x1**3 model's - without saying they were tried with it.
+    # time route from 'linear': x1**3 rejected at step 1, the "step 2" rows (clearance, x|x|) show NRMSE before
+    # 0.215 - the x1**3 model's - and must say that they were tried with it.
     from types import SimpleNamespace
 
     from bayesnsi.models import Term

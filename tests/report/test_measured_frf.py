@@ -1,8 +1,8 @@
 """The data's own FRF (multiple-input H1) drawn beside the identified models over the excited band.
 
-Trials with new data: a mode the models lacked (300 Hz, order "auto") was hidden because the FRF and
-stabilisation figures stopped at 1.3x the highest identified mode, and nothing showed the data's
-FRF. References: the exact receptance [K - ω²M + jωC]⁻¹ of the simulated structure.
+A mode the models lack (300 Hz, order "auto") is hidden when the FRF and stabilisation figures stop at
+1.3x the highest identified mode; the data's own FRF over the excited band shows it.
+References: the exact receptance [K - ω²M + jωC]⁻¹ of the simulated structure.
 """
 
 from __future__ import annotations

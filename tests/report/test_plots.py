@@ -92,8 +92,8 @@ def test_posterior_plots_refuse_a_candidate_without_coefficients():
 
 
 def test_a_lone_posterior_marks_its_mean_where_the_draws_are():
-    # trial of a 12-DOF chain: a mean of 30 896 with an sd of 3 was marked at 31 000 (arviz rounds the
-    # point estimate it draws to 2 significant digits), 35 sd outside the density
+    # a mean of 30 896 with an sd of 3 must not be marked at 31 000 (arviz rounds the point estimate it
+    # draws to 2 significant digits), 35 sd outside the density
     from dataclasses import replace
 
     base = _posterior(1)

@@ -1,4 +1,4 @@
-"""Every figure function labels its axes, with the units of the data (issue 16); figures go out at 150 dpi."""
+"""Every figure function labels its axes, with the units of the data; figures go out at 150 dpi."""
 
 from __future__ import annotations
 
@@ -260,7 +260,7 @@ def test_decision_table_compares_every_candidate_with_the_selected_one():
 
 
 def test_overlays_show_the_channels_where_the_terms_act():
-    # trial of a 12-DOF chain (outputs at DOFs 1, 3, 4, 6, 8, 9, 11, 12): the overlays showed x1 and x3, not x9
+    # a 12-DOF chain (outputs at DOFs 1, 3, 4, 6, 8, 9, 11, 12): the overlays show x9 where the term acts, not x1, x3
     from types import SimpleNamespace
 
     from bayesnsi.models import Term
@@ -274,7 +274,7 @@ def test_overlays_show_the_channels_where_the_terms_act():
 
 
 def test_coefficient_rows_carry_the_unit_of_lambda():
-    # trials: "coefficient tables carry no unit"; λ of x³ is force over displacement cubed
+    # λ of x³ is force over displacement cubed
     from bayesnsi.io.units import ChannelUnits
     from bayesnsi.report.sections import with_unit as _with_unit
 

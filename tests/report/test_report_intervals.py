@@ -1,4 +1,4 @@
-"""The report shows the honest intervals (issue 15): coefficients and modes with the intervals of
+"""The report shows the honest intervals: coefficients and modes with the intervals of
 :func:`bayesnsi.uncertainty.candidate_intervals`, the posterior-only interval beside them, labelled.
 
 Reference values: the outcome's own ``intervals`` and its evidence's ``ci95`` (the report only

@@ -1,4 +1,4 @@
-"""The report of a periodic run shows the best linear approximation and the distortion level (issue 17, item 4)."""
+"""The report of a periodic run shows the best linear approximation and the distortion level."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from bayesnsi.signals import Signals
 from bayesnsi.simulate import add_output_noise, chain_system, multisine, simulate_response
 
 FS, P, N_PERIODS, TRANSIENT = 100.0, 1000, 6, 4
-MCK = chain_system([1.0, 1.5], [800.0, 1000.0], [2.0, 2.0])  # the issue-17 two-DOF chain
+MCK = chain_system([1.0, 1.5], [800.0, 1000.0], [2.0, 2.0])  # the two-DOF chain of the frequency-route tests
 
 
 def _record(k3: float, seed: int = 2) -> Signals:

@@ -1,4 +1,4 @@
-"""Nothing lost, reproducible, scale-out (issue 6): kill/resume, crashing candidates, cache, Dask."""
+"""Nothing lost, reproducible, scale-out: kill/resume, crashing candidates, cache, Dask."""
 
 import dataclasses
 import json

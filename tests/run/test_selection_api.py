@@ -1,4 +1,4 @@
-"""The library-level selection (issue 12): select() -> Selection, and its results.json record.
+"""The library-level selection: select() -> Selection, and its results.json record.
 
 Reference: the paper's two-DOF case (SPEC 8.1), where the true model ("model 1", the cubic
 stiffness at DOF 1) is selected; the numbers compared here are those of the lower-level calls

@@ -1,4 +1,4 @@
-"""The simulated ground vibration test (issue 17, item 6): structure, records, data-only diagnosis."""
+"""The simulated ground vibration test: structure, records, data-only diagnosis."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The reported coefficient and its interval are one estimate (issue 14, bug 2).
+"""The reported coefficient and its interval are one estimate.
 
 On the EMPS free body the loop's final Coulomb coefficient was reported as its NSI value 21.00
 while its 95 % interval [18.4, 20.3] was centred on the posterior mean of the evidence (the

@@ -1,4 +1,4 @@
-"""Intervals that include the uncertainty of the identified linear part (issue 15).
+"""Intervals that include the uncertainty of the identified linear part (docs/intervals.md).
 
 Reference: the seed-to-seed scatter of the estimates on the two-DOF case (SPEC 8.1, paper
 settings), i.e. an independent Monte-Carlo of the whole identification; the true α = 20 and the
@@ -83,7 +83,7 @@ def test_segments_widen_the_posterior(two_dof_evidence):
     (alpha,) = intervals.coefficients
     posterior = evidence.ci95[0]
     assert alpha.ci95[0] < posterior[0] and alpha.ci95[1] > posterior[1]
-    assert alpha.sd > 5 * alpha.posterior_sd  # the linear part dominates (issue 15: ~10x)
+    assert alpha.sd > 5 * alpha.posterior_sd  # the linear part dominates (~10x on this case)
     assert alpha.ci50[0] > alpha.ci95[0] and alpha.ci50[1] < alpha.ci95[1]
     assert len(intervals.frequencies) == len(result.modes) == len(intervals.damping_ratios)
     assert all(z.ci95[0] < z.estimate < z.ci95[1] for z in intervals.damping_ratios)

@@ -1,4 +1,4 @@
-"""Noise-replicate intervals with an errors-in-variables bias correction (issue 15, default ``interval``).
+"""Noise-replicate intervals with an errors-in-variables bias correction (the default ``interval``).
 
 References: (1) an errors-in-variables straight line, whose least-squares slope is attenuated by
 the known factor var(x) / (var(x) + σ²) (regression dilution); the intervals are judged by their

@@ -1,4 +1,4 @@
-"""Model replicates on phase-randomised forces for velocity-switching terms (issue 15, ``interval = "auto"``).
+"""Model replicates on phase-randomised forces for velocity-switching terms (``interval = "auto"``).
 
 References: the surrogate force's spectrum and cross-spectrum are those of the measured force
 (exact, by construction); one pass over a batch of records equals the records simulated one by one;

@@ -1,4 +1,4 @@
-"""Intervals of an inadequate model are widened by its residual-to-noise ratio (issue 15, method §11).
+"""Intervals of an inadequate model are widened by its residual-to-noise ratio (docs/method.md §11).
 
 Reference: on the simulated Bouc-Wen system (benchmarks/bouc_wen.py, seeds 1, 3, 4, 5, time
 route) the cubic coefficient scattered 3.2 % (sd) over the realisations while each noise-replicate

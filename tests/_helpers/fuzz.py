@@ -1,7 +1,8 @@
 """What the property-based fuzzing of the readers and of the command line share.
 
 A scratch folder holding a valid CSV record, the sane config around it, the strategy of scalar
-values, the number of examples of the long-running properties and the judge of one outcome.
+values, the number of examples of the long-running properties and the judge of one outcome: a
+value or a BayesNSIError, with any BayesNSIWarning; another exception or warning fails.
 """
 
 import os
@@ -13,7 +14,7 @@ import numpy as np
 from hypothesis import event
 from hypothesis import strategies as st
 
-from bayesnsi.exceptions import BayesNSIError
+from bayesnsi.exceptions import BayesNSIError, BayesNSIWarning
 
 FOLDER = Path(tempfile.mkdtemp(prefix="bayesnsi-fuzz-"))
 N_ROWS = 120
@@ -47,7 +48,7 @@ _write_valid_csv(FOLDER / "data.csv")
 def outcome(call):
     """Run ``call``; a BayesNSIError is a valid outcome, anything else fails the test."""
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # warnings are results too; only exceptions are judged
+        warnings.simplefilter("ignore", BayesNSIWarning)  # its warnings are results too; only exceptions are judged
         try:
             result = call()
         except BayesNSIError as err:

@@ -166,9 +166,7 @@ def test_gvt_with_no_fitting_candidate_is_reported_inadequate():
         CandidateModel.from_terms("linear", []),
     ]
     nsi = NSIOptions(order=20, block_rows=20, zero_feedthrough=False, domain="frequency", band_hz=GVT_BAND_HZ)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        outcomes = run_candidates(signals, candidates, nsi, None)
+    outcomes = run_candidates(signals, candidates, nsi, None)
     checks = model_checks(outcomes, signals)
     assert checks["linear"].adequate and not checks["damping 7-8"].adequate and not checks["joint 2-7"].adequate
     assert not any("no candidate is adequate" in w for w in messages(adequacy_findings(checks, "linear")))

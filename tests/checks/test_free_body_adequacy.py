@@ -24,6 +24,7 @@ import pytest
 from scipy import signal as sps
 
 from bayesnsi.checks.adequacy import adequacy_findings, model_checks
+from bayesnsi.exceptions import SpuriousPoleWarning
 from bayesnsi.findings import messages
 from bayesnsi.nsi import force_noise_std, identify
 from bayesnsi.options import NSIOptions
@@ -66,7 +67,7 @@ def carriage():
     for name, fc in (("no friction", 0.0), ("friction", FC)):
         signals = _record(fc)
         with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
+            warnings.simplefilter("ignore", SpuriousPoleWarning)  # the rigid-body pole of the free body
             result = identify(signals, None, NSIOptions(block_rows=20, order=2))
         checks[name] = model_checks([SimpleNamespace(name="linear", result=result)], signals)["linear"]
     return signals, checks

@@ -100,7 +100,6 @@ def test_force_noise_that_reaches_the_responses_is_named():
 def test_final_model_check_carries_its_validation_error():
     # results.json's final_model_check.validation_nrmse was null while the console printed the final model's
     # closed-loop validation NRMSE: widen_final now takes the final model's validation errors
-    import warnings
 
     from bayesnsi.checks.validation import validate
     from bayesnsi.nsi import identify
@@ -109,9 +108,7 @@ def test_final_model_check_carries_its_validation_error():
 
     case = simulate_case("two-dof", seed=0, duration=60.0)
     held = simulate_case("two-dof", seed=1, duration=20.0)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        result = identify(case.signals, case.true_terms, case.recommended)
+    result = identify(case.signals, case.true_terms, case.recommended)
     errors = validate(result, [("held out", held.signals)])
     _, check = widen_final(result, None, case.signals, validation=errors)
     assert check.validation_nrmse == pytest.approx(errors[0].nrmse) and check.validation_log_predictive is not None

@@ -32,7 +32,7 @@ from hypothesis import strategies as st
 
 import bayesnsi.simulate
 from bayesnsi import cli
-from bayesnsi.exceptions import BayesNSIError, ConfigError
+from bayesnsi.exceptions import BayesNSIError, BayesNSIWarning, ConfigError
 from bayesnsi.io import dump_config, load_config
 from bayesnsi.options import EvidenceOptions, LoopOptions
 from tests._helpers.fuzz import CACHE_EXAMPLES, FOLDER
@@ -221,7 +221,7 @@ def _run_cli(argv):
         with _cheap_commands() as patch, contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
             patch.chdir(work)
             with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
+                warnings.simplefilter("ignore", BayesNSIWarning)  # what the command says is judged by its exit
                 try:
                     code = cli.main(argv)
                 except SystemExit as stop:  # argparse: --help (0) or a usage error (2)

@@ -10,6 +10,7 @@ import warnings
 import numpy as np
 
 from bayesnsi.evidence import candidate_evidence, compare_evidence
+from bayesnsi.exceptions import ConvergenceWarning
 from bayesnsi.models import Term
 from bayesnsi.nsi import identify
 from bayesnsi.options import EvidenceOptions, NSIOptions
@@ -28,7 +29,7 @@ def test_evidence_prefers_smaller_nested_model():
         evidences = {}
         for cand, seed in zip((small, big), seeds):
             with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
+                warnings.simplefilter("ignore", ConvergenceWarning)  # r_hat just over 1.01 on a seed: not tested here
                 res = identify(case.signals, cand, NSIOptions(block_rows=60, order=4))
                 evidences[cand.name] = list(candidate_evidence(res, case.signals, options, seed).values())
         table = compare_evidence(evidences)
@@ -51,10 +52,8 @@ def test_negative_stiffness_twin_true_model_ranked_first():
     options = EvidenceOptions(compare=())
     evidences = {}
     for cand, seed in zip(case.candidates, np.random.SeedSequence(0).spawn(len(case.candidates))):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            res = identify(case.signals, cand, case.recommended)
-            evidences[cand.name] = list(candidate_evidence(res, case.signals, options, seed).values())
+        res = identify(case.signals, cand, case.recommended)
+        evidences[cand.name] = list(candidate_evidence(res, case.signals, options, seed).values())
     log_z = {name: ev[0].log_evidence for name, ev in evidences.items()}
     assert max(log_z, key=log_z.get) == "model 2", log_z
     assert log_z["model 2"] - log_z["model 4"] > np.log(20.0)

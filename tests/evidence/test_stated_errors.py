@@ -8,7 +8,6 @@ must have an rms of at most 1.3 over seeds of the two-DOF paper case (models 1 a
 residuals; docs/measurements.md has the longer study, ``benchmarks/evidence_errors.py``).
 """
 
-import warnings
 
 import numpy as np
 import pytest
@@ -77,9 +76,7 @@ def _two_dof_statistics(n_seeds: int, duration: float):
     for case in cases:
         for index in (0, 1):
             candidate = case.candidates[index]
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")  # identification notes on a short record are not tested here
-                result = identify(case.signals, candidate, case.recommended)
+            result = identify(case.signals, candidate, case.recommended)
             affine = candidate_affine(result, case.signals, "innovations")
             out.append((sufficient_statistics(affine, ar_order=1),
                         candidate_priors(result, case.signals, affine, EvidenceOptions(), candidate)))

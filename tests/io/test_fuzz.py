@@ -256,10 +256,8 @@ def _valid_entry():
 
     case = simulate_case("two-dof", seed=0, duration=5.0)
     evidence = EvidenceOptions(n_walkers=8, n_steps=12, n_burn=2, compare=("white",))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        outcome = candidate_task(case.signals, case.candidates[0], NSIOptions(block_rows=20, order=4), evidence,
-                                 np.random.SeedSequence(0))
+    outcome = candidate_task(case.signals, case.candidates[0], NSIOptions(block_rows=20, order=4), evidence,
+                             np.random.SeedSequence(0))
     assert outcome.error is None and outcome.evidences
     cache = ResultCache(FOLDER / "valid-cache")
     cache.store(CACHE_KEY, outcome)

@@ -8,7 +8,6 @@ data), and nothing added to a negative control. The full statistics over seeds a
 are in ``benchmarks/diagnose_suite.py``; here one seed per effect type.
 """
 
-import warnings
 
 import numpy as np
 import pytest
@@ -31,18 +30,14 @@ FLOOR_FACTOR = 1.1  # "at the noise floor": at most 1.1 x the NRMSE of the true 
 
 
 def run_loop(case, jobs=1, **options):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return close_the_loop(
-            case.signals, case.declared, LoopOptions(**options), nsi=case.nsi,
-            evidence=EvidenceOptions(seed=case.seed), execution=ExecutionOptions(jobs=jobs),
-        )
+    return close_the_loop(
+        case.signals, case.declared, LoopOptions(**options), nsi=case.nsi,
+        evidence=EvidenceOptions(seed=case.seed), execution=ExecutionOptions(jobs=jobs),
+    )
 
 
 def truth_nrmse(case):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return identify(case.signals, case.truth, case.nsi).reconstruct(case.signals).nrmse
+    return identify(case.signals, case.truth, case.nsi).reconstruct(case.signals).nrmse
 
 
 def final_coefficient(loop, effect):
@@ -140,9 +135,7 @@ def test_accepted_step_reports_closed_loop_errors_and_residual_force(coulomb):
     case, loop = coulomb
     step = loop.added[0]
     assert step.closed_loop_nrmse_after < step.closed_loop_nrmse_before
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        truth = identify(case.signals, case.truth, case.nsi).reconstruct(case.signals, closed_loop=True).nrmse
+    truth = identify(case.signals, case.truth, case.nsi).reconstruct(case.signals, closed_loop=True).nrmse
     assert step.closed_loop_nrmse_after <= FLOOR_FACTOR * truth  # the true model simulated alike
     rf = step.residual_force
     assert rf.location == (2,)
@@ -191,10 +184,8 @@ def test_refine_gap_moves_towards_the_true_gap():
     case = undeclared_case("clearance", seed=2, noise_percent=1.0, duration=15.0)
     options = EvidenceOptions(compare=())
     coarse = [clearance_effect(2, g) for g in (0.008, 0.024)]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        scored = score_effects(case.signals, case.declared, coarse, case.nsi, options)
-        best = refine_gap(case.signals, case.declared, scored[0], coarse, case.nsi, options)
+    scored = score_effects(case.signals, case.declared, coarse, case.nsi, options)
+    best = refine_gap(case.signals, case.declared, scored[0], coarse, case.nsi, options)
     assert best.log_evidence > scored[0].log_evidence
     assert abs(best.effect.gap - 0.015) < abs(scored[0].effect.gap - 0.015)
     assert best.effect.gap == pytest.approx(0.015, rel=0.05)
@@ -254,9 +245,7 @@ def test_screen_ranks_the_missing_effect_among_the_best_three(name):
     from bayesnsi.loop.screen import screen_effects
 
     case = undeclared_case(name, seed=0, noise_percent=2.0)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        start = identify(case.signals, case.declared, case.nsi)
+    start = identify(case.signals, case.declared, case.nsi)
     std = {d: case.signals.displacement[:, c].std() for c, d in enumerate(case.signals.output_dofs)}
     effects = effect_dictionary(case.signals.output_dofs, gaps={(d,): default_gaps(s) for d, s in std.items()})
     ranked = screen_effects(
@@ -325,9 +314,7 @@ def test_halves_too_short_for_the_block_rows_use_fewer_and_the_effect_can_be_add
 
     case = undeclared_case("quadratic-damping", seed=0, noise_percent=1.0)
     short = case.signals.segment(0, 1000)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        loop = close_the_loop(short, case.declared, LoopOptions(max_steps=1, effects=("v|v|", "v^3")), nsi=case.nsi)
+    loop = close_the_loop(short, case.declared, LoopOptions(max_steps=1, effects=("v|v|", "v^3")), nsi=case.nsi)
     first = loop.steps[0]
     assert first.term.name == "v1*abs(v1)@1" and first.log_bayes_factor > np.log(100.0)
     assert first.accepted, first.reason

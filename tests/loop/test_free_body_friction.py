@@ -10,7 +10,7 @@ import scipy.io
 
 from bayesnsi.evidence import candidate_evidence
 from bayesnsi.evidence.candidate import candidate_affine, noise_floor_factor
-from bayesnsi.exceptions import ConfigError
+from bayesnsi.exceptions import ConfigError, SpuriousPoleWarning
 from bayesnsi.io import dump_config, load_config, load_signals
 from bayesnsi.nsi import identify
 from bayesnsi.options import EvidenceOptions, NSIOptions
@@ -75,7 +75,7 @@ def carriage() -> Signals:
 def test_free_body_evidence_scores_the_force_and_prefers_friction(carriage):
     options = EvidenceOptions(n_walkers=16, n_steps=300, n_burn=100, compare=())
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+        warnings.simplefilter("ignore", SpuriousPoleWarning)  # the rigid-body pole of the free body
         linear = identify(carriage, None, NSIOptions(block_rows=20, order=2))
         coulomb = identify(carriage, [("sign(v1)", 1)], NSIOptions(block_rows=20, order=2))
         affine = candidate_affine(coulomb, carriage, "innovations")
@@ -105,13 +105,11 @@ def test_loop_on_a_free_body_adds_coulomb_and_nothing_else(carriage):
     from bayesnsi.models import CandidateModel
     from bayesnsi.options import LoopOptions
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        loop = close_the_loop(
-            carriage, CandidateModel(name="linear", terms=()), LoopOptions(refine_final=None),
-            nsi=NSIOptions(block_rows=20, order=2),
-            evidence=EvidenceOptions(n_walkers=16, n_steps=300, n_burn=100, compare=()),
-        )
+    loop = close_the_loop(
+        carriage, CandidateModel(name="linear", terms=()), LoopOptions(refine_final=None),
+        nsi=NSIOptions(block_rows=20, order=2),
+        evidence=EvidenceOptions(n_walkers=16, n_steps=300, n_burn=100, compare=()),
+    )
     added = [step.effect.name for step in loop.steps if step.accepted]
     assert added == ["sign(v)"]
     (phys,) = loop.final.physical_parameters
@@ -132,13 +130,11 @@ def test_loop_whose_scores_all_fail_stops_with_the_reason(carriage, monkeypatch)
 
     real = scoring.laplace_score
     monkeypatch.setattr(scoring, "laplace_score", failing)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        with pytest.raises(LoopError, match="could not place the walkers"):
-            close_the_loop(
-                carriage, CandidateModel(name="linear", terms=()), LoopOptions(refine_final=None, screen=2),
-                nsi=NSIOptions(block_rows=20, order=2),
-            )
+    with pytest.raises(LoopError, match="could not place the walkers"):
+        close_the_loop(
+            carriage, CandidateModel(name="linear", terms=()), LoopOptions(refine_final=None, screen=2),
+            nsi=NSIOptions(block_rows=20, order=2),
+        )
 
 
 def test_loop_with_a_start_evidence_that_is_not_finite_says_so(carriage, monkeypatch):
@@ -147,10 +143,8 @@ def test_loop_with_a_start_evidence_that_is_not_finite_says_so(carriage, monkeyp
     from bayesnsi.models import CandidateModel
 
     monkeypatch.setattr(search, "laplace_score", lambda *args: (float("nan"), float("nan")))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        with pytest.raises(LoopError, match="starting model 'linear' is nan"):
-            close_the_loop(carriage, CandidateModel(name="linear", terms=()), nsi=NSIOptions(block_rows=20, order=2))
+    with pytest.raises(LoopError, match="starting model 'linear' is nan"):
+        close_the_loop(carriage, CandidateModel(name="linear", terms=()), nsi=NSIOptions(block_rows=20, order=2))
 
 
 def test_asymmetric_friction_types_act_in_one_direction_and_are_not_default():
@@ -172,7 +166,7 @@ def test_validation_of_a_free_body_is_its_force_prediction(carriage):
     from bayesnsi.checks.validation import validate
 
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+        warnings.simplefilter("ignore", SpuriousPoleWarning)  # the rigid-body pole of the free body
         coulomb = identify(carriage, [("sign(v1)", 1)], NSIOptions(block_rows=20, order=2))
     (error,) = validate(coulomb, [("second half", carriage.segment(3000, 6000))])
     assert error.quantity == "force" and error.to_dict()["quantity"] == "force"
@@ -183,7 +177,7 @@ def test_physical_table_lists_one_dof_models_with_their_rigid_body_pole(carriage
     from bayesnsi.tables import physical_table
 
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+        warnings.simplefilter("ignore", SpuriousPoleWarning)  # the rigid-body pole of the free body
         coulomb = identify(carriage, [("sign(v1)", 1)], NSIOptions(block_rows=20, order=2))
     table = physical_table({"Coulomb": coulomb})
     assert table.loc["mass [kg]", "Coulomb"] == pytest.approx(95.0, rel=0.02)
@@ -205,7 +199,7 @@ def test_offset_is_a_constant_force_read_at_dc():
     signals = Signals(force=tau[:, None], displacement=(q - q.mean())[:, None], fs=200.0, input_dofs=(1,),
                       output_dofs=(1,))
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+        warnings.simplefilter("ignore", SpuriousPoleWarning)  # the rigid-body pole of the free body
         result = identify(signals, [("sign(v1)", 1), ("1", 1)], NSIOptions(block_rows=20, order=2))
         coulomb = identify(signals, [("sign(v1)", 1)], NSIOptions(block_rows=20, order=2))
     fc, offset = result.coefficient_values

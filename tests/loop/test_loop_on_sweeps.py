@@ -9,8 +9,6 @@ Reference: the two-DOF chain with a cubic spring k3 = 5e5 at DOF 1 (the simulate
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 import pytest
 
@@ -47,10 +45,8 @@ def test_half_overlap_tells_a_sweep_from_a_stationary_test():
 
 def test_the_loop_adds_the_cubic_spring_of_a_swept_test():
     signals = _sweep()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        loop = close_the_loop(signals, CandidateModel("linear", ()), LoopOptions(max_steps=1),
-                              nsi=NSIOptions(block_rows=40, order=4))
+    loop = close_the_loop(signals, CandidateModel("linear", ()), LoopOptions(max_steps=1),
+                          nsi=NSIOptions(block_rows=40, order=4))
     assert [t.name for t in loop.final.terms] == ["x1**3@1"]
     step = next(s for s in loop.steps if s.accepted)
     assert step.coefficient == pytest.approx(K3, rel=0.05)

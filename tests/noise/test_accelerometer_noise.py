@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from bayesnsi.checks.adequacy import model_checks
-from bayesnsi.exceptions import ConfigError
+from bayesnsi.exceptions import AdequacyWarning, ConfigError
 from bayesnsi.findings import messages
 from bayesnsi.io import load_config, load_signals
 from bayesnsi.models import CandidateModel, Term
@@ -96,9 +96,7 @@ def _record(tmp_path, seed=0, extra="", noise=0.02):
         f'integrate = {{ band_hz = [{BAND[0]}, {BAND[1]}]{extra} }}\n'
         '[[candidates]]\nname = "x1 cubic"\nterms = [{ expr = "x1**3", at = 1 }]\n'
     )
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return load_signals(load_config(tmp_path / "config.toml")), std
+    return load_signals(load_config(tmp_path / "config.toml")), std
 
 
 def test_loader_estimates_the_accelerometer_noise_before_integration_or_takes_the_declared_one(tmp_path):
@@ -216,9 +214,7 @@ def test_the_recipe_follows_decimation_and_the_time_method(tmp_path):
     signals, _ = _record(tmp_path, extra=', method = "time"')
     (tmp_path / "config.toml").write_text((tmp_path / "config.toml").read_text().replace(
         "[[candidates]]", "decimate = 2\n[[candidates]]"))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        decimated = load_signals(load_config(tmp_path / "config.toml"))
+    decimated = load_signals(load_config(tmp_path / "config.toml"))
     noise = acceleration_noise_of(decimated)
     assert noise is not None and noise.decimate == 2 and noise.method == "time" and noise.signals_fs == FS / 2
     x, v = noise.draw(decimated.n_samples, np.random.default_rng(0))
@@ -259,7 +255,7 @@ def test_no_whiteness_test_on_integrated_accelerations_whose_noise_is_coloured(t
     assert not whiteness_applies(signals) and whiteness_applies(replace(signals, measured="displacement"))
     fast = EvidenceOptions(n_steps=200, n_burn=50, likelihood="white", compare=[])
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+        warnings.simplefilter("ignore", AdequacyWarning)  # the wrong model's residual band; the checks are read below
         selection = select(signals, [TRUE, WRONG], NSI, fast)
     assert selection.selected == TRUE.name and selection.adequacy == {}
     assert selection.checks[TRUE.name].adequate and not selection.checks[WRONG.name].adequate

@@ -10,7 +10,6 @@ replicates and the adequacy check, and reports errors in velocity.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import replace
 from types import SimpleNamespace
 
@@ -82,9 +81,7 @@ def _record(tmp_path, seed=0, noise=0.02, data_lines=None):
         '[data]\nfile = "record.csv"\ntime_column = "t"\ninputs = { f = 2 }\n' + data
         + '[[candidates]]\nname = "x1 cubic"\nterms = [{ expr = "x1**3", at = 1 }]\n'
     )
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return load_signals(load_config(tmp_path / "config.toml")), std, response
+    return load_signals(load_config(tmp_path / "config.toml")), std, response
 
 
 def test_velocities_alone_are_integrated_once_with_their_noise_kept(tmp_path):

@@ -78,9 +78,7 @@ def test_frequency_route_refuses_what_it_cannot_use(record):
 
 def test_time_route_stays_the_default(record):
     assert NSIOptions().domain == "time"
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        result = identify(record, CUBIC, NSIOptions(order=4))
+    result = identify(record, CUBIC, NSIOptions(order=4))
     assert "domain" not in result.settings or result.settings["domain"] == "time"
 
 

@@ -138,9 +138,7 @@ def test_beam_evidence_selects_the_true_model(beam):
             assert str(res)  # a failed candidate carries its reason
             evidences[name] = None
             continue
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            evidences[name] = list(candidate_evidence(res, case.signals, options, seed).values())
+        evidences[name] = list(candidate_evidence(res, case.signals, options, seed).values())
     table = compare_evidence(evidences)
     assert table.loc["model 3", "p_ar1"] > 0.95, table
 

@@ -7,8 +7,6 @@ References: the exact receptance [K - ω²M + jωC]⁻¹ of the simulated struct
 
 from __future__ import annotations
 
-import warnings
-
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
@@ -65,9 +63,7 @@ def test_h1_of_a_periodic_test_is_exact_on_the_excited_lines_only():
 
 def test_the_frf_figure_draws_the_data_beside_the_models():
     signals = _random_record(n=20000)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        result = identify(signals, None, NSIOptions(block_rows=20, order=4))
+    result = identify(signals, None, NSIOptions(block_rows=20, order=4))
     measured = measured_frf(signals)
     fig = plot_frf([result], np.geomspace(0.1, measured.excited_hz, 400), measured=measured, log_frequency=True)
     try:

@@ -11,7 +11,6 @@ docs/calibration.md, "The loop's final model").
 from __future__ import annotations
 
 import importlib
-import warnings
 from types import SimpleNamespace
 
 import numpy as np
@@ -32,9 +31,7 @@ def coulomb():
     from bayesnsi.simulate.undeclared import undeclared_case
 
     signals = undeclared_case("coulomb-dof2", seed=0).reference.signals
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        result = identify(signals, TERMS, NSIOptions(block_rows=60, order=4))
+    result = identify(signals, TERMS, NSIOptions(block_rows=60, order=4))
     return signals, result
 
 
@@ -100,9 +97,7 @@ def _noise_free_replicates(result, signals, options, monkeypatch, interval_mean=
 def test_the_model_s_own_noise_free_records_identify_back_to_the_model(coulomb, monkeypatch):
     signals, _ = coulomb
     options = NSIOptions(block_rows=160, order=4, upsample=4)  # the loop's final grid (upsampled)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        result = identify(signals, TERMS, options)
+    result = identify(signals, TERMS, options)
     _, coefficients, frequencies, zetas, failures = _noise_free_replicates(result, signals, options, monkeypatch)
     assert not failures and coefficients.shape == (3, 2)
     # within the estimator's own noise-free error on a 30 s record (alpha 0.7 % seed to seed, sign(v2) -0.2 to
@@ -146,13 +141,11 @@ def test_auto_uses_model_replicates_for_coulomb_friction_only(coulomb):
     signals, result = coulomb
     options = EvidenceOptions(n_steps=100, n_burn=20, likelihood="white", compare=(), n_replicates=3)
     nsi = NSIOptions(block_rows=60, order=4)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        smooth = identify(signals, [TERMS[0]], nsi)
-        methods = {}
-        for name, found in (("switch", result), ("smooth", smooth)):
-            evidence = candidate_evidence(found, signals, options, warn=False)["white"]
-            methods[name] = candidate_intervals(found, signals, evidence, options, nsi)
+    smooth = identify(signals, [TERMS[0]], nsi)
+    methods = {}
+    for name, found in (("switch", result), ("smooth", smooth)):
+        evidence = candidate_evidence(found, signals, options, warn=False)["white"]
+        methods[name] = candidate_intervals(found, signals, evidence, options, nsi)
     assert methods["switch"].method == "surrogate" and methods["switch"].n_segments == 3
     assert not any(f.kind == "interval.discontinuous" for f in methods["switch"].findings)
     assert methods["smooth"].method == "noise"
@@ -193,10 +186,8 @@ def test_a_model_that_diverges_on_the_surrogates_falls_back_to_noise_replicates(
     monkeypatch.setattr(surrogate, "_simulated_records", diverges)
     signals, result = coulomb
     options = EvidenceOptions(n_steps=100, n_burn=20, likelihood="white", compare=(), n_replicates=3)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        evidence = candidate_evidence(result, signals, options, warn=False)["white"]
-        found = candidate_intervals(result, signals, evidence, options, NSIOptions(block_rows=60, order=4))
+    evidence = candidate_evidence(result, signals, options, warn=False)["white"]
+    found = candidate_intervals(result, signals, evidence, options, NSIOptions(block_rows=60, order=4))
     assert found.method == "noise" and found.n_segments == 3
     assert any(f.message.startswith("model replicates failed (model replicates: UnstableModelError")
                for f in found.findings)

@@ -1,6 +1,6 @@
 """Free bodies with friction (issue 14): screen ranks of the true effect and the loop over seeds.
 
-Simulated carriage (``tests/test_free_body.py``: M 95 kg, Fv 200 N s/m, Fc 20 N, offset -3 N, no
+Simulated carriage (``tests/_helpers/carriage.py``: M 95 kg, Fv 200 N s/m, Fc 20 N, offset -3 N, no
 spring, PD position loop, 5 N force disturbance, 1 µm position noise; fs 200 Hz), seeds 0..S-1, and
 the measured EMPS axis when its files are present. Per record: the rank of sign(v) in the
 force-view screen (:mod:`bayesnsi.loop.screen_force`, used for free bodies) and in the

@@ -1,11 +1,12 @@
-"""Shared fixtures and helpers."""
+"""Fixtures shared by the tests of several packages, and the hypothesis profiles."""
 
-import functools
 import os
 
 import numpy as np
 import pytest
-from scipy.linalg import expm
+
+from tests._helpers.cases import base_seed
+from tests._helpers.experiments import SELECT_CONFIG
 
 try:
     from hypothesis import HealthCheck, settings
@@ -15,16 +16,11 @@ except ImportError:  # pragma: no cover - hypothesis is a test dependency
 if settings is not None:
     # Property-based suites without an explicit max_examples follow the active profile:
     # "bayesnsi" (default, bounded for `make test`) or "long" (thousands of examples):
-    #   BAYESNSI_HYPOTHESIS_PROFILE=long .venv/bin/pytest -q tests/test_fuzz.py
+    #   BAYESNSI_HYPOTHESIS_PROFILE=long .venv/bin/pytest -q tests/io/test_fuzz.py
     _quiet = [HealthCheck.too_slow, HealthCheck.filter_too_much]
     settings.register_profile("bayesnsi", max_examples=60, deadline=None, suppress_health_check=_quiet)
     settings.register_profile("long", max_examples=3000, deadline=None, suppress_health_check=_quiet)
     settings.load_profile(os.environ.get("BAYESNSI_HYPOTHESIS_PROFILE", "bayesnsi"))
-
-
-def base_seed() -> int:
-    """Seed offset for stochastic tests (override with BAYESNSI_TEST_SEED)."""
-    return int(os.environ.get("BAYESNSI_TEST_SEED", "0"))
 
 
 @pytest.fixture
@@ -32,40 +28,14 @@ def rng():
     return np.random.default_rng(base_seed())
 
 
-@functools.lru_cache(maxsize=2)
-def twin_case(seed: int = 0):
-    """``simulate_case("negative-stiffness", seed=seed)``, simulated once per test process.
+@pytest.fixture(scope="module")
+def select_config(tmp_path_factory):
+    """A two-DOF record (10 s) with one candidate and a short MCMC: a select of about 2 s."""
+    from bayesnsi.cli import main
 
-    The twin's RK4 march (140 s on a 6x grid, 25-40 s) is shared by the tests that read it; they
-    must not modify the returned case.
-    """
-    from bayesnsi.simulate import simulate_case
-
-    return simulate_case("negative-stiffness", seed=seed)
-
-
-def zoh_chain(masses, stiffnesses, dampings, dt, force_dofs):
-    """Exact ZOH discretisation of a chain (SPEC Eq. 18), for tests independent of the simulator.
-
-    Returns Ac, Bc (force columns), A, B, n_dofs.
-    """
-    n = len(masses)
-    K = np.zeros((n, n))
-    C = np.zeros((n, n))
-    for idx, (k, c) in enumerate(zip(stiffnesses, dampings)):
-        K[idx, idx] += k
-        C[idx, idx] += c
-        if idx > 0:
-            K[idx - 1, idx - 1] += k
-            K[idx - 1, idx] -= k
-            K[idx, idx - 1] -= k
-            C[idx - 1, idx - 1] += c
-            C[idx - 1, idx] -= c
-            C[idx, idx - 1] -= c
-    M = np.diag(masses)
-    minv = np.linalg.inv(M)
-    Ac = np.block([[np.zeros((n, n)), np.eye(n)], [-minv @ K, -minv @ C]])
-    Bfull = np.vstack([np.zeros((n, n)), minv])
-    A = expm(Ac * dt)
-    Bd_full = np.linalg.solve(Ac, (A - np.eye(2 * n)) @ Bfull)
-    return Ac, A, Bd_full, n
+    folder = tmp_path_factory.mktemp("select_config")
+    csv = folder / "two_dof.csv"
+    assert main(["simulate", "two-dof", "--seed", "1", "--duration", "10", "--out", str(csv), "--quiet"]) == 0
+    path = folder / "select.toml"
+    path.write_text(SELECT_CONFIG)
+    return path

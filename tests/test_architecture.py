@@ -1,7 +1,8 @@
-"""Checks that keep the architecture of bayesnsi (docs/architecture.md): the import graph.
+"""Checks that keep the architecture of bayesnsi (docs/architecture.md): the import graph and the names.
 
 Static analysis of the source with :mod:`ast`, nothing imported: no import cycles, the layers,
-module size, the parameter count of the entry points. The rules on the public API (docstrings,
+module size, the parameter count of the entry points; no blanket warning filter, no file or test
+named after how it came about, the tests laid out by package. The rules on the public API (docstrings,
 option names, what scripts import) are in ``test_api_rules.py``. Each test names every offender.
 """
 
@@ -9,6 +10,7 @@ from __future__ import annotations
 
 import ast
 import dataclasses
+import re
 import sys
 from collections.abc import Iterator
 from functools import cache
@@ -434,3 +436,135 @@ def test_entry_points_take_few_parameters():
         f"{ENTRY_POINTS} take at most {MAX_ENTRY_POINT_PARAMETERS} parameters (group settings in options):\n"
         + "\n".join(offenders)
     )
+
+
+# --------------------------------------------------------------------------------------------
+# f. names by concept, one warning filtered at a time, tests laid out by package
+# --------------------------------------------------------------------------------------------
+
+TESTS = ROOT / "tests"
+SCRIPTS = (PACKAGE, TESTS, ROOT / "benchmarks", ROOT / "workflows", ROOT / "notebooks")
+# how a thing came about is not what it is: no file or test is named after its issue or its trial
+HISTORY_WORDS = ("trial", "issue")
+HISTORY_TEXT = re.compile(r"\bissue[- ]?\d+|\btrial\b", re.IGNORECASE)
+
+
+def _python_files(*folders: Path) -> list[Path]:
+    paths = (p for folder in folders if folder.is_dir() for p in folder.rglob("*.py"))
+    return sorted(p for p in paths if "__pycache__" not in p.parts)
+
+
+def history_names(paths) -> list[str]:
+    """Files, test functions and test docstrings of ``paths`` that name how they came about (HISTORY_WORDS)."""
+    offenders = []
+    for path in paths:
+        where = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path
+        if any(word in path.stem.lower() for word in HISTORY_WORDS):
+            offenders.append(f"{where}: file name")
+        if not path.name.startswith("test_"):
+            continue
+        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and node.name.startswith("test"):
+                if any(word in node.name.lower() for word in HISTORY_WORDS):
+                    offenders.append(f"{where}:{node.lineno}: test {node.name}")
+            if isinstance(node, (ast.Module, ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                doc = ast.get_docstring(node)
+                if doc and HISTORY_TEXT.search(doc):
+                    line = getattr(node, "lineno", 1)
+                    offenders.append(f"{where}:{line}: docstring cites {HISTORY_TEXT.search(doc).group(0)!r}")
+    return offenders
+
+
+def _text(node: ast.expr | None) -> str | None:
+    return node.value if isinstance(node, ast.Constant) and isinstance(node.value, str) else None
+
+
+def blanket_ignores(tree: ast.AST) -> list[int]:
+    """Lines of ``tree`` that ignore every warning category: ``warnings.simplefilter("ignore")``,
+    ``warnings.filterwarnings("ignore", ...)`` without a category, ``pytest.mark.filterwarnings("ignore")``
+    or ``"ignore:message"`` without a category."""
+    lines = []
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Call):
+            continue
+        func = node.func
+        name = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", None)
+        if name not in ("simplefilter", "filterwarnings"):
+            continue
+        keywords = {k.arg: k.value for k in node.keywords}
+        action = _text(node.args[0] if node.args else keywords.get("action"))
+        on_mark = isinstance(func, ast.Attribute) and getattr(func.value, "attr", None) == "mark"  # pytest.mark
+        if on_mark:  # "action:message:category:module:lineno"
+            fields = [*(action or "").split(":"), "", ""]
+            blanket = fields[0].strip() == "ignore" and not fields[2].strip()
+        else:
+            category_at = 1 if name == "simplefilter" else 2
+            blanket = action == "ignore" and len(node.args) <= category_at and "category" not in keywords
+        if blanket:
+            lines.append(node.lineno)
+    return lines
+
+
+def test_blanket_ignore_finder_finds_every_form():
+    source = """
+warnings.simplefilter("ignore")
+warnings.simplefilter(action="ignore")
+warnings.filterwarnings("ignore", message="x")
+@pytest.mark.filterwarnings("ignore")
+@pytest.mark.filterwarnings("ignore:a message")
+def f(): pass
+warnings.simplefilter("ignore", UserWarning)
+warnings.simplefilter("always")
+warnings.filterwarnings("ignore", "x", UserWarning)
+warnings.filterwarnings("ignore", message="x", category=UserWarning)
+@pytest.mark.filterwarnings("ignore::UserWarning")
+@pytest.mark.filterwarnings("ignore:a message:bayesnsi.exceptions.IntegrationWarning")
+def g(): pass
+"""
+    assert blanket_ignores(ast.parse(source)) == [2, 3, 4, 5, 6]
+
+
+def test_no_blanket_warning_filter_in_the_package_or_the_tests():
+    """filterwarnings = error holds: each filter names the one warning category it silences."""
+    offenders = [f"{path.relative_to(ROOT)}:{line}" for path in _python_files(PACKAGE, TESTS)
+                 for line in blanket_ignores(_tree(path))]
+    assert not offenders, "filter the one warning provoked (category, and message where useful):\n" + "\n".join(
+        offenders)
+
+
+def test_history_finder_finds_files_tests_and_docstrings(tmp_path):
+    named = tmp_path / "test_trial_rig.py"
+    named.write_text('"""Issue 14: the rig."""\n\ndef test_meets_the_issue_17_accuracy():\n    """A trial rig."""\n')
+    found = history_names([named])
+    assert [f.split(": ", 1)[1] for f in found] == [
+        "file name", "docstring cites 'Issue 14'", "test test_meets_the_issue_17_accuracy", "docstring cites 'trial'"]
+    plain = tmp_path / "test_rig.py"
+    plain.write_text('"""The rig: 40 trials of one lock."""\n\ndef test_trial_step_of_the_fit_is_kept():\n    pass\n')
+    assert [f.split(": ", 1)[1] for f in history_names([plain])] == ["test test_trial_step_of_the_fit_is_kept"]
+
+
+def test_files_and_tests_are_named_by_concept_not_by_history():
+    offenders = history_names(_python_files(*SCRIPTS))
+    assert not offenders, "name files and tests by the concept they hold or check:\n" + "\n".join(offenders)
+
+
+def test_tests_are_laid_out_by_package():
+    """tests/<package>/ for each package's tests; what several folders share lives in tests/_helpers or
+    tests/conftest.py, never imported from another folder's test file."""
+    packages = {p.parent.name for p in PACKAGE.glob("*/__init__.py")}
+    folders = {p.name for p in TESTS.iterdir() if p.is_dir() and p.name not in ("__pycache__", "_helpers")}
+    assert folders <= packages, f"test folders not named after a package: {sorted(folders - packages)}"
+    assert len(folders) >= 5
+    assert all((TESTS / folder / "__init__.py").is_file() for folder in folders)
+    offenders = []
+    for path in _python_files(TESTS):
+        here = path.parent.relative_to(ROOT).parts
+        for node in ast.walk(_tree(path)):
+            if isinstance(node, ast.ImportFrom):
+                base = here[: len(here) - node.level + 1] if node.level else ()
+                parts = (*base, *(node.module or "").split("."))
+                if parts[-1].startswith("test_") and tuple(parts[:-1]) != here:
+                    offenders.append(f"{path.relative_to(ROOT)}:{node.lineno}: {'.'.join(parts)}")
+    assert not offenders, "imports of another folder's test file (move the helper to tests/_helpers):\n" + "\n".join(
+        offenders)

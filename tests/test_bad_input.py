@@ -20,6 +20,7 @@ from bayesnsi.exceptions import (
 from bayesnsi.models import parse_expression
 from bayesnsi.nsi import StateSpaceModel
 from bayesnsi.options import EvidenceOptions, NSIOptions
+from tests._helpers.experiments import experiment_config as _experiment
 
 RNG = np.random.default_rng(0)
 F, X = RNG.standard_normal((400, 1)), RNG.standard_normal((400, 2))
@@ -80,7 +81,7 @@ def test_unstable_identified_model_is_refused():
     growing = np.exp(0.02 * t) * np.c_[np.sin(0.3 * t), np.cos(0.21 * t)] + 1e-3 * X
     with pytest.raises(UnstableModelError, match="unstable") as info:
         identify(Signals(F, growing, 100.0, [1], [1, 2]), None, NSIOptions(block_rows=5, order=2))
-    # the message names the unstable pole, the one of largest |z| among them (a trial of a 12-DOF chain found
+    # the message names the unstable pole, the one of largest |z| among them (on a 12-DOF chain it once said
     # "try another order" without a frequency)
     import re
 
@@ -105,29 +106,7 @@ def test_empty_candidate_name_and_duplicate_terms():
 
 
 # ---------------------------------------------------------------------------------------------
-# the rest of the catalogue (issue 6): files and configs, candidate lists, physics, MCMC, CLI
-
-
-def _experiment(folder, edit=None, csv_columns=None):
-    """A small valid experiment (CSV + config) in ``folder``, optionally edited; returns the config path."""
-    from bayesnsi.io import dump_config
-
-    n = 300
-    rng = np.random.default_rng(1)
-    columns = csv_columns or {"f2": rng.normal(size=n), "x1": rng.normal(size=n), "x2": rng.normal(size=n)}
-    lines = [",".join(["t", *columns])]
-    lines += [",".join([repr(k / 100.0)] + [repr(float(v[k])) for v in columns.values()]) for k in range(n)]
-    (folder / "data.csv").write_text("\n".join(lines) + "\n")
-    raw = {
-        "data": {"file": "data.csv", "fs": 100.0, "inputs": {"f2": 2}, "outputs": {"x1": 1, "x2": 2}},
-        "nsi": {"block_rows": 10, "order": 4},
-        "candidates": [{"name": "cubic", "terms": [{"expr": "x1**3", "at": 1}]}],
-    }
-    if edit is not None:
-        edit(raw)
-    path = folder / "experiment.toml"
-    path.write_text(dump_config(raw))
-    return path
+# the rest of the catalogue: files and configs, candidate lists, physics, MCMC, CLI
 
 
 def _set(section, key, value):
@@ -298,7 +277,7 @@ def test_expression_dof_bounds_and_missing_rows():
 
 
 # ---------------------------------------------------------------------------------------------
-# hostile input (issue 13): files that are not measurements, huge or deep files, nonsense configs
+# hostile input: files that are not measurements, huge or deep files, nonsense configs
 
 
 def _write_raw_config(folder, data_file: str, extra: str = "", fs: str = "100.0"):

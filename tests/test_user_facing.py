@@ -1,4 +1,4 @@
-"""What a user meets first (issue 16): --version, a fast --help, compact reprs, the state-space export."""
+"""What a user meets first: --version, a fast --help, compact reprs, the state-space export."""
 
 from __future__ import annotations
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import csv
 import io
 import os
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -259,10 +260,12 @@ def _read_plain(path: Path, positions: list[int], skip: int) -> np.ndarray | Non
     messages.
     """
     try:
-        values = np.loadtxt(
-            path, delimiter=",", skiprows=skip, usecols=positions, ndmin=2, comments=None, encoding="utf-8",
-            dtype=float,
-        )
+        with warnings.catch_warnings():  # a file of no rows is told by _read_frame, not by numpy's warning
+            warnings.filterwarnings("ignore", message="loadtxt: input contained no data", category=UserWarning)
+            values = np.loadtxt(
+                path, delimiter=",", skiprows=skip, usecols=positions, ndmin=2, comments=None, encoding="utf-8",
+                dtype=float,
+            )
     except (ValueError, UnicodeDecodeError, IndexError):
         return None
     return values if values.shape[0] > 0 else None

@@ -10,7 +10,7 @@ circular, and the simulation starts a decay length early on its periodic extensi
 driven with the inputs its identification assumed: interval means for the default input hold of a
 sign() term (driven by point values instead, its own noise-free records came back with sign(v2)
 about 1 % low and ζ1 6-18 % high on the loop's Coulomb case; with interval means within 0.8 % and
-4 %, ``tests/test_surrogate_intervals.py``). Sensor noise at the data's level
+4 %, ``tests/uncertainty/test_surrogate_intervals.py``). Sensor noise at the data's level
 (:func:`~bayesnsi.noise.noise_model`) is added, and the candidate is identified
 again with the same settings, order and band. In the model's world the truth is known (the
 identified coefficients and modes), so the replicates' spread is the scatter of the estimate from

@@ -1,0 +1,1 @@
+"""Tests of bayesnsi.checks: model adequacy, residual bands, validation, physical checks."""

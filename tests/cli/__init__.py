@@ -1,0 +1,1 @@
+"""Tests of bayesnsi.cli: the commands, their exit codes and what they print."""

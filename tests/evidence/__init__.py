@@ -1,0 +1,1 @@
+"""Tests of bayesnsi.evidence: likelihoods, priors, the marginal evidence and its estimators."""

@@ -1,0 +1,1 @@
+"""Tests of bayesnsi.models: the candidate-term language and candidate models."""

@@ -1,0 +1,1 @@
+"""Tests of bayesnsi.report and bayesnsi.plots (and the curves the figures draw)."""

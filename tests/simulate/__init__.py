@@ -1,0 +1,1 @@
+"""Tests of bayesnsi.simulate: structures, excitation, integration, the reference cases."""

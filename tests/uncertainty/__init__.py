@@ -1,0 +1,1 @@
+"""Tests of bayesnsi.uncertainty: intervals by noise replicates, model replicates, segments, widening."""

@@ -16,7 +16,7 @@ and is solved exactly, the crossing of ``w = 0`` included; for other ``n`` by RK
 least 4 substeps of at most 0.05 of the local time constant (within 3e-7 of a fine reference). The
 only error is then that of the path between samples, which misses the travel of a reversal inside a
 sampling interval (second order in ``ωΔt``; measured against a fine-step reference in
-``tests/test_hysteresis.py``).
+``tests/models/test_hysteresis.py``).
 
 On a record of exactly one period (a period-averaged record of the frequency route, the period of
 harmonic balance) ``z`` is the periodic steady state: the recursion runs over the period again

@@ -6,8 +6,6 @@ augmented state, independent of the identification's exact rule; docs/method.md 
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 import pytest
 
@@ -25,12 +23,6 @@ from bayesnsi.simulate.multisine import multisine
 from bayesnsi.uncertainty.replicates import noise_replicates
 
 
-def quiet_identify(signals, candidate, nsi):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return identify(signals, candidate, nsi)
-
-
 @pytest.fixture(scope="module")
 def case():
     return undeclared_case("hysteresis", seed=0, noise_percent=2.0, duration=20.0)
@@ -42,12 +34,12 @@ def other():
 
 
 def test_the_true_element_is_identified_and_simulates_the_record(case):
-    result = quiet_identify(case.signals, case.truth, case.nsi)
+    result = identify(case.signals, case.truth, case.nsi)
     coefficient = result.coefficients[0]
     assert coefficient.value == pytest.approx(300.0, rel=0.05) and coefficient.imag_ratio < 0.1
     bound = divergence_bound(case.clean.displacement)
     for hold in ("sample", "average"):  # point values, and the trapezoid interval means the model assumed
-        clean = quiet_identify(case.clean, case.truth, case.nsi.replace(input_hold=hold))  # z: the model's state
+        clean = identify(case.clean, case.truth, case.nsi.replace(input_hold=hold))  # z: the model's state
         u = clean.extended_input(case.clean)
         x0 = initial_state(clean.model, u[:50], np.asarray(case.clean.displacement)[:50])
         simulated, _ = closed_loop_response(clean, case.clean.force, x0, bound, 2, case.clean.fs,
@@ -58,10 +50,8 @@ def test_the_true_element_is_identified_and_simulates_the_record(case):
 def test_a_refined_shape_beats_its_grid_point_and_approaches_the_truth(case):
     evidence = EvidenceOptions(residual=LoopOptions().residual, compare=())
     start = hysteresis_effect(1, BoucWen.from_branches(50.0, 300.0))  # the truth's loading ÷ 2, unloading × 1.5
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        grid = score_effects(case.signals, case.declared, [start], case.nsi, evidence)[0]
-        best = refine_shape(case.signals, case.declared, grid, case.nsi, evidence)
+    grid = score_effects(case.signals, case.declared, [start], case.nsi, evidence)[0]
+    best = refine_shape(case.signals, case.declared, grid, case.nsi, evidence)
     assert best.log_evidence > grid.log_evidence + 100
     shape = best.effect.shape
     assert abs(np.log(shape.loading / 100.0)) < abs(np.log(50.0 / 100.0))
@@ -70,10 +60,8 @@ def test_a_refined_shape_beats_its_grid_point_and_approaches_the_truth(case):
 
 
 def test_noise_replicates_reidentify_a_boucwen_candidate(case):
-    result = quiet_identify(case.signals, case.truth, case.nsi)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        _, coefficients, _, _, failures = noise_replicates(result, case.signals, case.nsi, n_replicates=6, seed=1)
+    result = identify(case.signals, case.truth, case.nsi)
+    _, coefficients, _, _, failures = noise_replicates(result, case.signals, case.nsi, n_replicates=6, seed=1)
     assert not failures and coefficients.shape == (6, 1)
     spread = coefficients[:, 0].std(ddof=1)
     assert 0 < spread < 0.05 * result.coefficients[0].value  # sensor noise moves λ by a few per cent at most
@@ -120,9 +108,9 @@ def test_the_frequency_route_and_harmonic_balance_hold_a_boucwen_term():
 
     estimation, validation = record(0, 5), record(1, 3)
     nsi = NSIOptions(domain="frequency", order=2, block_rows=20)
-    model = quiet_identify(estimation, CandidateModel.from_terms("Bouc-Wen", [(term.expr.text, 1)]), nsi)
+    model = identify(estimation, CandidateModel.from_terms("Bouc-Wen", [(term.expr.text, 1)]), nsi)
     assert model.coefficients[0].value == pytest.approx(5e4, rel=0.05) and model.coefficients[0].imag_ratio < 0.1
-    linear = quiet_identify(estimation, CandidateModel(name="linear", terms=()), nsi)
+    linear = identify(estimation, CandidateModel(name="linear", terms=()), nsi)
     hysteretic_error = model.reconstruct(validation, closed_loop=True).nrmse  # harmonic balance, periodic z
     assert hysteretic_error < 0.1  # measured 0.072 (linear 0.244, cubic 0.172)
     assert hysteretic_error < linear.reconstruct(validation, closed_loop=True).nrmse / 3

@@ -1,6 +1,6 @@
 """Honest intervals and adequacy for accelerometer data on non-periodic records (docs/method.md §11).
 
-A cubic two-DOF chain (the F-16-style trial's structure, x1³ at DOF 1, k3 = 1e5 N/m³) driven at
+A cubic two-DOF chain (x1³ at DOF 1, k3 = 1e5 N/m³) driven at
 DOF 2 by a band-limited random force (1-30 Hz, 5 N rms, 60 s at 100 Hz from rest: no period) is
 measured by two accelerometers with white noise of 2 % of each channel's std, written to a CSV
 file and loaded with ``[data] integrate = { band_hz = [1.0, 45.0] }`` (frequency method), as a

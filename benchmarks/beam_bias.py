@@ -23,7 +23,8 @@ error| over the identified modes between 1 and 80 Hz; identify() wall time [s].
     ... benchmarks/beam_bias.py --seeds 0 1 2 3 4 5 6 7 --methods prediction-error \
         --c-methods subspace prediction-error --refine-poles 1.5 85 --only-refined
 
-Measured (last command; issue 2 criterion, SPEC 8.2): with refine_poles=(1.5, 85),
+Measured (last command; beam case of SPEC 8.2, targets: frequencies within 0.1 %, damping within
+5 %, k2 and k3 within 1 %): with refine_poles=(1.5, 85),
 bd_method="prediction-error" and c_method="prediction-error", k2, k3 within 0.45 %, damping of
 every identified 1-80 Hz mode within 2.7-5.4 % (over 5 % on seeds 2 and 6: the 4.31 Hz mode),
 frequencies within 0.048-0.102 % (the 10.1 Hz mode; over 0.1 % on seed 0) (seeds 0-7, records of

@@ -1,4 +1,4 @@
-"""Error of the loop's Coulomb case that the noise replicates cannot see (issue 15).
+"""Error of the loop's Coulomb case that the noise replicates cannot see.
 
 For each seed of ``coulomb-dof2`` simulated without sensor noise, the true model (20 v1|v1| at
 DOF 1, sign(v2) = 1 N at DOF 2) is identified with ``upsample = R`` and 60 R block rows (the

@@ -1,4 +1,4 @@
-"""Calibration of the coefficient and modal intervals (issue 15) on simulated reference cases.
+"""Calibration of the coefficient and modal intervals on simulated reference cases.
 
 For each case (``two-dof``: paper settings, true model 1 = 20 v1|v1|; ``three-dof``: cubic spring
 between DOFs 1 and 2; ``negative-stiffness``: the twin of SPEC 8.3, true model 2) and each seed
@@ -17,7 +17,7 @@ damping ratio against the simulator's exact modes):
 * coverage of the truth by the 50 % and 95 % intervals, and by the posterior's 95 %
   interval alone (conditional on the identified linear part; the old ``ci95``);
 * mean width of the 95 % interval against the width implied by the scatter, 2 x 1.96 x sd
-  (issue 15 asks for a ratio of at most 1.5 and coverage 90-98 % / 40-60 %).
+  (target: a ratio of at most 1.5 and coverage 90-98 % / 40-60 %).
 
 The reliability of the posterior model probabilities is the study of ``benchmarks/calibration.py``.
 
@@ -159,7 +159,7 @@ def main(argv=None) -> int:
     given = {"n_segments": args.n_segments, "segment_fraction": args.segment_fraction, "interval": args.interval,
              "n_replicates": args.n_replicates}
     opts = EvidenceOptions().replace(**{k: v for k, v in given.items() if v is not None})
-    records = run_seeds("bayesnsi interval calibration (issue 15)", one_seed, args.cases, n_seeds, args.seed0, opts,
+    records = run_seeds("bayesnsi interval calibration", one_seed, args.cases, n_seeds, args.seed0, opts,
                         args.workers, json_path=args.json)
     for name in args.cases:
         print_case(name, sorted((r for r in records if r["case"] == name), key=lambda r: r["seed"]))

@@ -1,4 +1,4 @@
-"""Calibration of the loop's final coefficients and modes (issue 15) on undeclared-effect cases.
+"""Calibration of the loop's final coefficients and modes on undeclared-effect cases.
 
 For each case (``coulomb-dof2``: declared 20 v1|v1|, missing sign(v2) = 1 N; ``cubic-pair``:
 declared linear, missing (x1-x2)³ = 2e5) and seed, it simulates the case (30 s, 2 % noise),
@@ -120,7 +120,7 @@ def main(argv=None) -> int:
             _print_tables(json.load(fh), args.cases)
         return 0
     task = functools.partial(one_seed, bit_generator=args.bit_generator)
-    title = f"bayesnsi loop interval calibration (issue 15), {args.bit_generator} cases"
+    title = f"bayesnsi loop interval calibration, {args.bit_generator} cases"
     records = run_seeds(title, task, args.cases, args.seeds, args.seed0, EvidenceOptions(), args.workers,
                         json_path=args.json)
     _print_tables(records, args.cases)

@@ -1,10 +1,10 @@
 """Adequacy of a stiff non-smooth element's true model: the sensor noise against the noise the model passes on.
 
-A new-user trial (a 12-DOF chain with a clearance, 8 displacement channels) found the true clearance
-model's open-loop residual at 4.4x the sensor noise: ``select`` called it inadequate and widened its
+On a 12-DOF chain with a clearance and 8 displacement channels, the true clearance model's
+open-loop residual was 4.4x the sensor noise: ``select`` called it inadequate and widened its
 interval to ±75 %. Its nonlinear input is computed from the noisy displacement, and the stiff element
-turns that noise into a force that rings at the modes. This script simulates such a chain again
-(independently of the trial: 12 unit masses, 4 kN/m springs, 3 N s/m dampers, a 1-40 Hz force at
+turns that noise into a force that rings at the modes. This script simulates such a chain
+(bayesnsi's own simulator: 12 unit masses, 4 kN/m springs, 3 N s/m dampers, a 1-40 Hz force at
 DOF 3, a clearance spring of 4 kN/m at DOF 9 with its gap at one displacement std, 8 sensors with 2 %
 noise) and prints, for the true model and for wrong ones (gap, DOF, none) that identify stably, the residual's ratio
 to the sensor noise (the yardstick before) and to the noise the model passes on (the change of its

@@ -1,4 +1,4 @@
-"""Start-up time of the command line: `bayesnsi --help`, `--version` and `simulate --help` (issue 16).
+"""Start-up time of the command line: `bayesnsi --help`, `--version` and `simulate --help`.
 
 Target: `bayesnsi --help` under 0.3 s. The parser imports no numerical library (numpy, scipy,
 pandas, matplotlib load when a command runs; the top-level names of `bayesnsi` load on first

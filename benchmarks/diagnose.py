@@ -7,7 +7,7 @@ unstable, so the loop cannot start from them): wall time of a full loop
 steps and of effects scored, and the time of one select of a single candidate: the numerical
 part (NSI + reconstruction + AR(1) evidence) and the whole ``bayesnsi select`` command on a
 config holding only that candidate (adds the white-noise evidence, closed-loop checks and the
-report with its figures). Issue target: a loop step costs no more than one select.
+report with its figures). Target: a loop step costs no more than one select.
 
 Run: ``OMP_NUM_THREADS=1 .venv/bin/python benchmarks/diagnose.py [--quick] [--jobs N] [--no-screen]``
 (``--quick``: two-DOF only; ``--jobs N``: the loop scores each step's effects in N worker processes;

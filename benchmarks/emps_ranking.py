@@ -1,4 +1,4 @@
-"""Why ``select`` ranks Coulomb + v|v| above Coulomb on the EMPS axis (issue 14): what v|v| absorbs.
+"""Why ``select`` ranks Coulomb + v|v| above Coulomb on the EMPS axis: what v|v| absorbs.
 
 An independent computation (numpy least squares, not the package's evidence): the force view of
 :mod:`bayesnsi.nsi.inverse` (4th-order zero-phase low-pass at the cutoff, central differences,

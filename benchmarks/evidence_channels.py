@@ -1,8 +1,8 @@
-"""Cost of the evidence per candidate and likelihood with 2 and 16 output channels (issue 15, acceptance 4).
+"""Cost of the evidence per candidate and likelihood with 2 and 16 output channels.
 
 16 channels: the 16-DOF cantilever beam of docs/method.md §8 (``simulate_case("beam")``, 100 s
 at 1 kHz = 1e5 samples, 1 % noise) with all 16 DOFs measured and its true model {x13², x13³}
-identified with block rows i = 10, order n = 32 (as measured in the issue); 2 channels: the
+identified with block rows i = 10, order n = 32; 2 channels: the
 two-DOF case (1000 s at 100 Hz = 1e5 samples, 1 % noise, model 1, paper settings). For each
 likelihood the evidence is computed on the same innovations residual by the collapsed estimator
 (noise levels and AR coefficients integrated out, the coefficients sampled by emcee; docs/method.md
@@ -97,7 +97,7 @@ def estimator_rows(signals, result, candidate, likelihood: str):
 def main() -> int:
     print(f"python {platform.python_version()}, numpy {np.__version__}, {platform.machine()}; N = 1e5 samples")
     print("estimator: collapsed = noise levels and AR coefficients integrated out, the coefficients sampled "
-          "(docs/method.md §6, Eq. 6.4); joint = emcee over all parameters (before issue 15)")
+          "(docs/method.md §6, Eq. 6.4); joint = emcee over all parameters (the earlier default)")
     head = (f"{'l':>3} {'likelihood':>10} {'estimator':>9} {'params':>6} | {'residual':>8} {'sample':>6} {'bridge':>6} "
             f"{'summary':>7} {'evid. s':>7} | {'SE nat':>7} {'br-lap':>7} {'new-old':>8}")
     print(head)

@@ -1,4 +1,4 @@
-"""Frequency-domain NSI against the time route on periodic data (issue 17, "What must be true" item 3).
+"""Frequency-domain NSI against the time route on periodic data.
 
 Two-DOF chain m = 1, 1.5 kg; k = 800, 1000 N/m; c = 2, 2 N s/m; cubic spring k3 = 1e5 N/m³
 grounded at DOF 1; force at DOF 2: a random-phase multisine (every line of 0.5-20 Hz, rms
@@ -11,7 +11,7 @@ Both routes identify the true candidate {x1³} at order 4 on the same record: th
 (``NSIOptions(domain="frequency")``) and the time route (``NSIOptions()``, the defaults). Columns:
 k3 error [%], the larger natural-frequency error [%], identify() wall time [ms] (best of
 ``--repeat``). The summary counts seeds with |k3 error| < 0.5 % and frequency errors < 0.02 %
-(the issue's targets; pyvib's FNSI reached 0.4-1.1 % and 0.02 % on such data), the scatter over
+(the targets; pyvib's FNSI reached 0.4-1.1 % and 0.02 % on such data), the scatter over
 the seeds and the ratio of the two routes' times (measured in the same run, interleaved).
 
 Measured (seeds 0-9, 2026-11-26): frequency route 9/10 (max |k3| 0.48 %, the 7.5 Hz mode of seed 7

@@ -1,4 +1,4 @@
-"""Free bodies with friction (issue 14): screen ranks of the true effect and the loop over seeds.
+"""Free bodies with friction: screen ranks of the true effect and the loop over seeds.
 
 Simulated carriage (``tests/_helpers/carriage.py``: M 95 kg, Fv 200 N s/m, Fc 20 N, offset -3 N, no
 spring, PD position loop, 5 N force disturbance, 1 µm position noise; fs 200 Hz), seeds 0..S-1, and

@@ -1,4 +1,4 @@
-"""The linear part on the simulated ground vibration test against the nonparametric FRF (issue 17 item 1).
+"""The linear part on the simulated ground vibration test against the nonparametric FRF.
 
 Per level of :func:`bayesnsi.simulate.gvt_records` (realisations 0 and 1, 4 periods each): the
 linear model of the frequency route (order ``--order``, band 1.5-15 Hz, D free) identified on
@@ -6,16 +6,16 @@ realisation 0 and the nonparametric period-averaged FRF of realisation 0 (Y/U on
 lines) both predict realisation 1 on its excited lines in the band, in accelerations. Columns:
 
 - ``model pred`` / ``FRF pred``: relative rms prediction error of realisation 1, and their ratio
-  (issue target: model within 1.2x the nonparametric FRF);
+  (target: model within 1.2x the nonparametric FRF);
 - ``est misfit / (n+d)``: the model's misfit on the estimation lines over the noise-plus-distortion
-  level there (M · var(G_BLA) · |U|² from the two realisations; issue target: within 1.5x; with two
+  level there (M · var(G_BLA) · |U|² from the two realisations; target: within 1.5x; with two
   realisations that level is a one-degree-of-freedom estimate per line, so its sum is rough).
 
     OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/gvt_linear.py
     ... benchmarks/gvt_linear.py --order 18 20 24 [--seed 1] [--dictionary]
 
-``--dictionary`` also identifies each effect of the default dictionary alone (item 1's third
-condition: none may fail because of a pole outside the band).
+``--dictionary`` also identifies each effect of the default dictionary alone (the third
+target: none may fail because of a pole outside the band).
 
 Measured (2026-11-26, with the linear model refined from several subspace starts, block rows r,
 1.25r, 1.5r, 2r, the best kept): order 20 (the workflow's) meets both targets at every level on

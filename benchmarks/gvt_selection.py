@@ -1,4 +1,4 @@
-"""Selection on the simulated ground vibration test: is the selected model the one that validates (issue 15 item 3)?
+"""Selection on the simulated ground vibration test: is the selected model the one that validates?
 
 Per level of :func:`bayesnsi.simulate.gvt_records` (0.1, 1 and 8 N rms; realisation 0 estimates,
 realisation 1 validates; accelerations integrated period by period in 1-20 Hz), ``select`` runs on a

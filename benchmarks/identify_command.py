@@ -1,4 +1,4 @@
-"""Cost of `bayesnsi identify` as a command against the identification it runs (issue 16).
+"""Cost of `bayesnsi identify` as a command against the identification it runs.
 
 The beam case (docs/method.md §8: 1e5 samples, 1 force, 8 displacements + 8 velocities: 16
 response channels) with its true candidate {x13², x13³}, under two settings:

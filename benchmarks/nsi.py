@@ -57,7 +57,7 @@ STAGES = [("factor", "_hankel", "gram_factor"), ("factor", "_hankel", "lq_factor
 # (stage, module of bayesnsi.nsi, function): identify() looks these names up at call time
 STAGE_NAMES = ("factor", "svd", "bd")
 ACCURATE = dict(bd_method="prediction-error", c_method="prediction-error", refine_poles=(1.5, 85.0))
-"""The beam case's recommended settings (errors in variables handled; issue 2 accuracy criterion)."""
+"""The beam case's recommended settings (errors in variables handled; measured in benchmarks/beam_bias.py)."""
 
 
 def _proc_status(key, reset_peak=False):

@@ -1,11 +1,11 @@
 """Robust band mean of λ(ω): a 10-DOF chain whose λ(ω) runs away near the top of the default band.
 
-A new-user trial (10-DOF grounded chain, masses 1.3 -> 0.7 kg, springs 6e3 -> 3e4 N/m, a cubic
-spring k3 = 5e6 N/m³ between ground and DOF 4, friction 0.5 tanh(v7 / 1e-3) N at DOF 7, a 1-80 Hz
+Identified at default settings, a 10-DOF grounded chain (masses 1.3 -> 0.7 kg, springs 6e3 -> 3e4
+N/m, a cubic spring k3 = 5e6 N/m³ between ground and DOF 4, friction 0.5 tanh(v7 / 1e-3) N at DOF 7, a 1-80 Hz
 force of 20 N rms at DOF 10, 500 Hz, displacements and velocities at DOFs 1, 2, 4, 5, 7, 8, 10 with
 1 % noise, order 20) read k3 = 9.2e5 with the default band [0.5 f_min, f_max]: the reciprocity route
 divides by the transfer FRF from DOF 10 to DOF 4, whose zero lies just above the highest mode, and
-Re λ(ω) ran to -1.5e8 over the last 10 Hz of the band. This script simulates such a chain again with
+Re λ(ω) ran to -1.5e8 over the last 10 Hz of the band. This script simulates such a chain with
 bayesnsi's own simulator (stiffness-proportional dampers, 2 % damping of the highest mode) and
 prints, per coefficient of the true model, the plain band mean (every line), the robust one
 (:func:`bayesnsi.nsi.physics.band_coefficients`: lines beyond ``OUTLIER_SCALES`` robust sds left

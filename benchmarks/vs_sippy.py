@@ -1,4 +1,4 @@
-"""identify() against SIPPY's N4SID fed the same extended input (issue 16, item 5).
+"""identify() against SIPPY's N4SID fed the same extended input.
 
 Case (docs/method.md §10, "Errors in variables"): two-DOF chain (masses 1, 1.5 kg; springs 800,
 1000 N/m; dampers 1, 1 N s/m), a cubic spring k3·x1³ at DOF 1 whose force is about 13 % of the

@@ -22,7 +22,7 @@ settings; the benchmark's own test files are not read:
   (204 s), noise-free.
 
 Models, all identified by NSI on the estimation data (``[nsi] block_rows = 20, order = 2``): linear;
-the static candidates of ``benchmarks/hysteresis_trial.py``; the loop from the linear model with
+the static candidates of ``benchmarks/bouc_wen.py``; the loop from the linear model with
 the default dictionary without Bouc-Wen elements (the best static model the loop builds); the loop
 from the linear model with the default dictionary; and the true structure (the Bouc-Wen term with
 the published shape). Test errors are RMS simulation errors [m] (the benchmark's e_RMS). Writes

@@ -11,7 +11,7 @@ Reads ``workflows/emps/emps.toml`` (the data at ``../shared/data/emps`` relative
    settings): the ranking by evidence;
 2. the loop from the linear model (:func:`bayesnsi.loop.close_the_loop`, default settings):
    the effects added, in order;
-3. the measures of issue 14: mass, viscous damping (from the identified FRF) and Coulomb force of the
+3. the physical measures: mass, viscous damping (from the identified FRF) and Coulomb force of the
    final model against the published IDIM-LS values, the force offset the final model needs (fitted
    on the estimation data) against the published one, the Coulomb + offset model identified by NSI
    on the record with the force's mean kept (its offset read at DC; the column shows the constant

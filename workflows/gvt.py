@@ -1,4 +1,4 @@
-"""Simulated ground vibration test (issue 17): periodic data, accelerometers, an undeclared joint.
+"""Simulated ground vibration test: periodic data, accelerometers, an undeclared joint.
 
 Usage::
 

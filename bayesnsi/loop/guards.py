@@ -101,10 +101,10 @@ def about_estimates(evidence, estimates) -> np.ndarray:
     """The coefficients' 95 % posterior intervals moved onto the NSI estimates: the posterior's spread about them.
 
     The posterior is conditional on the identified linear part and centred on its own mean, which can lie
-    outside its narrow interval from the NSI estimate the loop reports (a trial: 1.92647e8 against
-    [1.92726e8, 1.92768e8]); moved by ``estimate - posterior mean``, as the final intervals' posterior-only
-    column is (:mod:`bayesnsi.uncertainty.intervals`). The final model's intervals carry the linear part's
-    uncertainty.
+    outside its narrow interval from the NSI estimate the loop reports (one loop step: estimate 1.92647e8,
+    posterior interval [1.92726e8, 1.92768e8]); moved by ``estimate - posterior mean``, as the final
+    intervals' posterior-only column is (:mod:`bayesnsi.uncertainty.intervals`). The final model's
+    intervals carry the linear part's uncertainty.
 
     Parameters
     ----------

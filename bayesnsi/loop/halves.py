@@ -127,8 +127,9 @@ def half_overlap(signals) -> float:
 
     ``Σ_f min(p₁(f), p₂(f))`` of the halves' force power spectra (Welch, summed over the forces), each
     normalised to unit sum. A sweep drives its first half in one band and its second in another: their
-    coefficients then come from two different experiments (a trial's swept beam: the cubic spring at the
-    tip 5.4e7 on the first half, -1.2e10 on the second, whose band holds no resonance of that DOF).
+    coefficients then come from two different experiments (a beam swept 10-400 Hz, measured by
+    accelerometers: the cubic spring at the tip 5.4e7 on the first half, -1.2e10 on the second, whose
+    band holds no resonance of that DOF).
 
     Parameters
     ----------

@@ -32,7 +32,7 @@ from bayesnsi.models import CandidateModel, default_gaps, effect_dictionary  # n
 from bayesnsi.nsi import identify  # noqa: E402
 from bayesnsi.options import LoopOptions, NSIOptions  # noqa: E402
 from bayesnsi.signals import Signals  # noqa: E402
-from tests.test_free_body import FC, FV, MASS, _free_body_record  # noqa: E402
+from tests._helpers.carriage import FC, FV, MASS, free_body_record  # noqa: E402
 
 EMPS = Path(__file__).resolve().parents[2] / "shared" / "data" / "emps" / "DATA_EMPS.mat"
 EMPS_TRUTH = (95.1089, 203.5034, 20.3935)  # published IDIM-LS
@@ -66,7 +66,7 @@ def main(argv=None) -> int:
     warnings.simplefilter("ignore")
     print(f"{'record':<22} {'rank force':>10} {'rank freq':>9}  {'added':<18} {'M %':>6} {'Fv %':>6} {'Fc %':>6}")
     for seed in range(args.seeds):
-        q, tau = _free_body_record(seed=seed, duration=args.duration)
+        q, tau = free_body_record(seed=seed, duration=args.duration)
         signals = Signals(force=(tau - tau.mean())[:, None], displacement=(q - q.mean())[:, None], fs=200.0,
                           input_dofs=(1,), output_dofs=(1,))
         nsi = NSIOptions(block_rows=20)

@@ -319,11 +319,12 @@ def select(
             adequacy[o.name] = residual_whiteness(o.result, signals, evidence.residual)
         except (BayesNSIError, np.linalg.LinAlgError):
             continue  # the outcome already says why this candidate has no evidence
-    limits = {"max_noise_ratio": evidence.max_noise_ratio, "max_imag_ratio": evidence.max_imag_ratio}
+    limits = {"max_noise_ratio": evidence.max_noise_ratio, "max_imag_ratio": evidence.max_imag_ratio,
+              "max_band_ratio": evidence.max_band_ratio}
     fits = model_checks(outcomes, signals, checks, **limits, seed=evidence.seed)
     outcomes, fits = widen_inadequate(outcomes, fits, signals)  # their intervals carry the model error too
     selection = Selection(outcomes, table, nsi, evidence, checks, adequacy, fits, signals=signals, segments=segments)
-    found = adequacy_findings(fits, selection.selected, **limits, max_band_ratio=evidence.max_band_ratio)
+    found = adequacy_findings(fits, selection.selected, **limits)
     found += order_findings(outcomes) + excluded_lines_findings(outcomes, selection.selected) + tuple(view)
     found += tuple(velocity_noise_findings(signals, candidates, nsi.velocity_method))
     found += tuple(level_findings(signals, segments)) + tuple(force_noise_findings(signals))

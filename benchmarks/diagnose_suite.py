@@ -27,7 +27,7 @@ NSI settings: the case's recommended ones (:attr:`UndeclaredCase.nsi`), overridd
 samples); the true model of column ``truth`` is identified with the same settings.
 
 Run: ``OMP_NUM_THREADS=1 .venv/bin/python benchmarks/diagnose_suite.py [--seeds 5] [--noise 1 5]
-[--cases NAME ...] [--bd-method METHOD] [--upsample R] [--duration S] [--no-screen] [--verbose]``
+[--cases NAME ...] [--bd-method METHOD] [--upsample R] [--duration S] [--no-screen | --screen N] [--verbose]``
 """
 
 from __future__ import annotations
@@ -117,12 +117,14 @@ def main() -> None:
     parser.add_argument("--verbose", action="store_true", help="print every run")
     parser.add_argument("--duration", type=float, default=30.0, help="record length [s] (default 30)")
     parser.add_argument("--no-screen", action="store_true", help="re-identify every effect (close_the_loop screen=None)")
+    parser.add_argument("--screen", type=int, default=None, help="effects the screen keeps (default LoopOptions().screen)")
     args = parser.parse_args()
     options = LoopOptions(
-        **({"residual": args.residual} if args.residual else {}), **({"screen": None} if args.no_screen else {})
+        **({"residual": args.residual} if args.residual else {}), **({"screen": None} if args.no_screen else {}),
+        **({"screen": args.screen} if args.screen is not None and not args.no_screen else {})
     )
     print(f"NSI overrides: bd_method={args.bd_method}, upsample={args.upsample}; records of {args.duration:g} s; "
-          f"screen {'off' if args.no_screen else 'on'}")
+          f"screen {'off' if args.no_screen else options.screen}")
     header = (
         f"{'case':18} {'noise':>5} {'first':>6} {'all':>6} {'coef err med/max':>17} {'within 10%':>10} "
         f"{'after/before':>12} {'truth':>6} {'nrmse ok':>8} {'floor':>6} {'ok/floor':>8} {'val a/b':>7} "

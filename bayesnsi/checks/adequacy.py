@@ -178,7 +178,7 @@ def _log_predictive(segments, sigma: np.ndarray) -> float | None:
 
 def model_checks(
     outcomes: Sequence, signals, validation: Mapping | None = None, *, max_noise_ratio: float = 1.3,
-    max_imag_ratio: float = 0.3, seed: int = 0,
+    max_imag_ratio: float = 0.3, max_band_ratio: float = MAX_BAND_RATIO, seed: int = 0,
 ) -> dict[str, ModelCheck]:
     """Adequacy figures of every identified candidate (module notes).
 
@@ -194,6 +194,9 @@ def model_checks(
         Largest residual-to-noise ratio of an adequate model.
     max_imag_ratio : float
         Largest quality index |Im λ|/|Re λ| accepted.
+    max_band_ratio : float
+        Misfit ratio above which the quality index is judged against the model's misfit
+        (:func:`bayesnsi.checks.misfit.index_judgement`).
     seed : int
         Seed of the noise draws of the yardstick and the band check
         (:func:`bayesnsi.checks.residual_bands.propagated_noise`).
@@ -243,7 +246,7 @@ def model_checks(
             continue
         ratio = float(np.max(rms / level))
         quality = max((c.imag_ratio for c in result.coefficients), default=None)
-        quality_ok, unresolved = _quality(result, signals, max_imag_ratio, max_noise_ratio, seed)
+        quality_ok, unresolved = _quality(result, signals, max_imag_ratio, max_band_ratio, seed)
         segments = validation.get(outcome.name, ())
         nrmse = None
         if segments:
@@ -266,7 +269,7 @@ def model_checks(
     return checks
 
 
-def _quality(result, signals, max_imag_ratio: float, max_noise_ratio: float, seed: int) -> tuple[bool, tuple[str, ...]]:
+def _quality(result, signals, max_imag_ratio: float, misfit_bound: float, seed: int) -> tuple[bool, tuple[str, ...]]:
     """Whether every coefficient passes its quality index judged against the model's misfit
     (:func:`bayesnsi.checks.misfit.index_judgement`, the loop's rule), and the terms that pass only as not
     resolved against it."""
@@ -275,7 +278,7 @@ def _quality(result, signals, max_imag_ratio: float, max_noise_ratio: float, see
         if c.imag_ratio < max_imag_ratio:
             continue
         reading = misfit_reading(result, signals, index=k, seed=seed)
-        passed, only_unresolved = index_judgement(c.imag_ratio, max_imag_ratio, max_noise_ratio, reading)
+        passed, only_unresolved = index_judgement(c.imag_ratio, max_imag_ratio, misfit_bound, reading)
         ok &= passed
         if only_unresolved:
             unresolved.append(c.term.name)

@@ -21,9 +21,9 @@ noise, per frequency line (one period of a periodic record, Welch segments other
   leaves at ω (through the effect's own path to the outputs): how far the frequency dependence of λ(ω)
   stands above what the misfit leaves undetermined.
 
-The index passes below ``max_imag_ratio``. Above it, it decides when the model is adequate (κ at most
-``EvidenceOptions.max_noise_ratio``, the adequacy bound of the model checks), and otherwise only when the
-memory is resolved (M > 1): an M at most 1 means that the imaginary part of λ(ω) moves the outputs by no
+The index passes below ``max_imag_ratio``. Above it, it decides when the model is adequate or nearly so
+(κ at most ``EvidenceOptions.max_band_ratio``, 2: the misfit below which the model checks do not warn
+about any band), and otherwise only when the memory is resolved (M > 1): an M at most 1 means that the imaginary part of λ(ω) moves the outputs by no
 more than the misfit already there, which the index cannot attribute to the effect. A linear spring or
 damper fitted between two sensors of the F-16 to absorb the linear part's model error (a null effect,
 true λ = 0) reads M = 3.7-12; the interface effects, which lower every held-out error, 0.61-1.13
@@ -140,7 +140,7 @@ def misfit_reading(result, signals, index: int = -1, seed: int = 0) -> MisfitRea
     return MisfitReading(kappa, resolution)
 
 
-def index_judgement(imag_ratio: float, max_imag_ratio: float, max_noise_ratio: float,
+def index_judgement(imag_ratio: float, max_imag_ratio: float, misfit_bound: float,
                     reading: MisfitReading | None) -> tuple[bool, bool]:
     """Does a quality index pass, judged against its model's misfit (module notes)?
 
@@ -150,8 +150,9 @@ def index_judgement(imag_ratio: float, max_imag_ratio: float, max_noise_ratio: f
         The coefficient's quality index |Im λ|/|Re λ|.
     max_imag_ratio : float
         Its limit on a model at the noise level (``LoopOptions.max_imag_ratio``, ``EvidenceOptions.max_imag_ratio``).
-    max_noise_ratio : float
-        ``EvidenceOptions.max_noise_ratio``: up to this misfit ratio the model is adequate and the index decides.
+    misfit_bound : float
+        ``EvidenceOptions.max_band_ratio``: up to this misfit ratio the model is (nearly) adequate and the index
+        decides alone.
     reading : MisfitReading or None
         :func:`misfit_reading` of the model; None (or NaN fields) judges the index alone.
 
@@ -164,6 +165,6 @@ def index_judgement(imag_ratio: float, max_imag_ratio: float, max_noise_ratio: f
         return True, False
     if reading is None or not (np.isfinite(reading.misfit_ratio) and np.isfinite(reading.resolution)):
         return False, False
-    if reading.misfit_ratio <= max_noise_ratio or reading.resolution > 1.0:
+    if reading.misfit_ratio <= misfit_bound or reading.resolution > 1.0:
         return False, False
     return True, True

@@ -171,7 +171,7 @@ def _quality(context, trial, coef, needed: bool) -> tuple[Check, bool, MisfitRea
     reading = MisfitReading()
     if needed and not coef.imag_ratio < options.max_imag_ratio:
         reading = misfit_reading(trial, context.signals, seed=context.evidence.seed)
-    check, unresolved = quality_check(coef.imag_ratio, options.max_imag_ratio, context.evidence.max_noise_ratio,
+    check, unresolved = quality_check(coef.imag_ratio, options.max_imag_ratio, context.evidence.max_band_ratio,
                                       reading)
     return check, unresolved, reading
 

@@ -154,7 +154,7 @@ def _first_quality(context: LoopContext, trial: EffectScore, coef):
     reading = None
     if not coef.imag_ratio < options.max_imag_ratio:
         reading = misfit_reading(trial.identified, context.signals, index=-2, seed=context.evidence.seed)
-    return quality_check(coef.imag_ratio, options.max_imag_ratio, context.evidence.max_noise_ratio, reading)[0]
+    return quality_check(coef.imag_ratio, options.max_imag_ratio, context.evidence.max_band_ratio, reading)[0]
 
 
 def accept_pair(context: LoopContext, state: LoopState, pending, pair) -> None:

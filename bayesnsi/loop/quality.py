@@ -1,8 +1,8 @@
 """The loop's quality-index check, judged against the model's misfit (docs/method.md §7).
 
 The numbers and the rule are :mod:`bayesnsi.checks.misfit`'s (shared with the model checks of ``select``):
-the index passes below ``max_imag_ratio``; above it, it decides alone when the enlarged model is adequate
-(misfit ratio κ at most ``max_noise_ratio``), and otherwise fails only when the frequency dependence of
+the index passes below ``max_imag_ratio``; above it, it decides alone when the enlarged model is (nearly)
+adequate (misfit ratio κ at most ``misfit_bound``, ``EvidenceOptions.max_band_ratio``), and otherwise fails only when the frequency dependence of
 λ(ω) is resolved against the misfit (memory resolution M > 1). Here it becomes a
 :class:`~bayesnsi.loop.results.Check` whose text gives κ and M.
 """
@@ -19,7 +19,7 @@ from .results import Check
 __all__ = ["MisfitReading", "misfit_reading", "quality_check"]
 
 
-def quality_check(imag_ratio: float, max_imag_ratio: float, max_noise_ratio: float,
+def quality_check(imag_ratio: float, max_imag_ratio: float, misfit_bound: float,
                   reading: MisfitReading | None) -> tuple[Check, bool]:
     """The quality-index check of an effect, judged against its model's misfit (module notes).
 
@@ -29,8 +29,9 @@ def quality_check(imag_ratio: float, max_imag_ratio: float, max_noise_ratio: flo
         The effect's quality index |Im λ|/|Re λ|.
     max_imag_ratio : float
         ``LoopOptions.max_imag_ratio``.
-    max_noise_ratio : float
-        ``EvidenceOptions.max_noise_ratio``: up to this misfit ratio the model is adequate and the index decides.
+    misfit_bound : float
+        ``EvidenceOptions.max_band_ratio``: up to this misfit ratio the model is (nearly) adequate and the index
+        decides alone.
     reading : MisfitReading or None
         :func:`bayesnsi.checks.misfit.misfit_reading` of the enlarged model; None (or NaN fields) judges the
         index alone.
@@ -42,7 +43,7 @@ def quality_check(imag_ratio: float, max_imag_ratio: float, max_noise_ratio: flo
         is not resolved against the misfit (``LoopStep.index_unresolved``).
     """
     ratio = float(imag_ratio)
-    passed, unresolved = index_judgement(ratio, max_imag_ratio, max_noise_ratio, reading)
+    passed, unresolved = index_judgement(ratio, max_imag_ratio, misfit_bound, reading)
     if ratio < max_imag_ratio:
         return Check("quality index", ratio, max_imag_ratio, True,
                      f"quality index |Im|/|Re| = {ratio:.2f} < {max_imag_ratio}"), False
@@ -50,10 +51,10 @@ def quality_check(imag_ratio: float, max_imag_ratio: float, max_noise_ratio: flo
     head = f"quality index |Im|/|Re| = {ratio:.2f} >= {max_imag_ratio}"
     if not (np.isfinite(kappa) and np.isfinite(resolution)):
         return Check("quality index", ratio, max_imag_ratio, False, head), False
-    if kappa <= max_noise_ratio:
+    if kappa <= misfit_bound:
         return Check("quality index", ratio, max_imag_ratio, False,
                      f"{head} (the model's residual is {kappa:.3g}x the noise, within "
-                     f"max_noise_ratio {max_noise_ratio:g}: the index decides)"), False
+                     f"max_band_ratio {misfit_bound:g}: the index decides)"), False
     where = (f"the model's residual is {kappa:.3g}x the noise, and where the effect carries power the imaginary part "
              f"of λ(ω) moves the outputs by {resolution:.2f}x what that misfit leaves undetermined")
     if not passed:

@@ -36,9 +36,7 @@ from .dissipation import injects_energy
 from .misfit import index_judgement, misfit_reading
 from .residual_bands import MAX_BAND_RATIO, band_findings, propagated_noise, residual_bands
 
-__all__ = [
-    "ModelCheck", "model_checks", "adequacy_findings", "unsupported_terms", "VALIDATION_TOLERANCE",
-]
+__all__ = ["ModelCheck", "model_checks", "adequacy_findings", "unsupported_terms", "VALIDATION_TOLERANCE"]
 
 EDGE_LIMIT = 2.0
 """Residual rms at the ends of an integrated record over the interior's above which ``adequacy_findings`` says so."""
@@ -195,8 +193,7 @@ def model_checks(
     max_imag_ratio : float
         Largest quality index |Im λ|/|Re λ| accepted.
     max_band_ratio : float
-        Misfit ratio above which the quality index is judged against the model's misfit
-        (:func:`bayesnsi.checks.misfit.index_judgement`).
+        Misfit ratio above which the quality index is judged against the misfit (``index_judgement``).
     seed : int
         Seed of the noise draws of the yardstick and the band check
         (:func:`bayesnsi.checks.residual_bands.propagated_noise`).

@@ -21,13 +21,13 @@ noise, per frequency line (one period of a periodic record, Welch segments other
   leaves at ω (through the effect's own path to the outputs): how far the frequency dependence of λ(ω)
   stands above what the misfit leaves undetermined.
 
-The index passes below ``max_imag_ratio``. Above it, it decides when the model is adequate or nearly so
-(κ at most ``EvidenceOptions.max_band_ratio``, 2: the misfit below which the model checks do not warn
-about any band), and otherwise only when the memory is resolved (M > 1): an M at most 1 means that the imaginary part of λ(ω) moves the outputs by no
-more than the misfit already there, which the index cannot attribute to the effect. A linear spring or
-damper fitted between two sensors of the F-16 to absorb the linear part's model error (a null effect,
-true λ = 0) reads M = 3.7-12; the interface effects, which lower every held-out error, 0.61-1.13
-(docs/measurements.md, "The quality index and model error").
+The index passes below ``max_imag_ratio``. Above it, it decides when the model is adequate or nearly so (κ at
+most ``EvidenceOptions.max_band_ratio``, 2: the misfit below which the model checks do not warn about any
+band), and otherwise only when the memory is resolved (M > 1): an M at most 1 means that the imaginary part of
+λ(ω) moves the outputs by no more than the misfit already there, which the index cannot attribute to the
+effect. A linear spring or damper fitted between two sensors of the F-16 to absorb the linear part's model
+error (a null effect, true λ = 0) reads M = 3.7-12; the interface effects, which lower every held-out error,
+0.61-1.13 (docs/measurements.md, "The quality index and model error").
 """
 
 from __future__ import annotations

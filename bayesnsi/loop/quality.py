@@ -1,9 +1,9 @@
 """The loop's quality-index check, judged against the model's misfit (docs/method.md §7).
 
-The numbers and the rule are :mod:`bayesnsi.checks.misfit`'s (shared with the model checks of ``select``):
-the index passes below ``max_imag_ratio``; above it, it decides alone when the enlarged model is (nearly)
-adequate (misfit ratio κ at most ``misfit_bound``, ``EvidenceOptions.max_band_ratio``), and otherwise fails only when the frequency dependence of
-λ(ω) is resolved against the misfit (memory resolution M > 1). Here it becomes a
+The numbers and the rule are :mod:`bayesnsi.checks.misfit`'s (shared with the model checks of ``select``): the
+index passes below ``max_imag_ratio``; above it, it decides alone when the enlarged model is (nearly) adequate
+(misfit ratio κ at most ``misfit_bound``, ``EvidenceOptions.max_band_ratio``), and otherwise fails only when
+the frequency dependence of λ(ω) is resolved against the misfit (memory resolution M > 1). Here it becomes a
 :class:`~bayesnsi.loop.results.Check` whose text gives κ and M.
 """
 

@@ -289,8 +289,9 @@ def _solve(update, start: np.ndarray, name: str, switching: tuple[str, ...] = ()
     hysteretic record ``tanh(v1/0.01)`` with λ = -14.9 N settled where ``sign(v1)`` with -14.4 N did not).
     """
     X, step = start, 1.0
-    mapped = update(X)
-    residual = float(np.linalg.norm(mapped - X))
+    with np.errstate(over="ignore", invalid="ignore"):
+        mapped = update(X)
+        residual = float(np.linalg.norm(mapped - X))
     for _ in range(_FIXED_POINT_STEPS):
         if residual <= _TOLERANCE * _size(X):
             return X
@@ -340,15 +341,17 @@ def _newton(update, X: np.ndarray, residual: float):
 
     import scipy.optimize  # here: 0.2 s, and the module is on every command's import path
 
-    try:
-        z = scipy.optimize.newton_krylov(function, np.concatenate([X.real.ravel(), X.imag.ravel()]),
-                                         f_tol=_TOLERANCE * np.linalg.norm(X) / np.sqrt(2 * X.size),
-                                         maxiter=_NEWTON_STEPS, method="lgmres")
+    try:  # a diverging model overflows inside the solver's own norms: it is judged by the residual below
+        with np.errstate(over="ignore", invalid="ignore"):
+            z = scipy.optimize.newton_krylov(function, np.concatenate([X.real.ravel(), X.imag.ravel()]),
+                                             f_tol=_TOLERANCE * np.linalg.norm(X) / np.sqrt(2 * X.size),
+                                             maxiter=_NEWTON_STEPS, method="lgmres")
     except (scipy.optimize.NoConvergence, ValueError, np.linalg.LinAlgError) as err:
         z = err.args[0] if isinstance(err, scipy.optimize.NoConvergence) and err.args else None
     if z is None:
         return X, residual
-    found = float(np.linalg.norm(function(z)))
+    with np.errstate(over="ignore", invalid="ignore"):
+        found = float(np.linalg.norm(function(z)))
     return (unpack(z), found) if np.isfinite(found) and found < residual else (X, residual)
 
 

@@ -12,9 +12,10 @@ no longer tells them apart. It is then judged against the misfit the model leave
 from the model's open-loop reconstruction (the view in which NSI reads λ(ω)) and a draw of the record's
 noise, per frequency line (one period of a periodic record, Welch segments otherwise):
 
-* the **misfit ratio** κ: the residual's rms over the noise's on the data the model was fitted to (the
-  fitted lines of the frequency route, the whole record on the time route), the largest over the outputs:
-  the adequacy ratio of the model checks (1: down to the noise);
+* the **misfit ratio** κ: the residual's rms over that of the noise the model passes on
+  (:func:`bayesnsi.checks.residual_bands.propagated_noise`) on the data the model was fitted to (the fitted
+  lines of the frequency route, the whole record on the time route), the largest over the outputs: the
+  adequacy ratio of the model checks (1: down to the noise);
 * the **memory resolution** M = Σ w |Im λ(ω)| / Σ w s(ω) over the lines of the λ band, weighted by where
   the effect's contribution to the outputs carries power (its information weight ``w``, the contribution's
   power over the noise's), with s(ω) the change of λ at ω that moves the outputs by the residual the model
@@ -42,6 +43,7 @@ from ..exceptions import BayesNSIError, BayesNSIWarning
 from ..noise import noise_model
 from ..nsi import affine_reconstruction
 from ..nsi.physics import coefficient_spectrum
+from .residual_bands import propagated_noise
 
 __all__ = ["MisfitReading", "index_judgement", "misfit_reading"]
 
@@ -110,12 +112,16 @@ def misfit_reading(result, signals, index: int = -1, seed: int = 0) -> MisfitRea
             warnings.simplefilter("ignore", BayesNSIWarning)
             affine = affine_reconstruction(result, signals)
             noise = noise_model(signals).draw(np.random.default_rng(seed)).displacement
+            passed_on = propagated_noise(result, signals, result.reconstruct(signals).residual, n_draws=1,
+                                         seed=seed)
     except (BayesNSIError, np.linalg.LinAlgError, ValueError):
+        return MisfitReading()
+    if not passed_on:
         return MisfitReading()
     residual = affine.measured - affine.predict(affine.estimate)
     per_unit = affine.signatures[:, :, index]  # the response to -n per unit of the NSI estimate
     estimate = float(affine.estimate[index])
-    n = min(len(residual), len(noise))
+    n = min(len(residual), len(noise), len(passed_on[0]))
     length, window = _segment(signals, result.band_hz, n)
     R, G, N = (_power(x[:n], length, window) for x in (residual, per_unit, noise))
     N = np.where(N > 0, N, np.finfo(float).tiny)
@@ -129,7 +135,10 @@ def misfit_reading(result, signals, index: int = -1, seed: int = 0) -> MisfitRea
                                result.terms)[:, index]
     fitted = result.fit.fit_band_hz if result.options.domain == "frequency" else None
     data = (freqs > 0) if fitted is None else (freqs >= fitted[0]) & (freqs <= fitted[1])
-    kappa = math.sqrt(float(np.max(np.sum(R[data], axis=0) / np.sum(N[data], axis=0))))
+    # κ against the noise the model passes on (the adequacy ratio of the model checks); M against the sensors'
+    P = _power(passed_on[0][:n], length, window)
+    passed = np.maximum(np.sum(P[data], axis=0), np.finfo(float).tiny)
+    kappa = math.sqrt(float(np.max(np.sum(R[data], axis=0) / passed)))
     weight = estimate**2 * path[inside]  # the effect's contribution over the noise: its information weight
     rho = np.sum(R[inside] / N[inside], axis=1)  # residual over noise, summed over the outputs
     scatter = np.sqrt(rho / path[inside]) * np.abs(lam) / abs(estimate)  # λ change that moves the outputs by it

@@ -208,9 +208,12 @@ def _dependent_combination(terms: Sequence[Term]) -> np.ndarray | None:
             force[dofs.index(term.at[1])] -= values
         columns.append(force.ravel())
     matrix = np.stack(columns, axis=1)
-    norms = np.linalg.norm(matrix, axis=0)
-    if not np.all(np.isfinite(matrix)) or np.any(norms == 0):
+    if not np.all(np.isfinite(matrix)):
         return None
+    scale = np.max(np.abs(matrix), axis=0)  # first to the column's peak: a steep force (a stiff Bouc-Wen branch)
+    if np.any(scale == 0):                  # would overflow the sum of squares
+        return None
+    norms = scale * np.linalg.norm(matrix / scale, axis=0)
     matrix = matrix / norms
     peak = np.max(np.abs(matrix), axis=1, keepdims=True)
     matrix = matrix / np.where(peak > 0, peak, 1.0)

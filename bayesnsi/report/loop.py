@@ -17,8 +17,8 @@ from .tables import errors_frame
 from .text import format_interval, term_label
 
 __all__ = [
-    "added_channel", "added_sentence", "diagnosis_sections", "friction_sentence", "loop_frame", "nothing_added_note",
-    "step_number", "tried_with", "unexamined_note", "where",
+    "added_channel", "added_sentence", "diagnosis_sections", "friction_sentence", "hysteresis_sentences",
+    "loop_frame", "nothing_added_note", "step_number", "tried_with", "unexamined_note", "where",
 ]
 
 
@@ -91,6 +91,49 @@ def friction_sentence(friction) -> str:
     listed = "; ".join(f"{words[n]} {v:.4g} {u} {format_interval(ci)}" for n, v, ci, u in parts)
     return (f"Friction law of the final model at DOF {friction.dof}, read in the force view with 95 % intervals: "
             f"{listed} (force-prediction rms error {friction.force_rmse:.3g} N).")
+
+
+def hysteresis_sentences(result, signals, units: ChannelUnits | None = None) -> list[str]:
+    """The physical reading of each Bouc-Wen term of a model: stiffness, yield and energy per cycle.
+
+    Parameters
+    ----------
+    result : NSIResult
+        The model (e.g. the loop's final one).
+    signals : Signals
+        The measured signals the terms follow (for the amplitude the loop is read at).
+    units : ChannelUnits, optional
+        Units of the data; "data units" when not given.
+
+    Returns
+    -------
+    list of str
+        One sentence per Bouc-Wen term (:func:`bayesnsi.curves.hysteresis_loop`, docs/method.md §12).
+    """
+    from ..curves import hysteresis_loop
+    from ..exceptions import BayesNSIError
+
+    units = units or ChannelUnits()
+    stated = bool(units.force and units.displacement)
+    f, x = (f" {units.force}", f" {units.displacement}") if stated else ("", "")
+    stiffness_unit, energy_unit = (f" {units.force}/{units.displacement}", f" {units.force}·{units.displacement}") \
+        if stated else ("", "")
+    out = []
+    for coefficient in result.coefficients:
+        if coefficient.term.expr.memory is None:
+            continue
+        try:
+            reading = hysteresis_loop(coefficient, signals).reading
+        except BayesNSIError:
+            continue
+        yielding = ("it hardens on loading (no yield)" if reading.yield_displacement is None else
+                    f"yield displacement {reading.yield_displacement:.3g}{x} "
+                    f"(yield force {reading.yield_force:.3g}{f})")
+        out.append(f"Hysteresis {term_label(coefficient.term.name, units)}: hysteretic stiffness "
+                   f"{reading.stiffness:.4g}{stiffness_unit}, {yielding}; at the measured amplitude "
+                   f"{reading.amplitude:.3g}{x} its loop dissipates {reading.loop_area:.3g}{energy_unit} per cycle "
+                   f"(peak force {reading.peak_force:.3g}{f})" + ("." if stated else "; in the data's units."))
+    return out
 
 
 def added_channel(signals, added) -> int:
@@ -282,6 +325,8 @@ def _answer(report: Report, diagnosis, units: ChannelUnits) -> None:
         answer.append(sentence)
     if loop.friction is not None:
         answer.append(friction_sentence(loop.friction))
+    if diagnosis.selection.signals is not None:
+        answer.extend(hysteresis_sentences(final.result, diagnosis.selection.signals, units))
     modes = mode_sentence(final.intervals)
     answer.append(modes or "Natural frequencies and damping ratios of the final model: "
                   + "; ".join(f"{m.frequency_hz:.4g} Hz, ζ {100 * m.damping_ratio:.3g} %" for m in final.result.modes)
@@ -353,7 +398,7 @@ def _interval_how(final) -> str:
 
 
 def _loop_figures(section: list, diagnosis, signals, units: ChannelUnits) -> None:
-    from ..plots import plot_effect_force, plot_reconstruction
+    from ..plots import plot_effect_force, plot_hysteresis_loop, plot_reconstruction
 
     added = diagnosis.added
     channel = added_channel(signals, added)
@@ -370,3 +415,9 @@ def _loop_figures(section: list, diagnosis, signals, units: ChannelUnits) -> Non
                       "before the step as a force (top), and after it the residual (blue), the effect's force (black) "
                       "and their sum (red), against displacement and velocity")
         section.append(fig)
+        if step.term.expr.memory is not None:
+            fig = plot_hysteresis_loop(step, signals, units=units)
+            fig.set_label(f"Restoring-force loop of {step.effect.name} {where(step.effect)}: λ z against the "
+                          "displacement it follows, on the record (grey) and in periodic steady state at the measured "
+                          "amplitude (black)")
+            section.append(fig)

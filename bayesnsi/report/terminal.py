@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 
 from ..io.units import ChannelUnits
-from .loop import added_sentence, friction_sentence, nothing_added_note, unexamined_note
+from .loop import added_sentence, friction_sentence, hysteresis_sentences, nothing_added_note, unexamined_note
 from .text import format_interval, probability_text, term_label, value_with_error
 
 __all__ = ["diagnosis_lines", "outcome_line", "selection_lines", "step_line"]
@@ -125,6 +125,8 @@ def diagnosis_lines(diagnosis, units: ChannelUnits | None = None) -> list[str]:
     if diagnosis.loop.friction is not None:
         lines.append("  " + friction_sentence(diagnosis.loop.friction))
     signals = diagnosis.selection.signals
+    if signals is not None:
+        lines += ["  " + s for s in hysteresis_sentences(final.result, signals, units)]
     if signals is not None:
         try:
             before = diagnosis.loop.start.reconstruct(signals).nrmse

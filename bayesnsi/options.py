@@ -226,7 +226,8 @@ class EvidenceOptions(_Options):
         "(its residual's change when fresh sensor noise is added to the data)", kind="float", low=1.0)
     max_band_ratio: float = _option(
         2.0, "adequacy: largest ratio of the selected model's residual to the noise it passes on in any frequency "
-        "band before select warns", kind="float", low=1.0)
+        "band before select warns; also the misfit above which a quality index is judged against the model's misfit",
+        kind="float", low=1.0)
     max_imag_ratio: float = _option(
         0.3, "adequacy: largest quality index |Im λ|/|Re λ| of the selected model", kind="float", low=0.0)
     noise_floor: float | None = _option(

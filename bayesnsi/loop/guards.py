@@ -11,8 +11,8 @@ the order of :data:`CHECK_ORDER`:
 * **quality index** |Im λ|/|Re λ| of its coefficient below ``max_imag_ratio``: λ(ω) consistent over
   the band, a coefficient and not a filter; where the enlarged model misfits its data beyond
   ``EvidenceOptions.max_band_ratio``, an index above the limit fails only when the frequency
-  dependence of λ(ω) is resolved against that misfit (:mod:`bayesnsi.loop.quality`; the step then says the index could not judge it,
-  ``LoopStep.index_unresolved``);
+  dependence of λ(ω) is resolved against that misfit (:mod:`bayesnsi.loop.quality`; the step then
+  says the index could not judge it, ``LoopStep.index_unresolved``);
 * **record halves**: identified on each half of the record its coefficient keeps its sign and stays
   within a factor ``stability_factor`` (:mod:`bayesnsi.loop.halves`; a free body's in the force
   view its evidence scores);

@@ -225,9 +225,8 @@ class EvidenceOptions(_Options):
         1.3, "adequacy: largest ratio of a candidate's open-loop residual rms to that of the noise it passes on "
         "(its residual's change when fresh sensor noise is added to the data)", kind="float", low=1.0)
     max_band_ratio: float = _option(
-        2.0, "adequacy: largest ratio of the selected model's residual to the noise it passes on in any frequency "
-        "band before select warns; also the misfit above which a quality index is judged against the model's misfit",
-        kind="float", low=1.0)
+        2.0, "adequacy: largest residual-to-passed-on-noise ratio in any frequency band before select warns; also "
+        "the misfit above which a quality index is judged against the model's misfit", kind="float", low=1.0)
     max_imag_ratio: float = _option(
         0.3, "adequacy: largest quality index |Im λ|/|Re λ| of the selected model", kind="float", low=0.0)
     noise_floor: float | None = _option(

@@ -313,7 +313,8 @@ def rank_effects(context: LoopContext, candidate, exclude=(), effects=None, scre
     So are the shapes of the Bouc-Wen elements among the best: at each location the best grid point,
     when it beats ``candidate`` itself (a log Bayes factor above 0) and every effect without memory
     (:func:`refine_shape`): a two-parameter family searched off the grid fits model-form error too,
-    so its shape is searched where the grid already says memory explains the data best.
+    so its shape is searched where the grid already says memory explains the data best, and not where
+    its quality index fails the loop's check by a wide margin (:func:`_worth_searching`).
 
     Parameters
     ----------

@@ -36,7 +36,7 @@ SHAPE_RESOLUTION = 1.0 / 16
 """The search stops once its steps are this fraction of :data:`SHAPE_STEPS`."""
 SHAPE_LOCATIONS = 6
 """Most locations whose best Bouc-Wen grid point a screen keeps (:func:`screened_shapes`): every location of a
-three-sensor record (the F-16's), 6 of the 78 of twelve sensors."""
+three-sensor record (the F-16's, the simulated ground vibration test's), 6 of the 78 of twelve sensors."""
 SEARCH_INDEX_FACTOR = 4.0
 """A grid point whose quality index is at least this multiple of ``LoopOptions.max_imag_ratio`` and fails the
 loop's check has no shape search (module notes)."""

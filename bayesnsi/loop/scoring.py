@@ -27,10 +27,17 @@ from ..models.dictionary import clearance_effect
 from ..nsi import force_affine, hankel_correlations, identify, is_free_body, nrmse
 from ..options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions, parse_likelihood
 from .localise import screen_effects_periodic
+from .quality import misfit_reading, quality_check
 from .results import EffectScore
 from .screen import screen_effects
 from .screen_force import screen_effects_force
-from .shapes import displacement_spread, screened_shapes, search_shape, shape_fallbacks
+from .shapes import (
+    SEARCH_INDEX_FACTOR,
+    displacement_spread,
+    screened_shapes,
+    search_shape,
+    shape_fallbacks,
+)
 from .state import LoopContext
 
 __all__ = ["laplace_score", "rank_effects", "refine_gap", "refine_shape", "score_effects"]
@@ -250,9 +257,9 @@ def _screened(context: LoopContext, candidate, effects, exclude):
     """Split ``effects`` into the best ``screen`` by the screen (module notes) and the rest.
 
     Effects already in the model or excluded are dropped first. The ``screen`` places go to the
-    effects without memory; the best ranked Bouc-Wen grid point of each location is kept besides
-    them (nine variants of one effect, ranked high by a screen that reads the residual's phase, would
-    crowd out the others; :func:`bayesnsi.loop.shapes.screened_shapes`). Returns ``(kept effects,
+    effects without memory; the best ranked Bouc-Wen grid point of each of a few locations is kept
+    besides them (nine variants of one effect, ranked high by a screen that reads the residual's phase,
+    would crowd out the others; :func:`bayesnsi.loop.shapes.screened_shapes`). Returns ``(kept effects,
     scores of the rest, screen)``; the rest carry a NaN score (screened out, not re-identified), in screen
     order; ``screen`` maps each kept effect's term name to its ``(rank, score, view, location level)`` (the
     data-only distortion level of its location on the periodic view, NaN otherwise).
@@ -306,7 +313,8 @@ def rank_effects(context: LoopContext, candidate, exclude=(), effects=None, scre
     So are the shapes of the Bouc-Wen elements among the best: at each location the best grid point,
     when it beats ``candidate`` itself (a log Bayes factor above 0) and every effect without memory
     (:func:`refine_shape`): a two-parameter family searched off the grid fits model-form error too,
-    so its shape is searched where the grid already says memory explains the data best.
+    so its shape is searched where the grid already says memory explains the data best, and not where
+    its quality index fails the loop's check by a wide margin (:func:`_worth_searching`).
 
     Parameters
     ----------
@@ -350,7 +358,7 @@ def rank_effects(context: LoopContext, candidate, exclude=(), effects=None, scre
             shaped.add(entry.effect.location)
             if fresh and not current:
                 current.append(_log_evidence(context, candidate))
-            return fresh and entry.log_evidence > max(current[0], memoryless)
+            return fresh and entry.log_evidence > max(current[0], memoryless) and _worth_searching(context, entry)
         return entry.effect.gap is not None
 
     head = [  # a refined clearance (Bouc-Wen shape) keeps the screen rank of the grid point it was refined from
@@ -372,6 +380,22 @@ def _log_evidence(context: LoopContext, candidate) -> float:
                                        context.evidence)[0])
     except (BayesNSIError, np.linalg.LinAlgError):
         return -math.inf
+
+
+def _worth_searching(context: LoopContext, entry: EffectScore) -> bool:
+    """Whether a Bouc-Wen grid point's quality index leaves its shape search a chance (module notes of
+    :mod:`bayesnsi.loop.shapes`: :data:`~bayesnsi.loop.shapes.SEARCH_INDEX_FACTOR`).
+
+    False when the index is at least that factor times ``max_imag_ratio`` and fails the loop's check
+    (:func:`bayesnsi.loop.quality.quality_check`, against the enlarged model's misfit, as
+    :func:`bayesnsi.loop.guards.check_effect` judges it).
+    """
+    coef = entry.identified.coefficients[-1]
+    limit = context.options.max_imag_ratio
+    if coef.imag_ratio < SEARCH_INDEX_FACTOR * limit:
+        return True
+    reading = misfit_reading(entry.identified, context.signals, seed=context.evidence.seed)
+    return quality_check(coef.imag_ratio, limit, context.evidence.max_band_ratio, reading)[0].passed
 
 
 def _refined(context: LoopContext, candidate, entry: EffectScore, effects, correlations) -> EffectScore:

@@ -2,10 +2,16 @@
 
 A Bouc-Wen element (docs/method.md §12) comes in nine grid shapes per location
 (:func:`bayesnsi.models.default_shapes`): variants of one effect. The screen's places go to the
-effects without memory, and the best-ranked grid point of each location is re-identified besides
-them (:func:`screened_shapes`; the next ones when it fails to identify, :func:`shape_fallbacks`);
+effects without memory, and the best-ranked grid point of each of a few locations (theirs, then the
+next in screen order: :data:`SHAPE_LOCATIONS`) is re-identified besides them (:func:`screened_shapes`;
+the next ones when it fails to identify, :func:`shape_fallbacks`);
 a grid point that beats the model and every effect without memory has its shape searched off the
-grid (:func:`search_shape`). The functions take the scorer of one effect (an :class:`EffectScore`
+grid (:func:`search_shape`), unless its quality index fails the loop's check by a wide margin
+(:data:`SEARCH_INDEX_FACTOR`): off the grid the right element's index falls from at most 0.92 (the grid
+points about the truth of the simulated hysteresis case, 1-5 % noise) to 0.01-0.07, while the grid points
+the F-16's loop searched (ground and interface locations, model-form error; 1.3-4.1) kept failing
+it after the search (1.1-9.3) at 30 identifications each (docs/measurements.md, "Bouc-Wen hysteresis in
+the loop"). The functions take the scorer of one effect (an :class:`EffectScore`
 of the enlarged model) from :mod:`bayesnsi.loop.scoring`, which calls them.
 """
 
@@ -20,14 +26,20 @@ from ..models import BoucWen, Effect
 from ..models.dictionary import hysteresis_effect, hysteretic_shape
 from .results import EffectScore
 
-__all__ = ["SHAPE_RESOLUTION", "SHAPE_STEPS", "displacement_spread", "screened_shapes", "search_shape",
-           "shape_fallbacks"]
+__all__ = ["SEARCH_INDEX_FACTOR", "SHAPE_LOCATIONS", "SHAPE_RESOLUTION", "SHAPE_STEPS", "displacement_spread",
+           "screened_shapes", "search_shape", "shape_fallbacks"]
 
 SHAPE_STEPS = (0.5, 0.55)
 """First steps of the Bouc-Wen shape search in ``asinh((β + γ) σ)`` and ``log((β - γ) σ)`` (σ: std of the
 displacement the element acts on); about half the default grid's spacing."""
 SHAPE_RESOLUTION = 1.0 / 16
 """The search stops once its steps are this fraction of :data:`SHAPE_STEPS`."""
+SHAPE_LOCATIONS = 6
+"""Most locations whose best Bouc-Wen grid point a screen keeps (:func:`screened_shapes`): every location of a
+three-sensor record (the F-16's, the simulated ground vibration test's), 6 of the 78 of twelve sensors."""
+SEARCH_INDEX_FACTOR = 4.0
+"""A grid point whose quality index is at least this multiple of ``LoopOptions.max_imag_ratio`` and fails the
+loop's check has no shape search (module notes)."""
 
 
 def displacement_spread(signals, effect: Effect) -> float:
@@ -108,8 +120,13 @@ def search_shape(entry: EffectScore, score: Callable[[Effect], EffectScore], sig
     return best
 
 
-def screened_shapes(ordered: list[Effect], count: int) -> list[Effect]:
-    """The effects a screen keeps: its ``count`` best without memory, and the best Bouc-Wen grid point of each location.
+def screened_shapes(ordered: list[Effect], count: int, locations: int = SHAPE_LOCATIONS) -> list[Effect]:
+    """The effects a screen keeps: its ``count`` best without memory, the best Bouc-Wen grid point of a few locations.
+
+    The locations are those of the kept effects without memory first, then the next in screen order (the
+    periodic screen orders by the data-only localisation, :func:`bayesnsi.loop.localise.screen_effects_periodic`),
+    at most ``locations`` of them: with every sensor pair a location, one grid point per location would cost
+    n(n + 1)/2 identifications per loop step (78 for 12 sensors).
 
     Parameters
     ----------
@@ -117,15 +134,19 @@ def screened_shapes(ordered: list[Effect], count: int) -> list[Effect]:
         The effects in screen order, best first.
     count : int
         The screen's places (``LoopOptions.screen``).
+    locations : int
+        Most locations with a Bouc-Wen grid point (:data:`SHAPE_LOCATIONS`).
 
     Returns
     -------
     list of Effect
     """
     kept = [e for e in ordered if e.shape is None][:count]
+    chosen = list(dict.fromkeys([e.location for e in kept] + [e.location for e in ordered if e.shape is not None]))
+    allowed = set(chosen[:locations])
     located: set = set()
     for e in ordered:
-        if e.shape is not None and e.location not in located:
+        if e.shape is not None and e.location in allowed and e.location not in located:
             located.add(e.location)
             kept.append(e)
     return kept

@@ -18,6 +18,13 @@ only error is then that of the path between samples, which misses the travel of 
 sampling interval (second order in ``ωΔt``; measured against a fine-step reference in
 ``tests/models/test_hysteresis.py``).
 
+Evaluation by runs (n = 1). The exact steps compose: along a monotone run of the displacement
+(from one reversal to the next; samples at rest continue the run) z is the exact solution over the
+travel ``|x_k - x_start|`` since the run began. The path is therefore a scalar recursion over the
+runs' end points followed by one vectorised evaluation at every sample: the same z as stepping
+sample by sample, up to rounding (``tests/models/test_hysteresis.py``), at one scalar step per
+reversal instead of per sample. Other n step sample by sample.
+
 On a record of exactly one period (a period-averaged record of the frequency route, the period of
 harmonic balance) ``z`` is the periodic steady state: the recursion runs over the period again
 from its last value until the period's first value repeats.
@@ -192,51 +199,105 @@ def boucwen_step(shape: BoucWen, z, dx):
     return s * out
 
 
-def _path_1d(shape: BoucWen, x: np.ndarray, z0: float) -> np.ndarray:
-    """z along one displacement series, a scalar loop (the fast path of :func:`boucwen_path`)."""
+def _flow(w: float, xi: float, loading: float, unloading: float) -> float:
+    """``w`` after a travel ``xi >= 0`` of ``dw/dξ = 1 - a w``, ``a`` the unloading rate below 0 (exact, n = 1)."""
+    a = loading
+    if w < 0.0:
+        reach = 1.0 - unloading * w
+        to_zero = (-w if unloading == 0.0 else math.log(reach) / unloading) if reach > 0.0 else math.inf
+        if xi <= to_zero:
+            a = unloading
+        else:
+            xi -= to_zero
+            w = 0.0
+    t = a * xi
+    if t == 0.0:
+        return w + xi
+    if t > -700.0:
+        return w * math.exp(-t) - math.expm1(-t) / a
+    return _linear(w, xi, a)
+
+
+def _path_by_sample(shape: BoucWen, x: np.ndarray, z0: float) -> np.ndarray:
+    """z along one displacement series, one increment after the other (general n; the reference for n = 1)."""
     out = np.empty(len(x))
     if not len(x):
         return out
     z = float(z0)
     out[0] = z
-    increments = np.diff(x).tolist()
-    if shape.n != 1.0:
-        for k, dx in enumerate(increments, start=1):
-            if dx != 0.0:
-                s = 1.0 if dx > 0 else -1.0
-                z = s * float(_advance_general(np.float64(s * z), abs(dx), shape.beta, shape.gamma, shape.n))
-            out[k] = z
-        return out
-    loading, unloading = shape.beta + shape.gamma, shape.beta - shape.gamma
-    exp, expm1, log = math.exp, math.expm1, math.log
-    values = [z]
-    append = values.append
-    for dx in increments:  # exact per branch (module notes); this loop runs for every sample of every identification
-        if dx == 0.0:
-            append(z)
-            continue
-        s, xi = (1.0, dx) if dx > 0 else (-1.0, -dx)
-        w = s * z
-        a = loading
-        if w < 0.0:
-            reach = 1.0 - unloading * w
-            to_zero = (-w if unloading == 0.0 else log(reach) / unloading) if reach > 0.0 else math.inf
-            if xi <= to_zero:
-                a = unloading
+    loading, unloading = shape.loading, shape.unloading
+    for k, dx in enumerate(np.diff(x).tolist(), start=1):
+        if dx != 0.0:
+            s = 1.0 if dx > 0 else -1.0
+            if shape.n == 1.0:
+                z = s * _flow(s * z, abs(dx), loading, unloading)
             else:
-                xi -= to_zero
-                w = 0.0
-        t = a * xi
-        if t == 0.0:
-            w += xi
-        elif t > -700.0:
-            w = w * exp(-t) - expm1(-t) / a
-        else:
-            w = _linear(w, xi, a)
-        z = s * w
-        append(z)
-    out[:] = values
+                z = s * float(_advance_general(np.float64(s * z), abs(dx), shape.beta, shape.gamma, shape.n))
+        out[k] = z
     return out
+
+
+def _runs(x: np.ndarray) -> np.ndarray:
+    """First sample of each monotone run of ``x`` (a reversal, or the first move, starts one; rests do not)."""
+    moving = np.flatnonzero(np.diff(x))
+    if not len(moving):
+        return moving
+    rising = np.diff(x)[moving] > 0
+    return moving[np.r_[True, rising[1:] != rising[:-1]]]
+
+
+def _run_starts(shape: BoucWen, x: np.ndarray, starts: np.ndarray, z0: float) -> np.ndarray:
+    """z at the first sample of each run and at the last sample of the record (module notes: n = 1 exact per run)."""
+    ends = x[np.r_[starts, len(x) - 1]].tolist()
+    loading, unloading = shape.loading, shape.unloading
+    out = [float(z0)]
+    z = out[0]
+    for a, b in zip(ends[:-1], ends[1:]):
+        s, xi = (1.0, b - a) if b > a else (-1.0, a - b)
+        z = s * _flow(s * z, xi, loading, unloading)
+        out.append(z)
+    return np.array(out)
+
+
+def _fill(shape: BoucWen, x: np.ndarray, starts: np.ndarray, at_starts: np.ndarray) -> np.ndarray:
+    """z at every sample from its value at the start of its run: the exact flow over the travel since then (n = 1)."""
+    out = np.full(len(x), at_starts[0])
+    if not len(starts):
+        return out
+    loading, unloading = shape.loading, shape.unloading
+    first = starts[0] + 1
+    run = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, len(x) - 1]))  # of samples first, first + 1, ...
+    sign = np.where(x[np.r_[starts[1:], len(x) - 1]] > x[starts], 1.0, -1.0)
+    w0 = sign * at_starts[:-1]
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # per run: the travel to w = 0 from below
+        reach = 1.0 - unloading * w0
+        below = w0 < 0
+        to_zero = np.where(below, np.where(reach > 0, (-w0 if unloading == 0.0 else np.log(reach) / unloading),
+                                           np.inf), -1.0)
+        after = np.where(below, 0.0, w0)
+        xi = sign[run] * (x[first:] - x[starts][run])
+        crossed = xi > to_zero[run]
+        start = np.where(crossed, after[run], w0[run])
+        travel = np.where(crossed, xi - np.where(below, to_zero, 0.0)[run], xi)
+        rate = np.where(crossed, loading, unloading)
+        t = rate * travel
+        w = start * np.exp(-t) - np.expm1(-t) / np.where(rate == 0.0, 1.0, rate)
+        if loading == 0.0 or unloading == 0.0:
+            w = np.where(rate == 0.0, start + travel, w)
+    out[first:] = sign[run] * w
+    return out
+
+
+def _path_1d(shape: BoucWen, x: np.ndarray, z0: float) -> np.ndarray:
+    """z along one displacement series (n = 1: run by run, module notes; otherwise sample by sample)."""
+    if shape.n != 1.0 or not len(x):
+        return _path_by_sample(shape, x, z0)
+    starts = _runs(x)
+    at_starts = _run_starts(shape, x, starts, z0)
+    path = _fill(shape, x, starts, at_starts) if np.all(np.isfinite(at_starts)) else None
+    if path is None or not np.all(np.isfinite(path)):  # a hardening branch that overflows: sample by sample
+        return _path_by_sample(shape, x, z0)
+    return path
 
 
 def boucwen_path(shape: BoucWen, displacement, z0: float = 0.0) -> np.ndarray:
@@ -291,15 +352,20 @@ def boucwen_periodic(shape: BoucWen, displacement) -> np.ndarray:
         flat = x.reshape(len(x), -1)
         return np.column_stack([boucwen_periodic(shape, flat[:, j]) for j in range(flat.shape[1])]).reshape(x.shape)
     closed = np.append(x, x[:1])  # the period and the step back to its start
+    starts = _runs(closed) if shape.n == 1.0 else None
     z0 = 0.0
     for _ in range(_PERIODIC_PASSES):
-        path = _path_1d(shape, closed, z0)
-        scale = float(np.max(np.abs(path))) if np.all(np.isfinite(path)) else math.nan
+        if starts is None:
+            path = _path_by_sample(shape, closed, z0)
+            last, scale = float(path[-1]), float(np.max(np.abs(path)))
+        else:  # z is monotone along a run: its largest |z| is at a run's end
+            at_starts = _run_starts(shape, closed, starts, z0)
+            last, scale = float(at_starts[-1]), float(np.max(np.abs(at_starts)))
         if not math.isfinite(scale):
             break
-        if abs(path[-1] - z0) <= _PERIODIC_TOLERANCE * max(scale, np.finfo(float).tiny):
-            return path[:-1]
-        z0 = float(path[-1])
+        if abs(last - z0) <= _PERIODIC_TOLERANCE * max(scale, np.finfo(float).tiny):
+            return (path if starts is None else _path_1d(shape, closed, z0))[:-1]
+        z0 = last
     raise NotIdentifiableError(
         f"the Bouc-Wen variable ({shape.text()}) reaches no periodic steady state over the period of this record"
     )

@@ -6,13 +6,17 @@ augmented state, independent of the identification's exact rule; docs/method.md 
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
-from bayesnsi.loop import close_the_loop
+from bayesnsi.loop import close_the_loop, scoring
+from bayesnsi.loop.quality import MisfitReading
 from bayesnsi.loop.scoring import refine_shape, score_effects
+from bayesnsi.loop.shapes import SHAPE_LOCATIONS, screened_shapes
 from bayesnsi.models import BoucWen, CandidateModel, Term, hysteresis_effect
-from bayesnsi.models.dictionary import HYSTERESIS
+from bayesnsi.models.dictionary import HYSTERESIS, clearance_effect
 from bayesnsi.nsi import identify
 from bayesnsi.nsi.closed_loop import closed_loop_response, divergence_bound
 from bayesnsi.nsi.reconstruct import initial_state, nrmse
@@ -57,6 +61,37 @@ def test_a_refined_shape_beats_its_grid_point_and_approaches_the_truth(case):
     assert abs(np.log(shape.loading / 100.0)) < abs(np.log(50.0 / 100.0))
     assert abs(np.log(shape.unloading / 200.0)) < abs(np.log(300.0 / 200.0))
     assert best.result.coefficients[-1].value == pytest.approx(300.0, rel=0.1)
+
+
+def test_the_screen_keeps_boucwen_grid_points_at_the_kept_locations_then_in_screen_order():
+    soft, hard = BoucWen.from_branches(1.0, 2.0), BoucWen.from_branches(2.0, 4.0)
+    pairs = [(1, 2), (3, 4), (5, 6), (7, 8), (9, 10), (11, 12), (2, 3), (4, 5)]
+    ordered = [hysteresis_effect((1, 2), soft), clearance_effect((7, 8), 0.1), hysteresis_effect((7, 8), hard),
+               hysteresis_effect((1, 2), hard), clearance_effect((1, 2), 0.1)]
+    ordered += [hysteresis_effect(pair, soft) for pair in pairs[1:]]
+    kept = screened_shapes(ordered, count=1, locations=3)  # one place: the clearance at 7-8
+    assert kept == [ordered[1], ordered[0], ordered[2], ordered[5]]  # at 7-8 (kept), 1-2 and 3-4 (screen order)
+    every = screened_shapes(ordered, count=2)
+    assert [e.location for e in every if e.shape is not None] == [(1, 2), (7, 8), (3, 4), (5, 6), (9, 10), (11, 12)]
+    assert len({e.location for e in every if e.shape is not None}) == SHAPE_LOCATIONS
+
+
+@pytest.mark.parametrize(
+    ("index", "reading", "searched"),
+    [
+        (0.9, None, True),  # below 4 x max_imag_ratio: searched whatever the misfit (the truth's grid points <= 0.92)
+        (2.0, MisfitReading(misfit_ratio=7.0, resolution=2.5), False),  # fails, resolved against the misfit
+        (2.0, MisfitReading(misfit_ratio=7.0, resolution=0.9), True),  # the misfit leaves the index unresolved
+        (2.0, MisfitReading(misfit_ratio=1.5, resolution=0.5), False),  # a nearly adequate model: the index decides
+    ],
+)
+def test_a_grid_point_whose_index_fails_by_a_wide_margin_is_not_searched(monkeypatch, index, reading, searched):
+    read = []
+    monkeypatch.setattr(scoring, "misfit_reading", lambda *args, **kwargs: read.append(1) or reading)
+    context = SimpleNamespace(options=LoopOptions(), evidence=EvidenceOptions(), signals=None)
+    entry = SimpleNamespace(identified=SimpleNamespace(coefficients=[SimpleNamespace(imag_ratio=index)]))
+    assert scoring._worth_searching(context, entry) is searched
+    assert len(read) == (reading is not None)  # the misfit is read only above the margin
 
 
 def test_noise_replicates_reidentify_a_boucwen_candidate(case):

@@ -23,7 +23,7 @@ from bayesnsi.models import (
     hysteresis_reading,
     parse_expression,
 )
-from bayesnsi.models.hysteresis import boucwen_step
+from bayesnsi.models.hysteresis import _path_by_sample, boucwen_step
 from bayesnsi.nsi import extended_input
 from bayesnsi.signals import Signals
 from bayesnsi.simulate import simulate_hysteretic_response, simulate_response
@@ -133,6 +133,30 @@ def test_the_vector_step_is_the_scalar_path():
             steps.append(z[0])
         assert np.allclose(steps, boucwen_path(shape, x), rtol=1e-10, atol=1e-15)
         assert np.all(z[1] == 0.0)
+
+
+@pytest.mark.parametrize("shape", [*SHAPES, BoucWen(5.0, -5.0), BoucWen(0.0, 0.0), BoucWen(40.0, -40.0)], ids=str)
+def test_the_path_run_by_run_is_the_path_sample_by_sample(shape):
+    # n = 1: between reversals z is the exact flow over the travel since the run began (module notes); the
+    # reference composes the same exact step increment by increment, so only rounding may differ
+    rng = np.random.default_rng(7)
+    smooth = np.convolve(np.cumsum(rng.normal(0.0, 1e-3, 4000)), np.ones(9) / 9, mode="same")
+    rough = np.cumsum(rng.normal(0.0, 2e-3, 1000))
+    for x, z0 in ((smooth, 0.0), (rough, 0.0), (rough, 3e-3), (0.02 * np.sin(np.arange(2000) / 40.0), -1e-3)):
+        x = x.copy()
+        x[:5] = x[0]  # at rest before the first move
+        x[300:340] = x[300]  # and within the record
+        reference = _path_by_sample(shape, x, z0)
+        assert np.all(np.isfinite(reference))
+        scale = np.max(np.abs(reference))
+        assert np.max(np.abs(boucwen_path(shape, x, z0) - reference)) <= 1e-12 * scale
+
+
+def test_a_path_at_rest_or_empty_keeps_its_start():
+    shape = BoucWen(150.0, -50.0)
+    assert boucwen_path(shape, np.full(7, 0.3), 2e-3).tolist() == [2e-3] * 7
+    assert boucwen_path(shape, np.array([])).shape == (0,)
+    assert np.allclose(boucwen_periodic(shape, np.zeros(16)), 0.0)
 
 
 def test_the_periodic_steady_state_repeats_and_is_where_a_long_record_settles():

@@ -19,6 +19,7 @@ from typing import cast
 import numpy as np
 
 from .._dispatch import dispatch
+from ..checks.misfit import index_judgement, misfit_reading
 from ..evidence import candidate_affine, candidate_priors, laplace_log_evidence, sufficient_statistics
 from ..evidence.boundary import collapsed_laplace_log_evidence
 from ..exceptions import BayesNSIError, BayesNSIWarning
@@ -27,7 +28,6 @@ from ..models.dictionary import clearance_effect
 from ..nsi import force_affine, hankel_correlations, identify, is_free_body, nrmse
 from ..options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions, parse_likelihood
 from .localise import screen_effects_periodic
-from .quality import misfit_reading, quality_check
 from .results import EffectScore
 from .screen import screen_effects
 from .screen_force import screen_effects_force
@@ -387,7 +387,7 @@ def _worth_searching(context: LoopContext, entry: EffectScore) -> bool:
     :mod:`bayesnsi.loop.shapes`: :data:`~bayesnsi.loop.shapes.SEARCH_INDEX_FACTOR`).
 
     False when the index is at least that factor times ``max_imag_ratio`` and fails the loop's check
-    (:func:`bayesnsi.loop.quality.quality_check`, against the enlarged model's misfit, as
+    (:func:`bayesnsi.checks.misfit.index_judgement`, against the enlarged model's misfit, as
     :func:`bayesnsi.loop.guards.check_effect` judges it).
     """
     coef = entry.identified.coefficients[-1]
@@ -395,7 +395,7 @@ def _worth_searching(context: LoopContext, entry: EffectScore) -> bool:
     if coef.imag_ratio < SEARCH_INDEX_FACTOR * limit:
         return True
     reading = misfit_reading(entry.identified, context.signals, seed=context.evidence.seed)
-    return quality_check(coef.imag_ratio, limit, context.evidence.max_band_ratio, reading)[0].passed
+    return index_judgement(coef.imag_ratio, limit, context.evidence.max_band_ratio, reading)[0]
 
 
 def _refined(context: LoopContext, candidate, entry: EffectScore, effects, correlations) -> EffectScore:

@@ -29,7 +29,7 @@ from ..nsi import force_affine, hankel_correlations, identify, is_free_body, nrm
 from ..options import EvidenceOptions, ExecutionOptions, LoopOptions, NSIOptions, parse_likelihood
 from .localise import screen_effects_periodic
 from .results import EffectScore
-from .screen import screen_effects
+from .screen import best_locations_first, screen_effects, second_widths_last
 from .screen_force import screen_effects_force
 from .shapes import (
     SEARCH_INDEX_FACTOR,
@@ -257,11 +257,14 @@ def _screened(context: LoopContext, candidate, effects, exclude):
     """Split ``effects`` into the best ``screen`` by the screen (module notes) and the rest.
 
     Effects already in the model or excluded are dropped first. The ``screen`` places go to the
-    effects without memory; the best ranked Bouc-Wen grid point of each of a few locations is kept
-    besides them (nine variants of one effect, ranked high by a screen that reads the residual's phase,
-    would crowd out the others; :func:`bayesnsi.loop.shapes.screened_shapes`). Returns ``(kept effects,
-    scores of the rest, screen)``; the rest carry a NaN score (screened out, not re-identified), in screen
-    order; ``screen`` maps each kept effect's term name to its ``(rank, score, view, location level)`` (the
+    effects without memory of the screen's best locations, one friction width per location before any
+    second one (:func:`bayesnsi.loop.screen.best_locations_first`,
+    :func:`bayesnsi.loop.screen.second_widths_last`); the best ranked Bouc-Wen grid point of each of a
+    few locations is kept besides them (nine variants of one effect, ranked high by a screen that reads
+    the residual's phase, would crowd out the others; :func:`bayesnsi.loop.shapes.screened_shapes`).
+    Returns ``(kept effects, scores of the rest, screen)``; the rest carry a NaN score (screened out, not
+    re-identified), in screen order; ``screen`` maps each kept effect's term name to its ``(rank, score,
+    view, location level)`` (the
     data-only distortion level of its location on the periodic view, NaN otherwise).
     """
     effects = new_effects(candidate, effects, exclude)
@@ -287,7 +290,7 @@ def _screened(context: LoopContext, candidate, effects, exclude):
     screen = {e.term.name: (rank, float(score), view, located.get(e.term.name, math.nan))
               for rank, (e, score) in enumerate(ranked, start=1)}
     ordered = cast("list[Effect]", [e for e, _ in ranked])
-    kept = screened_shapes(ordered, count)
+    kept = screened_shapes(best_locations_first(second_widths_last(ordered), count), count)
     rest = [
         EffectScore(e, math.nan, screen_rank=rank, screen_score=float(score), screen_view=view,
                     screen_location=located.get(e.term.name, math.nan))

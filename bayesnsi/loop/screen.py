@@ -50,7 +50,10 @@ from ..nsi import extended_input
 if TYPE_CHECKING:
     from ..models.dictionary import Effect
 
-__all__ = ["screen_effects"]
+__all__ = ["PLACES_PER_LOCATION", "best_locations_first", "second_widths_last", "screen_effects"]
+
+PLACES_PER_LOCATION = 3
+"""Screen places per location on average (:func:`best_locations_first`): the rival stiffness or damping types."""
 
 
 def _periods(signals) -> tuple[int, int] | None:
@@ -78,6 +81,71 @@ def _group_spectra(columns: np.ndarray, bins: np.ndarray, n_groups: int, group_b
     mean = blocks.reshape(realisations, -1, period, columns.shape[1]).mean(axis=1)  # (R, P, k)
     spectrum = np.fft.rfft(mean, axis=1)[:, bins]
     return spectrum.reshape(realisations * n_groups, group_bins, columns.shape[1])
+
+
+def second_widths_last(ordered: list[Effect]) -> list[Effect]:
+    """Screen order with each location's later smoothed-friction widths moved after every other effect.
+
+    The widths ε of ``tanh(v/ε)`` (:func:`bayesnsi.models.dictionary.default_widths`) are grid points of
+    one effect at one location that the loop does not refine: the best ranked one stands for them, and
+    its neighbour, which a screen ranks next to it, would take the place of another type (docs/method.md
+    §7; measured in docs/measurements.md, the quality index and model error: the two-DOF chain's cubic
+    spring missed the places behind a second width of ``tanh(v1/ε)``). A clearance's gaps keep their
+    places: each one ranked among the best is a start of the gap's refinement
+    (:func:`bayesnsi.loop.scoring.refine_gap`), whose evidence has more than one local maximum (on the
+    F-16 the second gap's refinement is the clearance the loop accepts). The relative order of the rest
+    is kept.
+
+    Parameters
+    ----------
+    ordered : list of Effect
+        Effects in screen order, best first.
+
+    Returns
+    -------
+    list of Effect
+        The effects but the second and later widths at a location, in screen order, then those.
+    """
+    seen: set = set()
+    first: list[Effect] = []
+    later: list[Effect] = []
+    for effect in ordered:
+        key = tuple(effect.location)
+        (later if effect.eps is not None and key in seen else first).append(effect)
+        if effect.eps is not None:
+            seen.add(key)
+    return first + later
+
+
+def best_locations_first(ordered: list[Effect], count: int, per_location: int = PLACES_PER_LOCATION) -> list[Effect]:
+    """Screen order with the effects of the best ``ceil(count / per_location)`` locations first.
+
+    The screen tells locations apart better than types: the types at one location (x|x|, x³ and a
+    clearance; v|v|, v³ and a friction) are functions of the same noisy signal, whose errors in
+    variables weaken the higher powers' columns more, so their order at 5 % noise is no guide to
+    the evidence, while a location without the effect explains little with any type. The places
+    therefore go to the rival types at the locations the screen ranks best (ordered by their best
+    effect) rather than to one type at every location (docs/method.md §7; measured in
+    docs/measurements.md, the quality index and model error). The relative order within the two
+    groups is kept.
+
+    Parameters
+    ----------
+    ordered : list of Effect
+        Effects in screen order, best first.
+    count : int
+        The screen's places (``LoopOptions.screen``).
+    per_location : int
+        Places per location on average (:data:`PLACES_PER_LOCATION`).
+
+    Returns
+    -------
+    list of Effect
+        The effects at the best locations in screen order, then the others in screen order.
+    """
+    locations = list(dict.fromkeys(tuple(e.location) for e in ordered if e.shape is None))
+    best = set(locations[: max(1, -(-count // per_location))])
+    return [e for e in ordered if tuple(e.location) in best] + [e for e in ordered if tuple(e.location) not in best]
 
 
 def _orthonormal_basis(design: np.ndarray) -> np.ndarray:

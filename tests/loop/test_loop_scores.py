@@ -17,8 +17,9 @@ from bayesnsi import LoopOptions
 from bayesnsi.cli import main
 from bayesnsi.exceptions import ConfigError
 from bayesnsi.loop import close_the_loop, loop_effects
-from bayesnsi.loop.screen import screen_effects
+from bayesnsi.loop.screen import PLACES_PER_LOCATION, best_locations_first, screen_effects, second_widths_last
 from bayesnsi.loop.search import SCREEN_BAND
+from bayesnsi.models.dictionary import clearance_effect, effect_dictionary, smooth_friction_effect
 from bayesnsi.simulate import undeclared_case
 
 TRUE_TERM = "v1*abs(v1)@1"
@@ -53,9 +54,19 @@ def test_each_step_lists_the_screened_effects_with_screen_rank_and_evidence(loop
     assert true["nrmse"] == pytest.approx(step.nrmse_after, rel=1e-12)
     screen = loop.options.screen
     out = [r for r in records if r["status"] == "screened out"]
-    # the screen's places go to the effects without memory, the best Bouc-Wen grid point of each location besides
+    # the screen's places go to the effects without memory at the best ceil(screen / 3) locations (ordered by
+    # their best effect), one friction width per location before any second one; the best Bouc-Wen grid
+    # point of each location besides
     static = sorted((r for r in records if r["type"] != "boucwen"), key=lambda r: r["screen_rank"])
-    assert [r["status"] == "screened out" for r in static] == [False] * screen + [True] * (len(static) - screen)
+    best_locations = list(dict.fromkeys(tuple(r["at"]) for r in static))[: -(-screen // PLACES_PER_LOCATION)]
+    widths: dict = {}
+    for r in static:
+        if r["type"] == "tanh(v/eps)":
+            widths.setdefault(tuple(r["at"]), r["term"])
+    places = sorted(static, key=lambda r: (tuple(r["at"]) not in best_locations,  # stable: screen order within
+                                           widths.get(tuple(r["at"]), r["term"]) != r["term"]
+                                           and r["type"] == "tanh(v/eps)"))
+    assert [r["status"] == "screened out" for r in places] == [False] * screen + [True] * (len(places) - screen)
     for at in {tuple(r["at"]) for r in records if r["type"] == "boucwen"}:
         best = min((r for r in records if r["type"] == "boucwen" and tuple(r["at"]) == at),
                    key=lambda r: r["screen_rank"])
@@ -99,3 +110,23 @@ def test_diagnose_flags_refuse_an_unknown_effect_before_any_work(tmp_path, capsy
     assert not (tmp_path / "o" / "results.json").exists() and not (tmp_path / "o" / "cache").exists()
     with pytest.raises(ConfigError, match="unknown type"):  # the same check in the Python API
         loop_effects(undeclared_case("quadratic-damping", seed=0, duration=5.0).signals, ["v^5"])
+
+
+def test_a_second_friction_width_at_a_location_waits_for_every_other_effect_but_a_second_gap_does_not():
+    cubic, coulomb = effect_dictionary([1, 2], ["x^3", "sign(v)"], pairs=[])[:2]
+    wide, narrow, other = (smooth_friction_effect(at, eps) for at, eps in ((1, 0.1), (1, 0.05), (2, 0.1)))
+    gap, second_gap = clearance_effect(1, 0.02), clearance_effect(1, 0.01)
+    ordered = [wide, narrow, gap, second_gap, other, cubic, smooth_friction_effect(1, 0.2), coulomb]
+    assert second_widths_last(ordered) == [wide, gap, second_gap, other, cubic, coulomb, narrow, ordered[6]]
+
+
+def test_the_places_go_to_the_types_of_the_best_locations_before_one_type_elsewhere():
+    # screen order: a clearance at the pair 1-2 first, then one at the pairs 2-3 and 1-3, then the
+    # cubic at 1-2; with 3 places (one location) the cubic comes before the other pairs' clearances
+    by_name = {e.term.name: e for e in effect_dictionary([1, 2, 3], ["x^3"], pairs=[(1, 2), (2, 3), (1, 3)])}
+    cubic12 = by_name["(x1-x2)**3@1-2"]
+    gap12, gap23, gap13 = (clearance_effect(at, 0.01) for at in ((1, 2), (2, 3), (1, 3)))
+    ordered = [gap12, gap23, gap13, cubic12, by_name["x1**3@1"]]
+    assert best_locations_first(ordered, 3) == [gap12, cubic12, gap23, gap13, by_name["x1**3@1"]]
+    # six places: two locations, in the order of their best effect
+    assert best_locations_first(ordered, 6) == [gap12, gap23, cubic12, gap13, by_name["x1**3@1"]]

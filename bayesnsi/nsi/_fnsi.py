@@ -24,7 +24,7 @@ import scipy.linalg
 
 from ..exceptions import BlockRowsError, InputDataError
 from ..signals import Signals
-from .feedback import extended_input
+from ._aft import basis_spectra
 from .periodic import excited_lines, period_dft
 
 _SMOOTH_LINES = 9  # running median of the noise variance over this many lines (weights)
@@ -154,7 +154,6 @@ class _Realisation:
         self.x_mean, self.f_mean = x_periods.mean(axis=0), f_periods.mean(axis=0)
         self.omega = 2 * np.pi * np.fft.rfftfreq(period, 1.0 / signals.fs)
         self.v_mean = None if signals.velocity is None else period_dft(signals.velocity, period, drop).mean(axis=0)
-        self.force_time = _time(self.f_mean, period)
         dev = x_periods - self.x_mean
         self.cov = np.einsum("pki,pkj->kij", dev, dev.conj()) / (n_periods - 1) / n_periods
         power = np.sum(np.abs(self.f_mean) ** 2, axis=1)
@@ -162,20 +161,19 @@ class _Realisation:
         self.excited = excited_lines(power, noise)
 
     def basis_spectra(self, x_spec, v_spec):
-        """``[F; -N]`` on every line, N from the displacement (and velocity) spectra of one period."""
+        """``[F; -N]`` on every line, N from the displacement (and velocity) spectra of one period.
+
+        The memoryless basis functions are evaluated on a finer grid, so that their harmonics
+        above the Nyquist frequency do not fold onto the band (:mod:`._aft`).
+        """
         period, signals = self.period, self.signals
         if v_spec is None:
             v_spec = 1j * self.omega[:, None] * x_spec
             if period % 2 == 0:
                 v_spec[-1] = 0.0  # the Nyquist line of a real signal has no derivative
-        averaged = Signals(
-            force=self.force_time, displacement=_time(x_spec, period), velocity=_time(v_spec, period),
-            fs=signals.fs, input_dofs=signals.input_dofs, output_dofs=signals.output_dofs,
-            period=period,  # one period: a term with memory is evaluated in periodic steady state
-        )
-        spectra = np.fft.rfft(extended_input(averaged, self.terms, self.velocity_method, "sample"), axis=0) / period
-        spectra[:, : self.f_mean.shape[1]] = self.f_mean
-        return spectra
+        n_basis = basis_spectra(self.terms, x_spec, v_spec, self.f_mean, signals.fs, signals.input_dofs,
+                                signals.output_dofs, period)
+        return np.concatenate([self.f_mean, n_basis], axis=1)
 
     def rebuild(self, lines, model_outputs):
         """The basis spectra on ``lines`` with the displacement there replaced by ``model_outputs``."""
@@ -287,10 +285,6 @@ def _weighted_fit(data: LineData, A, C, zero_feedthrough: bool, points=None) -> 
         D = theta[n_in * n :].reshape((n_out, n_in), order="F") / u_scale
     fitted = np.einsum("kom,mj,kj->ko", G, B, U) + U @ D.T
     return dict(B=B, D=D, residual=(Y - fitted) / sigma)
-
-
-def _time(spectrum: np.ndarray, period: int) -> np.ndarray:
-    return np.fft.irfft(spectrum * period, period, axis=0)
 
 
 def _rms(a: np.ndarray) -> np.ndarray:

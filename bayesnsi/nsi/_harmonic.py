@@ -26,7 +26,7 @@ import numpy as np
 
 from ..exceptions import UnstableModelError
 from ..signals import Signals
-from .feedback import extended_input
+from ._aft import basis_spectra
 from .periodic import period_dft
 
 __all__ = ["applies", "applies_to_record", "periodic_affine", "periodic_closed_loop", "record_closed_loop"]
@@ -196,9 +196,14 @@ def periodic_closed_loop(result, signals: Signals, free=None) -> np.ndarray:
 
     extra = np.zeros((2, period, n_out)) if free is None else np.asarray(free, dtype=float)[:, :period]
 
+    extra_spectra = np.fft.rfft(extra, axis=1) / period  # the free response on every line
+
     def inputs(X):
-        x, v = time_of(X)
-        return np.fft.rfft(_basis(result, x + extra[0], v + extra[1]), axis=0)[lines] / period
+        spectrum = extra_spectra.copy()
+        spectrum[0, lines] += X
+        spectrum[1, lines] += 1j * omega[lines, None] * X
+        return basis_spectra(result.terms, spectrum[0], spectrum[1], force, signals.fs, result.input_dofs,
+                             result.output_dofs, period, strict=False)[lines]
 
     def update(X):
         return linear + np.einsum("koq,kq->ko", G[:, :, m:], inputs(X))
@@ -212,19 +217,6 @@ def periodic_closed_loop(result, signals: Signals, free=None) -> np.ndarray:
         X = _solve(update, start, result.candidate.name, switching)
     x, _ = time_of(X)
     return np.tile(x + extra[0], (signals.n_samples // period, 1))
-
-
-def _basis(result, x: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """``-n_i(x, v)`` of the model's terms on its own response (n_samples, q); a term that is zero there (a
-    clearance whose gap the motion never reaches) is a zero force, not an identification failure. The
-    samples are one period: a term with memory is its periodic steady state (docs/method.md §12)."""
-    rows = {int(d) - 1: k for k, d in enumerate(result.output_dofs)}
-    xs = {row: x[:, k] for row, k in rows.items()}
-    vs = {row: v[:, k] for row, k in rows.items()}
-    columns = [-np.broadcast_to(np.asarray(term.evaluate(xs, vs, periodic=True) if term.expr.memory is not None
-                                           else term.expr.function(xs, vs), dtype=float), (len(x),))
-               for term in result.terms]
-    return np.column_stack(columns) if columns else np.zeros((len(x), 0))
 
 
 def _memory_linearised(result, G_n: np.ndarray, linear: np.ndarray, inputs, time_of, passes: int = 4):
@@ -404,11 +396,8 @@ def periodic_affine(result, signals: Signals) -> tuple[np.ndarray, np.ndarray, n
     v_spec = 1j * 2 * np.pi * freqs[:, None] * x_mean
     if period % 2 == 0:
         v_spec[-1] = 0.0
-    one = Signals(force=np.fft.irfft(force.mean(axis=0) * period, period, axis=0),
-                  displacement=np.fft.irfft(x_mean * period, period, axis=0),
-                  velocity=np.fft.irfft(v_spec * period, period, axis=0), fs=signals.fs,
-                  input_dofs=result.input_dofs, output_dofs=result.output_dofs, period=period)
-    u_n = np.fft.rfft(extended_input(one, result.terms, "fourth", "sample")[:, m:], axis=0)[lines] / period
+    u_n = basis_spectra(result.terms, x_mean, v_spec, force.mean(axis=0), signals.fs, result.input_dofs,
+                        result.output_dofs, period)[lines]
     per_unit = G[:, :, m:] / result.coefficient_values[None, None, :] * u_n[:, None, :]  # (K, l, q)
     signatures = time_of(np.broadcast_to(per_unit, (n_periods,) + per_unit.shape))
     return measured, baseline, signatures

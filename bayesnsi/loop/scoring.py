@@ -39,6 +39,7 @@ from .shapes import (
     shape_fallbacks,
 )
 from .state import LoopContext
+from .widths import search_width
 
 __all__ = ["laplace_score", "rank_effects", "refine_gap", "refine_shape", "score_effects"]
 
@@ -317,7 +318,9 @@ def rank_effects(context: LoopContext, candidate, exclude=(), effects=None, scre
     when it beats ``candidate`` itself (a log Bayes factor above 0) and every effect without memory
     (:func:`refine_shape`): a two-parameter family searched off the grid fits model-form error too,
     so its shape is searched where the grid already says memory explains the data best, and not where
-    its quality index fails the loop's check by a wide margin (:func:`_worth_searching`).
+    its quality index fails the loop's check by a wide margin (:func:`_worth_searching`). So is the width
+    of the best ``tanh(v/ε)`` friction of each location among the best, when it beats ``candidate``
+    (:func:`bayesnsi.loop.widths.search_width`).
 
     Parameters
     ----------
@@ -350,6 +353,7 @@ def rank_effects(context: LoopContext, candidate, exclude=(), effects=None, scre
             context.signals, candidate, effect, context.nsi, context.evidence, correlations))
     n_tries = context.options.n_tries
     shaped: set = set()  # Bouc-Wen locations refined: the best grid point's search stands for the location's
+    widened: set = set()  # friction locations whose width was searched (from their best grid width)
     current: list[float] = []  # the candidate's own Laplace log-evidence, computed when first needed
     memoryless = max((e.log_evidence for e in scored if e.effect.shape is None), default=-math.inf)
 
@@ -362,6 +366,12 @@ def rank_effects(context: LoopContext, candidate, exclude=(), effects=None, scre
             if fresh and not current:
                 current.append(_log_evidence(context, candidate))
             return fresh and entry.log_evidence > max(current[0], memoryless) and _worth_searching(context, entry)
+        if entry.effect.eps is not None:  # the best grid width of its location, better than the candidate
+            fresh = entry.effect.location not in widened
+            widened.add(entry.effect.location)
+            if fresh and not current:
+                current.append(_log_evidence(context, candidate))
+            return fresh and entry.log_evidence > current[0]
         return entry.effect.gap is not None
 
     head = [  # a refined clearance (Bouc-Wen shape) keeps the screen rank of the grid point it was refined from
@@ -402,7 +412,10 @@ def _worth_searching(context: LoopContext, entry: EffectScore) -> bool:
 
 
 def _refined(context: LoopContext, candidate, entry: EffectScore, effects, correlations) -> EffectScore:
-    """``entry`` with its clearance gap or Bouc-Wen shape refined off the grid."""
+    """``entry`` with its clearance gap, Bouc-Wen shape or friction width refined off the grid."""
+    if entry.effect.eps is not None:
+        return search_width(entry, lambda effect: score_one(context.signals, candidate, effect, context.nsi,
+                                                            context.evidence, correlations))
     if entry.effect.shape is not None:
         return refine_shape(context.signals, candidate, entry, context.nsi, context.evidence, correlations=correlations)
     return refine_gap(context.signals, candidate, entry, effects, context.nsi, context.evidence,

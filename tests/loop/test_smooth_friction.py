@@ -100,3 +100,25 @@ def test_an_effect_rejected_for_negative_dissipation_does_not_use_up_a_try(monke
     loop = close_the_loop(case.signals, case.declared, LoopOptions(max_steps=1, n_tries=1), nsi=case.nsi)
     assert len(calls) == 2 and calls[0] == "v1*abs(v1)@1"  # the relabelled best did not count as the try
     assert loop.steps[-1].term.name == calls[0] and loop.steps[-1].reason.startswith(NEGATIVE_DISSIPATION)
+
+
+def test_width_search_climbs_the_evidence_in_log_width_from_the_grid():
+    from bayesnsi.loop.results import EffectScore
+    from bayesnsi.loop.widths import WIDTH_RESOLUTION, search_width
+
+    peak = 0.0031  # a concave log-evidence in log2(eps), the grid width 0.00455 on its slope
+    calls = []
+
+    def score(effect):
+        calls.append(effect.eps)
+        return EffectScore(effect, -100.0 * (np.log2(effect.eps / peak)) ** 2)
+
+    start = smooth_friction_effect((7, 8), 0.00455)
+    found = search_width(score(start), score)
+    assert found.effect.location == (7, 8) and found.term.name.startswith("tanh((v7-v8)/")
+    assert abs(np.log2(found.effect.eps / peak)) <= WIDTH_RESOLUTION  # within the search's resolution
+    assert len(calls) - 1 <= 12  # the budget
+    flat = search_width(EffectScore(start, 5.0), lambda effect: EffectScore(effect, 5.0))  # nothing beats it
+    assert flat.effect.eps == 0.00455
+    other = EffectScore(Effect("x^3", Term("x1**3", 1)), 1.0)
+    assert search_width(other, score) is other

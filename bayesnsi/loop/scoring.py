@@ -414,8 +414,9 @@ def _worth_searching(context: LoopContext, entry: EffectScore) -> bool:
 def _refined(context: LoopContext, candidate, entry: EffectScore, effects, correlations) -> EffectScore:
     """``entry`` with its clearance gap, Bouc-Wen shape or friction width refined off the grid."""
     if entry.effect.eps is not None:
+        grid = [e.eps for e in effects if e.eps is not None and e.location == entry.effect.location]
         return search_width(entry, lambda effect: score_one(context.signals, candidate, effect, context.nsi,
-                                                            context.evidence, correlations))
+                                                            context.evidence, correlations), grid)
     if entry.effect.shape is not None:
         return refine_shape(context.signals, candidate, entry, context.nsi, context.evidence, correlations=correlations)
     return refine_gap(context.signals, candidate, entry, effects, context.nsi, context.evidence,

@@ -9,8 +9,10 @@ ranks among the effects the loop examines is searched in ``log ε`` by the evide
 clearance's gap (:func:`bayesnsi.loop.scoring.refine_gap`) and a Bouc-Wen element's shape
 (:mod:`bayesnsi.loop.shapes`): the two neighbours at the current step are scored, the better that
 beats the current width becomes it, the step halves when neither does, until
-:data:`WIDTH_RESOLUTION`. On the simulated ground vibration test at 1 N the evidence of
-``tanh((v7-v8)/ε)`` peaks near ε = 0.003 (0.002 true; benchmarks/gvt_loop.py).
+:data:`WIDTH_RESOLUTION`; never below half the smallest grid width nor above the largest (free, a
+sharp ``tanh`` took the place of ``sign(v)`` on the Coulomb cases and a wide one that of ``v|v|``).
+On the simulated ground vibration test at 1 N the evidence of ``tanh((v7-v8)/ε)`` peaks near
+ε = 0.003 (0.002 true; benchmarks/gvt_loop.py).
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ WIDTH_RESOLUTION = 1.0 / 8
 """The search stops once its step in ``log2 ε`` is below this (a factor 1.09)."""
 
 
-def search_width(entry: EffectScore, score: Callable[[Effect], EffectScore], budget: int = 12) -> EffectScore:
+def search_width(entry: EffectScore, score: Callable[[Effect], EffectScore], grid=(), budget: int = 12) -> EffectScore:
     """The best width of ``entry``'s friction found from its grid width (see module notes).
 
     Parameters
@@ -40,6 +42,9 @@ def search_width(entry: EffectScore, score: Callable[[Effect], EffectScore], bud
         A scored ``tanh(v/ε)`` effect (any other effect is returned as it is).
     score : callable
         Identifies and scores the model enlarged by one effect.
+    grid : sequence of float
+        The dictionary's widths at ``entry``'s location: the search stays between half the smallest
+        and the largest (outside, a free width lets ``tanh`` stand in for ``sign(v)`` or ``v|v|``).
     budget : int
         Most identifications.
 
@@ -51,12 +56,14 @@ def search_width(entry: EffectScore, score: Callable[[Effect], EffectScore], bud
     eps, at = entry.effect.eps, entry.effect.location
     if eps is None or not np.isfinite(entry.log_evidence):
         return entry
+    widths = [float(w) for w in grid] or [float(eps)]
+    low, high = 0.5 * min(widths), max(widths)
     best, step, tried = entry, WIDTH_STEP, {float(eps)}
     while budget > 0 and step >= WIDTH_RESOLUTION:
         moved = False
         for sign in (-1.0, 1.0):
             width = float(f"{best.effect.eps * 2.0 ** (sign * step):.3g}")
-            if width in tried or budget <= 0:
+            if width in tried or not low <= width <= high or budget <= 0:
                 continue
             tried.add(width)
             budget -= 1

@@ -120,5 +120,7 @@ def test_width_search_climbs_the_evidence_in_log_width_from_the_grid():
     assert len(calls) - 1 <= 12  # the budget
     flat = search_width(EffectScore(start, 5.0), lambda effect: EffectScore(effect, 5.0))  # nothing beats it
     assert flat.effect.eps == 0.00455
+    sharp = search_width(score(start), lambda effect: EffectScore(effect, -np.log(effect.eps)), grid=(0.00455, 0.0091))
+    assert 0.5 * 0.00455 <= sharp.effect.eps < 0.5 * 0.00455 * 2**WIDTH_RESOLUTION  # at the bound, not below it
     other = EffectScore(Effect("x^3", Term("x1**3", 1)), 1.0)
     assert search_width(other, score) is other

@@ -74,7 +74,7 @@ def search_shape(entry: EffectScore, score: Callable[[Effect, EffectScore], Effe
     identification fails (e.g. its underlying linear model comes out unstable: a hysteresis that
     dissipates too much leaves the linear damping negative) scores −inf and is passed over. n is kept.
 
-    A trial is scored by ``score(effect, near)``, which may identify it from ``near``, the best entry so far
+    A trial shape is scored by ``score(effect, near)``, which may identify it from ``near``, the best entry so far
     (a neighbouring shape: its model is a start that needs a few steps of the refinement, where a full
     identification runs the subspace step and refines from two starts). The shape the search ends on is then
     identified in full by ``confirm``, and kept when that beats ``entry``: the entry returned is the one a full

@@ -113,8 +113,7 @@ def identify(
         terms' inputs are computed; the same result (to rounding). Ignored when they do not
         apply or with ``route="lq"``.
     start : NSIResult, optional
-        Frequency route: refined from it alone (noise replicates; a neighbouring shape of one effect
-        in a search: the same order and number of terms, :func:`._frequency.identify_frequency`).
+        Frequency route: refined from it (same order, as many terms).
 
     Returns
     -------

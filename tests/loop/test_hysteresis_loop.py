@@ -96,7 +96,7 @@ def test_a_grid_point_whose_index_fails_by_a_wide_margin_is_not_searched(monkeyp
 
 
 @pytest.mark.parametrize("confirmed_gain", [5.0, -5.0])
-def test_a_shape_search_scores_trials_from_the_best_so_far_and_confirms_the_shape_it_ends_on(confirmed_gain):
+def test_a_shape_search_starts_each_shape_from_the_best_so_far_and_identifies_the_one_found_in_full(confirmed_gain):
     # a concave log-evidence in the search's coordinates, peaked at (asinh((β+γ)σ), log((β-γ)σ)) = (1.1, 0.8)
     sigma = 1.0
 

@@ -86,16 +86,18 @@ def shared_correlations(signals, candidate, nsi: NSIOptions):
         return None
 
 
-def score_one(signals, candidate, effect: Effect, nsi: NSIOptions, evidence: EvidenceOptions, correlations=None):
+def score_one(signals, candidate, effect: Effect, nsi: NSIOptions, evidence: EvidenceOptions, correlations=None,
+              start=None):
     """``candidate + effect`` identified and scored (:class:`EffectScore`, −inf when it fails).
 
     ``correlations``: :func:`shared_correlations` of ``candidate`` (saves most of the Hankel
-    products; the result is the same).
+    products; the result is the same). ``start``: an identified neighbour (``identify``'s ``start``: on the
+    frequency route refined from it alone).
     """
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", BayesNSIWarning)
-            result = identify(signals, candidate.with_term(effect.term), nsi, correlations=correlations)
+            result = identify(signals, candidate.with_term(effect.term), nsi, correlations=correlations, start=start)
             score, error = laplace_score(result, signals, evidence)
     except (BayesNSIError, np.linalg.LinAlgError) as err:
         return EffectScore(effect, -math.inf, error=f"{type(err).__name__}: {err}")
@@ -229,7 +231,9 @@ def refine_shape(
     """Refine the shape of a Bouc-Wen effect off the grid by its Laplace log-evidence (docs/method.md §12).
 
     The compass search of :func:`bayesnsi.loop.shapes.search_shape` over the element's loading and
-    unloading branches, each shape scored as :func:`score_effects` scores an effect.
+    unloading branches, each shape scored as :func:`score_effects` scores an effect; on the frequency route
+    a trial shape is identified from the best shape's model so far (``identify``'s ``start``) and only the
+    shape found is identified in full.
 
     Parameters
     ----------
@@ -250,8 +254,15 @@ def refine_shape(
     nsi, evidence = nsi or NSIOptions(), _loop_evidence(evidence)
     if correlations is None:
         correlations = shared_correlations(signals, candidate, nsi)
-    return search_shape(entry, lambda effect: score_one(signals, candidate, effect, nsi, evidence, correlations),
-                        displacement_spread(signals, entry.effect), budget)
+    def full(effect):
+        return score_one(signals, candidate, effect, nsi, evidence, correlations)
+
+    def near(effect, best: EffectScore):
+        if nsi.domain != "frequency" or best.result is None:
+            return full(effect)
+        return score_one(signals, candidate, effect, nsi, evidence, correlations, start=best.result)
+
+    return search_shape(entry, near, displacement_spread(signals, entry.effect), budget, confirm=full)
 
 
 def _screened(context: LoopContext, candidate, effects, exclude):

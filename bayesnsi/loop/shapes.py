@@ -61,8 +61,8 @@ def displacement_spread(signals, effect: Effect) -> float:
     return float(np.std(expr.memory_argument(rows, {})))
 
 
-def search_shape(entry: EffectScore, score: Callable[[Effect], EffectScore], sigma: float,
-                 budget: int = 30) -> EffectScore:
+def search_shape(entry: EffectScore, score: Callable[[Effect, EffectScore], EffectScore], sigma: float,
+                 budget: int = 30, confirm: Callable[[Effect], EffectScore] | None = None) -> EffectScore:
     """Refine the shape of a Bouc-Wen effect off the grid by its Laplace log-evidence (docs/method.md §12).
 
     A compass search over the loading and unloading branches, in ``asinh((β + γ) σ)`` and
@@ -74,16 +74,26 @@ def search_shape(entry: EffectScore, score: Callable[[Effect], EffectScore], sig
     identification fails (e.g. its underlying linear model comes out unstable: a hysteresis that
     dissipates too much leaves the linear damping negative) scores −inf and is passed over. n is kept.
 
+    A trial shape is scored by ``score(effect, near)``, which may identify it from ``near``, the best entry so far
+    (a neighbouring shape: its model is a start that needs a few steps of the refinement, where a full
+    identification runs the subspace step and refines from two starts). The shape the search ends on is then
+    identified in full by ``confirm``, and kept when that beats ``entry``: the entry returned is the one a full
+    identification gives, the search's scores only chose the shape.
+
     Parameters
     ----------
     entry : EffectScore
         A scored Bouc-Wen effect (any other effect is returned as it is).
     score : callable
-        ``score(effect) -> EffectScore``: the candidate with ``effect`` added, identified and scored.
+        ``score(effect, near) -> EffectScore``: the candidate with ``effect`` added, identified (it may start
+        from ``near.identified``) and scored.
     sigma : float
         Std of the displacement the element acts on (:func:`displacement_spread`).
     budget : int
-        Most identifications.
+        Most identifications of the search (``confirm``'s is not counted).
+    confirm : callable, optional
+        ``confirm(effect) -> EffectScore``: the full identification of the shape found; None takes the
+        search's score as it is.
 
     Returns
     -------
@@ -112,12 +122,15 @@ def search_shape(entry: EffectScore, score: Callable[[Effect], EffectScore], sig
                 continue
             seen.add(trial_effect.term.name)
             budget -= 1
-            trial = score(trial_effect)
+            trial = score(trial_effect, best)
             if trial.log_evidence > best.log_evidence:
                 best, moved = trial, True
         if not moved:
             steps = [step / 2 for step in steps]
-    return best
+    if best is entry or confirm is None:
+        return best
+    confirmed = confirm(best.effect)
+    return confirmed if confirmed.log_evidence > entry.log_evidence else entry
 
 
 def screened_shapes(ordered: list[Effect], count: int, locations: int = SHAPE_LOCATIONS) -> list[Effect]:
@@ -163,7 +176,7 @@ def shape_fallbacks(scored: list[EffectScore], rest: list[EffectScore], score: C
     rest : list of EffectScore
         The screened-out ones, in screen order.
     score : callable
-        As in :func:`search_shape`.
+        ``score(effect) -> EffectScore``: the candidate with ``effect`` added, identified and scored.
     tries : int
         Most grid points tried per location.
 

@@ -53,8 +53,9 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions, start=None) 
         ``velocity_method`` (only when the basis needs velocities and none are measured:
         spectral differentiation is used instead, exact for periodic data).
     start : NSIResult, optional
-        A frequency-route result of the same candidate and order: refined from its continuous
-        model alone (:func:`_local_start`), no subspace starts and no warm start.
+        A frequency-route result at the same order with as many terms (the same candidate, or one whose
+        terms differ in their parameters): refined from its continuous model alone (:func:`_local_start`),
+        no subspace starts and no warm start.
 
     Returns
     -------
@@ -104,9 +105,13 @@ def identify_frequency(signals: Signals, cand, options: NSIOptions, start=None) 
 
 
 def _local_start(start, cand, order):
-    """The continuous ``(A_c, C)`` of ``start`` when it is a frequency-route result of ``cand``'s terms at ``order``."""
+    """The continuous ``(A_c, C)`` of ``start``: a frequency-route result at ``order`` with as many terms as ``cand``.
+
+    Its terms may differ from ``cand``'s in their parameters (a neighbouring shape or gap of one effect): B and
+    D are solved again on the lines for ``cand``'s basis, A and C refined from ``start``'s.
+    """
     if (start is None or start.options.domain != "frequency" or start.order != order
-            or tuple(t.name for t in start.terms) != tuple(t.name for t in cand.terms) or start.virtual_stiffness):
+            or len(start.terms) != len(cand.terms) or start.virtual_stiffness):
         return None
     model = start.model
     return model.continuous_state_matrix(), np.array(model.C, dtype=float)

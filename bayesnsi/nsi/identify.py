@@ -113,7 +113,7 @@ def identify(
         terms' inputs are computed; the same result (to rounding). Ignored when they do not
         apply or with ``route="lq"``.
     start : NSIResult, optional
-        Frequency route: refined from it alone (noise replicates).
+        Frequency route: refined from it (same order, as many terms).
 
     Returns
     -------

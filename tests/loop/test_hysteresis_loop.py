@@ -13,8 +13,9 @@ import pytest
 
 from bayesnsi.loop import close_the_loop, scoring
 from bayesnsi.loop.quality import MisfitReading
+from bayesnsi.loop.results import EffectScore
 from bayesnsi.loop.scoring import refine_shape, score_effects
-from bayesnsi.loop.shapes import SHAPE_LOCATIONS, screened_shapes
+from bayesnsi.loop.shapes import SHAPE_LOCATIONS, screened_shapes, search_shape
 from bayesnsi.models import BoucWen, CandidateModel, Term, hysteresis_effect
 from bayesnsi.models.dictionary import HYSTERESIS, clearance_effect
 from bayesnsi.nsi import identify
@@ -94,6 +95,39 @@ def test_a_grid_point_whose_index_fails_by_a_wide_margin_is_not_searched(monkeyp
     assert len(read) == (reading is not None)  # the misfit is read only above the margin
 
 
+@pytest.mark.parametrize("confirmed_gain", [5.0, -5.0])
+def test_a_shape_search_starts_each_shape_from_the_best_so_far_and_identifies_the_one_found_in_full(confirmed_gain):
+    # a concave log-evidence in the search's coordinates, peaked at (asinh((β+γ)σ), log((β-γ)σ)) = (1.1, 0.8)
+    sigma = 1.0
+
+    def evidence(shape):
+        a, b = np.arcsinh(shape.loading * sigma), np.log(shape.unloading * sigma)
+        return -100.0 * ((a - 1.1) ** 2 + (b - 0.8) ** 2)
+
+    entry_effect = hysteresis_effect(1, BoucWen.from_branches(0.2, 1.0))
+    entry = EffectScore(entry_effect, evidence(entry_effect.shape))
+    nears, confirmed = [], []
+
+    def score(effect, near):
+        nears.append(near.log_evidence)
+        return EffectScore(effect, evidence(effect.shape))
+
+    def confirm(effect):
+        confirmed.append(effect)
+        return EffectScore(effect, evidence(effect.shape) + confirmed_gain)
+
+    found = search_shape(entry, score, sigma, budget=30, confirm=confirm)
+    # every trial starts from the best entry found before it: the near scores never fall along the search
+    assert nears[0] == entry.log_evidence and all(b >= a for a, b in zip(nears, nears[1:]))
+    assert len(nears) <= 30 and len(confirmed) == 1  # only the shape the search ends on is identified in full
+    ended = confirmed[0].shape
+    assert abs(np.arcsinh(ended.loading) - 1.1) < 0.1 and abs(np.log(ended.unloading) - 0.8) < 0.1
+    # the full identification is kept when it beats the grid point (here it always does, by far)
+    assert found.effect == confirmed[0] and found.log_evidence == evidence(ended) + confirmed_gain
+    worse = search_shape(entry, score, sigma, budget=30, confirm=lambda effect: EffectScore(effect, -1e9))
+    assert worse is entry  # a confirmation below the grid point's score keeps the grid point
+
+
 def test_noise_replicates_reidentify_a_boucwen_candidate(case):
     result = identify(case.signals, case.truth, case.nsi)
     _, coefficients, _, _, failures = noise_replicates(result, case.signals, case.nsi, n_replicates=6, seed=1)
@@ -149,3 +183,35 @@ def test_the_frequency_route_and_harmonic_balance_hold_a_boucwen_term():
     hysteretic_error = model.reconstruct(validation, closed_loop=True).nrmse  # harmonic balance, periodic z
     assert hysteretic_error < 0.1  # measured 0.072 (linear 0.244, cubic 0.172)
     assert hysteretic_error < linear.reconstruct(validation, closed_loop=True).nrmse / 3
+
+
+def test_a_frequency_route_shape_search_beats_its_grid_point_and_approaches_the_truth(monkeypatch):
+    # the Bouc-Wen benchmark's system again; trials identified from the best shape's model so far
+    truth = BoucWen(beta=800.0, gamma=-1100.0)
+    term = Term("boucwen(x1, beta=800, gamma=-1100)", 1)
+    period, fs, oversample = 1024, 750.0, 8
+    force = multisine(period, fs, (5.0, 150.0), rms=50.0, rng=0, n_periods=5, oversample=oversample)
+    response = simulate_hysteretic_response([[2.0]], [[10.0]], [[5e4]], [1], force.fine, fs * oversample,
+                                            oversample, [term], [5e4])
+    noisy = response.displacement[period:] + 1e-6 * np.random.default_rng(7).standard_normal((4 * period, 1))
+    signals = Signals(force=force.samples[period:], displacement=noisy, fs=fs, input_dofs=(1,), output_dofs=(1,),
+                      period=period)
+    nsi = NSIOptions(domain="frequency", order=2, block_rows=20)
+    evidence = EvidenceOptions(residual=LoopOptions().residual, compare=())
+    linear = CandidateModel(name="linear", terms=())
+    start = hysteresis_effect(1, BoucWen.from_branches(truth.loading, 1.5 * truth.unloading))
+    grid = score_effects(signals, linear, [start], nsi, evidence)[0]
+    starts = []
+
+    def spy(*args, start=None, **kwargs):
+        starts.append(start)
+        return identify(*args, start=start, **kwargs)
+
+    monkeypatch.setattr(scoring, "identify", spy)
+    best = refine_shape(signals, linear, grid, nsi, evidence)
+    assert best.log_evidence > grid.log_evidence + 10
+    assert starts[-1] is None and all(s is not None for s in starts[:-1]) and len(starts) > 4
+    assert abs(np.log(best.effect.shape.unloading / truth.unloading)) < np.log(1.5) / 2
+    full = identify(signals, linear.with_term(best.effect.term), nsi)  # the entry kept is the full identification
+    assert best.result.coefficients[0].value == pytest.approx(full.coefficients[0].value, rel=1e-9)
+    assert best.result.coefficients[0].value == pytest.approx(5e4, rel=0.05)

@@ -86,7 +86,7 @@ def search_shape(entry: EffectScore, score: Callable[[Effect, EffectScore], Effe
         A scored Bouc-Wen effect (any other effect is returned as it is).
     score : callable
         ``score(effect, near) -> EffectScore``: the candidate with ``effect`` added, identified (it may start
-        from ``near.identified``) and scored.
+        from ``near.result``) and scored.
     sigma : float
         Std of the displacement the element acts on (:func:`displacement_spread`).
     budget : int

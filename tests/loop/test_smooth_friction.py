@@ -114,13 +114,15 @@ def test_width_search_climbs_the_evidence_in_log_width_from_the_grid():
         return EffectScore(effect, -100.0 * (np.log2(effect.eps / peak)) ** 2)
 
     start = smooth_friction_effect((7, 8), 0.00455)
-    found = search_width(score(start), score)
+    found = search_width(score(start), score, grid=(0.002, 0.0091))
     assert found.effect.location == (7, 8) and found.term.name.startswith("tanh((v7-v8)/")
     assert abs(np.log2(found.effect.eps / peak)) <= WIDTH_RESOLUTION  # within the search's resolution
     assert len(calls) - 1 <= 12  # the budget
-    flat = search_width(EffectScore(start, 5.0), lambda effect: EffectScore(effect, 5.0))  # nothing beats it
+    flat = search_width(EffectScore(start, 5.0), lambda effect: EffectScore(effect, 5.0),  # nothing beats it
+                        grid=(0.002, 0.0091))
     assert flat.effect.eps == 0.00455
-    sharp = search_width(score(start), lambda effect: EffectScore(effect, -np.log(effect.eps)), grid=(0.00455, 0.0091))
-    assert 0.5 * 0.00455 <= sharp.effect.eps < 0.5 * 0.00455 * 2**WIDTH_RESOLUTION  # at the bound, not below it
+    sharper = EffectScore(start, -np.log(start.eps))  # the evidence rises as the width falls
+    sharp = search_width(sharper, lambda effect: EffectScore(effect, -np.log(effect.eps)), grid=(0.00455, 0.0091))
+    assert sharp.effect.eps == 0.00455  # the smallest grid width bounds it: sharper is sign(v)'s place
     other = EffectScore(Effect("x^3", Term("x1**3", 1)), 1.0)
     assert search_width(other, score) is other

@@ -12,11 +12,11 @@ beats the current width becomes it, the step halves when neither does, until
 :data:`WIDTH_RESOLUTION`; never below the smallest grid width nor above the largest. Sharper,
 ``tanh`` turns into ``sign(v)``, its ε → 0 limit, which the dictionary holds at the same location (as
 a clearance's gap stays above the grid's smallest, where it turns into a linear spring): with half the
-smallest as the bound the loop suite took tanh(v2/0.026-0.033) there in place of sign(v2) in 3 of its
-40 Coulomb and two-missing runs (docs/measurements.md); unbounded, also the free body and the look-alike
-pair. Wider, ``tanh`` took the place of ``v|v|`` on the quadratic-damping case.
+smallest as the bound the loop suite took tanh(v2/0.026-0.033), sharper than the grid, in place of
+sign(v2) in 3 of its 40 Coulomb and two-missing runs (docs/measurements.md); unbounded, also the free
+body and the look-alike pair. Wider, ``tanh`` took the place of ``v|v|`` on the quadratic-damping case.
 On the simulated ground vibration test at 1 N the evidence of ``tanh((v7-v8)/ε)`` peaks near
-ε = 0.003 (0.002 true; benchmarks/gvt_loop.py).
+ε = 0.003 (0.002 true; benchmarks/gvt_loop.py), below the grid: the search keeps 0.00455.
 """
 
 from __future__ import annotations

@@ -19,12 +19,13 @@ Per level of :func:`bayesnsi.simulate.gvt_records` (0.1, 1, 8 N; the configs of
 
 Measured with the basis functions evaluated without aliasing (the memoryless ones on an 8x finer grid of
 the period, :mod:`bayesnsi.nsi._aft`, docs/method.md §11) and the width of tanh(v/eps) searched in log eps
-(:mod:`bayesnsi.loop.widths`; seed 0, 1-2 min per loop on a loaded machine): 1 N adds
-tanh((v7-v8)/0.00351) = 0.108 N (true 0.1 tanh(v/0.002); |Im|/|Re| 0.14, log BF 6384): level 0
-0.574 -> 0.156, level 2 0.469 -> 0.488, realisation 1 0.085 -> 0.065, rms 0.431 -> 0.298 (0.69x); with the
-aliasing removed alone, the grid width tanh((v7-v8)/0.00455) = 0.112 N, level 0 -> 0.203, 0.72x. At the
-data's samples the band lines of tanh(v/0.002) were 21 % off (tanh(v/0.0091): 8.8 %), which had made the
-wider width win. 8 N is unchanged: (x7-x8)**3 = 2.007e7 (|Im|/|Re| 0.04), then nothing; rms 0.443 -> 0.484
+(:mod:`bayesnsi.loop.widths`, between the grid's two widths; seed 0, 1-2 min per loop on a loaded
+machine): 1 N adds tanh((v7-v8)/0.00455) = 0.112 N (true 0.1 tanh(v/0.002); |Im|/|Re| 0.14, log BF
+6358): level 0 0.574 -> 0.203, level 2 0.469 -> 0.491, realisation 1 0.085 -> 0.065, rms 0.431 -> 0.309
+(0.72x). With the search free down to half the grid's smallest width it found 0.00351 (0.108 N; level 0
+-> 0.156, 0.69x), but the loop suite's Coulomb runs then took such sharp tanh in place of sign(v)
+(docs/measurements.md). At the data's samples the band lines of tanh(v/0.002) were 21 % off
+(tanh(v/0.0091): 8.8 %), which had made the wider width win. 8 N is unchanged: (x7-x8)**3 = 2.007e7 (|Im|/|Re| 0.04), then nothing; rms 0.443 -> 0.484
 (1.09x; level 1 0.315 -> 0.175, realisation 1 0.418 -> 0.393, level 0 0.562 -> 0.719). After the cubic,
 tanh((v7-v8)/eps) identified beside it is negative at every width from 0.001 to 0.0075 (-0.018 to
 -0.029 N, |Im|/|Re| 0.7; the dictionary's 0.0375 and 0.075 lower the evidence), with the residual at

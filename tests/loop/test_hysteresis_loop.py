@@ -15,7 +15,14 @@ from bayesnsi.loop import close_the_loop, scoring
 from bayesnsi.loop.quality import MisfitReading
 from bayesnsi.loop.results import EffectScore
 from bayesnsi.loop.scoring import refine_shape, score_effects
-from bayesnsi.loop.shapes import SHAPE_LOCATIONS, SHAPE_RESOLUTION, SHAPE_STEPS, screened_shapes, search_shape
+from bayesnsi.loop.shapes import (
+    SHAPE_LOCATIONS,
+    SHAPE_MIN_GAIN,
+    SHAPE_RESOLUTION,
+    SHAPE_STEPS,
+    screened_shapes,
+    search_shape,
+)
 from bayesnsi.models import BoucWen, CandidateModel, Term, hysteresis_effect
 from bayesnsi.models.dictionary import HYSTERESIS, clearance_effect
 from bayesnsi.nsi import identify
@@ -181,6 +188,29 @@ def test_a_shape_search_moves_only_for_the_least_gain_it_is_given(min_gain):
         assert found is entry  # no neighbour gains that much: the grid point stands
     else:
         assert found.log_evidence > entry.log_evidence + 50  # the valley's floor is found either way
+
+
+@pytest.mark.parametrize("domain", ["time", "frequency"])
+def test_only_a_frequency_route_search_asks_a_least_gain_and_passes_over_rounded_revisits(monkeypatch, domain):
+    # there a trial is refined from its neighbour's model, whose score carries that start; on the time route
+    # every trial is a full identification and the search is as it was
+    asked = {}
+
+    def fake_search(entry, near, sigma, budget, confirm=None, **kwargs):
+        asked.update(kwargs)
+        return entry
+
+    monkeypatch.setattr(scoring, "search_shape", fake_search)
+    monkeypatch.setattr(scoring, "displacement_spread", lambda signals, effect: 1.0)
+    entry = EffectScore(hysteresis_effect(1, BoucWen.from_branches(0.2, 1.0)), 1000.0)
+    nsi = NSIOptions(domain=domain, order=2, block_rows=20)
+    linear = CandidateModel(name="linear", terms=())
+    refine_shape(None, linear, entry, nsi, correlations=object(), base_log_evidence=600.0)
+    frequency = domain == "frequency"
+    assert asked["min_gain"] == (pytest.approx(SHAPE_MIN_GAIN * 400.0) if frequency else 0.0)
+    assert asked["rounded_revisits"] is not frequency
+    refine_shape(None, linear, entry, nsi, correlations=object())  # no base: no least gain
+    assert asked["min_gain"] == 0.0
 
 
 def test_noise_replicates_reidentify_a_boucwen_candidate(case):

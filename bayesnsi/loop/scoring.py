@@ -33,6 +33,7 @@ from .screen import best_locations_first, screen_effects, second_widths_last
 from .screen_force import screen_effects_force
 from .shapes import (
     SEARCH_INDEX_FACTOR,
+    SHAPE_MIN_GAIN,
     displacement_spread,
     screened_shapes,
     search_shape,
@@ -226,14 +227,14 @@ def refine_gap(
 
 def refine_shape(
     signals, candidate, entry: EffectScore, nsi: NSIOptions | None = None, evidence: EvidenceOptions | None = None,
-    *, correlations=None, budget: int = 30,
+    *, correlations=None, budget: int = 30, base_log_evidence: float | None = None,
 ) -> EffectScore:
     """Refine the shape of a Bouc-Wen effect off the grid by its Laplace log-evidence (docs/method.md §12).
 
     The compass search of :func:`bayesnsi.loop.shapes.search_shape` over the element's loading and
     unloading branches, each shape scored as :func:`score_effects` scores an effect; on the frequency route
-    a trial shape is identified from the best shape's model so far (``identify``'s ``start``) and only the
-    shape found is identified in full.
+    a trial shape is identified from the best shape's model so far (``identify``'s ``start``), a shape reached
+    back up to the rounding is not identified again, and only the shape found is identified in full.
 
     Parameters
     ----------
@@ -243,6 +244,9 @@ def refine_shape(
         A scored Bouc-Wen effect (any other effect is returned as it is).
     budget : int
         Most identifications.
+    base_log_evidence : float, optional
+        Log-evidence of ``candidate`` itself: on the frequency route a move of the search must gain
+        :data:`~bayesnsi.loop.shapes.SHAPE_MIN_GAIN` of the grid point's log Bayes factor over it.
 
     Returns
     -------
@@ -262,7 +266,10 @@ def refine_shape(
             return full(effect)
         return score_one(signals, candidate, effect, nsi, evidence, correlations, start=best.result)
 
-    return search_shape(entry, near, displacement_spread(signals, entry.effect), budget, confirm=full)
+    factor = entry.log_evidence - base_log_evidence if base_log_evidence is not None else 0.0
+    min_gain = SHAPE_MIN_GAIN * factor if nsi.domain == "frequency" and np.isfinite(factor) and factor > 0 else 0.0
+    return search_shape(entry, near, displacement_spread(signals, entry.effect), budget, confirm=full,
+                        rounded_revisits=nsi.domain != "frequency", min_gain=min_gain)
 
 
 def _screened(context: LoopContext, candidate, effects, exclude):
@@ -386,7 +393,7 @@ def rank_effects(context: LoopContext, candidate, exclude=(), effects=None, scre
         return entry.effect.gap is not None
 
     head = [  # a refined clearance (Bouc-Wen shape) keeps the screen rank of the grid point it was refined from
-        _with_screen(_refined(context, candidate, entry, effects, correlations), ranks, entry.term.name)
+        _with_screen(_refined(context, candidate, entry, effects, correlations, current), ranks, entry.term.name)
         if refinable(entry) else entry
         for entry in scored[:n_tries]
     ]
@@ -422,13 +429,17 @@ def _worth_searching(context: LoopContext, entry: EffectScore) -> bool:
     return index_judgement(coef.imag_ratio, limit, context.evidence.max_band_ratio, reading)[0]
 
 
-def _refined(context: LoopContext, candidate, entry: EffectScore, effects, correlations) -> EffectScore:
-    """``entry`` with its clearance gap, Bouc-Wen shape or friction width refined off the grid."""
+def _refined(context: LoopContext, candidate, entry: EffectScore, effects, correlations, current) -> EffectScore:
+    """``entry`` with its clearance gap, Bouc-Wen shape or friction width refined off the grid.
+
+    ``current``: ``[candidate's own log-evidence]`` once computed (the shape search's least gain), else empty.
+    """
     if entry.effect.eps is not None:
         grid = [e.eps for e in effects if e.eps is not None and e.location == entry.effect.location]
         return search_width(entry, lambda effect: score_one(context.signals, candidate, effect, context.nsi,
                                                             context.evidence, correlations), grid)
     if entry.effect.shape is not None:
-        return refine_shape(context.signals, candidate, entry, context.nsi, context.evidence, correlations=correlations)
+        return refine_shape(context.signals, candidate, entry, context.nsi, context.evidence, correlations=correlations,
+                            base_log_evidence=current[0] if current else None)
     return refine_gap(context.signals, candidate, entry, effects, context.nsi, context.evidence,
                       correlations=correlations)

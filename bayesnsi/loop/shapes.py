@@ -26,8 +26,8 @@ from ..models import BoucWen, Effect
 from ..models.dictionary import hysteresis_effect, hysteretic_shape
 from .results import EffectScore
 
-__all__ = ["SEARCH_INDEX_FACTOR", "SHAPE_LOCATIONS", "SHAPE_RESOLUTION", "SHAPE_STEPS", "displacement_spread",
-           "screened_shapes", "search_shape", "shape_fallbacks"]
+__all__ = ["SEARCH_INDEX_FACTOR", "SHAPE_LOCATIONS", "SHAPE_MIN_GAIN", "SHAPE_RESOLUTION", "SHAPE_STEPS",
+           "displacement_spread", "screened_shapes", "search_shape", "shape_fallbacks"]
 
 SHAPE_STEPS = (0.5, 0.55)
 """First steps of the Bouc-Wen shape search in ``asinh((β + γ) σ)`` and ``log((β - γ) σ)`` (σ: std of the
@@ -37,6 +37,9 @@ SHAPE_RESOLUTION = 1.0 / 16
 SHAPE_LOCATIONS = 6
 """Most locations whose best Bouc-Wen grid point a screen keeps (:func:`screened_shapes`): every location of a
 three-sensor record (the F-16's, the simulated ground vibration test's), 6 of the 78 of twelve sensors."""
+SHAPE_MIN_GAIN = 0.01
+"""On the frequency route, the least gain of a move of the search as a fraction of the grid point's log Bayes factor
+over the model without it (:func:`bayesnsi.loop.scoring.refine_shape`)."""
 SEARCH_INDEX_FACTOR = 4.0
 """A grid point whose quality index is at least this multiple of ``LoopOptions.max_imag_ratio`` and fails the
 loop's check has no shape search (module notes)."""
@@ -62,7 +65,8 @@ def displacement_spread(signals, effect: Effect) -> float:
 
 
 def search_shape(entry: EffectScore, score: Callable[[Effect, EffectScore], EffectScore], sigma: float,
-                 budget: int = 30, confirm: Callable[[Effect], EffectScore] | None = None) -> EffectScore:
+                 budget: int = 30, confirm: Callable[[Effect], EffectScore] | None = None,
+                 rounded_revisits: bool = True, min_gain: float = 0.0) -> EffectScore:
     """Refine the shape of a Bouc-Wen effect off the grid by its Laplace log-evidence (docs/method.md §12).
 
     A compass search over the loading and unloading branches, in ``asinh((β + γ) σ)`` and
@@ -80,6 +84,13 @@ def search_shape(entry: EffectScore, score: Callable[[Effect, EffectScore], Effe
     identified in full by ``confirm``, and kept when that beats ``entry``: the entry returned is the one a full
     identification gives, the search's scores only chose the shape.
 
+    The shapes are written with 3 significant digits (:func:`bayesnsi.models.dictionary.hysteresis_effect`),
+    so the search can reach a shape it tried back by another path, differing from the first visit by the
+    rounding only (another term name). With ``rounded_revisits`` False such a trial (within a quarter of the
+    finest steps of a shape tried, on both axes) is not scored again: where ``score`` starts from the best
+    entry so far, its second score differs from its first by the start only (on the F-16's level 3, 15 of the
+    146 trials; docs/measurements.md, "Bouc-Wen hysteresis in the loop").
+
     Parameters
     ----------
     entry : EffectScore
@@ -94,6 +105,10 @@ def search_shape(entry: EffectScore, score: Callable[[Effect, EffectScore], Effe
     confirm : callable, optional
         ``confirm(effect) -> EffectScore``: the full identification of the shape found; None takes the
         search's score as it is.
+    rounded_revisits : bool
+        Score a shape the search reaches back up to the rounding (True), or pass it over (False).
+    min_gain : float
+        Least gain in log-evidence over the best entry so far for a trial to become it (0: any gain).
 
     Returns
     -------
@@ -103,7 +118,7 @@ def search_shape(entry: EffectScore, score: Callable[[Effect, EffectScore], Effe
     shape, at = entry.effect.shape, entry.effect.location
     if shape is None or shape.unloading <= 0 or not sigma > 0:
         return entry
-    best, seen = entry, {entry.term.name}
+    best, names, seen = entry, {entry.term.name}, [_coordinates(shape, sigma)]
     steps = list(SHAPE_STEPS)
     while budget > 0 and steps[0] >= SHAPE_RESOLUTION * SHAPE_STEPS[0]:
         current = best.effect.shape
@@ -118,12 +133,15 @@ def search_shape(entry: EffectScore, score: Callable[[Effect, EffectScore], Effe
             if not hysteretic_shape(trial_shape, sigma) or budget <= 0:
                 continue
             trial_effect = hysteresis_effect(at, trial_shape)
-            if trial_effect.term.name in seen:
+            assert trial_effect.shape is not None
+            tried = _coordinates(trial_effect.shape, sigma)
+            if trial_effect.term.name in names or (not rounded_revisits and _visited(tried, seen)):
                 continue
-            seen.add(trial_effect.term.name)
+            names.add(trial_effect.term.name)
+            seen.append(tried)
             budget -= 1
             trial = score(trial_effect, best)
-            if trial.log_evidence > best.log_evidence:
+            if trial.log_evidence > best.log_evidence + min_gain:
                 best, moved = trial, True
         if not moved:
             steps = [step / 2 for step in steps]
@@ -131,6 +149,17 @@ def search_shape(entry: EffectScore, score: Callable[[Effect, EffectScore], Effe
         return best
     confirmed = confirm(best.effect)
     return confirmed if confirmed.log_evidence > entry.log_evidence else entry
+
+
+def _coordinates(shape: BoucWen, sigma: float) -> tuple[float, float]:
+    """The search's coordinates of ``shape``: ``(asinh((β + γ) σ), log((β - γ) σ))``."""
+    return float(np.arcsinh(shape.loading * sigma)), float(np.log(shape.unloading * sigma))
+
+
+def _visited(point: tuple[float, float], seen: list[tuple[float, float]]) -> bool:
+    """Whether ``point`` lies within a quarter of the search's finest steps of a point in ``seen``, on both axes."""
+    finest = [SHAPE_RESOLUTION * step for step in SHAPE_STEPS]
+    return any(all(abs(p - q) < 0.25 * f for p, q, f in zip(point, other, finest)) for other in seen)
 
 
 def screened_shapes(ordered: list[Effect], count: int, locations: int = SHAPE_LOCATIONS) -> list[Effect]:

@@ -15,7 +15,14 @@ from bayesnsi.loop import close_the_loop, scoring
 from bayesnsi.loop.quality import MisfitReading
 from bayesnsi.loop.results import EffectScore
 from bayesnsi.loop.scoring import refine_shape, score_effects
-from bayesnsi.loop.shapes import SHAPE_LOCATIONS, screened_shapes, search_shape
+from bayesnsi.loop.shapes import (
+    SHAPE_LOCATIONS,
+    SHAPE_MIN_GAIN,
+    SHAPE_RESOLUTION,
+    SHAPE_STEPS,
+    screened_shapes,
+    search_shape,
+)
 from bayesnsi.models import BoucWen, CandidateModel, Term, hysteresis_effect
 from bayesnsi.models.dictionary import HYSTERESIS, clearance_effect
 from bayesnsi.nsi import identify
@@ -126,6 +133,84 @@ def test_a_shape_search_starts_each_shape_from_the_best_so_far_and_identifies_th
     assert found.effect == confirmed[0] and found.log_evidence == evidence(ended) + confirmed_gain
     worse = search_shape(entry, score, sigma, budget=30, confirm=lambda effect: EffectScore(effect, -1e9))
     assert worse is entry  # a confirmation below the grid point's score keeps the grid point
+
+
+def _valley(sigma: float):
+    """A concave log-evidence in the search's coordinates with a tilted valley, peaked at (1.1, 0.8)."""
+    def evidence(shape):
+        a, b = np.arcsinh(shape.loading * sigma) - 1.1, np.log(shape.unloading * sigma) - 0.8
+        return -100.0 * (a**2 + 3.0 * b**2 + 2.0 * a * b)
+    return evidence
+
+
+def _coordinates(shape, sigma):
+    return np.arcsinh(shape.loading * sigma), np.log(shape.unloading * sigma)
+
+
+@pytest.mark.parametrize("rounded_revisits", [True, False])
+def test_a_shape_search_passes_over_a_shape_reached_back_up_to_the_rounding_when_asked(rounded_revisits):
+    # the shapes are written with 3 significant digits: moving back and forth along the valley reaches shapes
+    # tried before under another name; with rounded_revisits False no two scored shapes lie that close
+    sigma, evidence = 1.0, _valley(1.0)
+    entry_effect = hysteresis_effect(1, BoucWen.from_branches(0.2, 1.0))
+    entry = EffectScore(entry_effect, evidence(entry_effect.shape))
+    scored = [entry_effect]
+
+    def score(effect, near):
+        scored.append(effect)
+        return EffectScore(effect, evidence(effect.shape))
+
+    search_shape(entry, score, sigma, budget=30, rounded_revisits=rounded_revisits)
+    assert len({e.term.name for e in scored}) == len(scored)  # never the same name twice, either way
+    finest = np.array([SHAPE_RESOLUTION * step for step in SHAPE_STEPS])
+    points = np.array([_coordinates(e.shape, sigma) for e in scored])
+    close = [(i, j) for i in range(len(points)) for j in range(i)
+             if np.all(np.abs(points[i] - points[j]) < finest / 4)]
+    assert (len(close) > 0) == rounded_revisits
+
+
+@pytest.mark.parametrize("min_gain", [0.0, 5.0, 1e9])
+def test_a_shape_search_moves_only_for_the_least_gain_it_is_given(min_gain):
+    sigma, evidence = 1.0, _valley(1.0)
+    entry_effect = hysteresis_effect(1, BoucWen.from_branches(0.2, 1.0))
+    entry = EffectScore(entry_effect, evidence(entry_effect.shape))
+    starts = []
+
+    def score(effect, near):
+        starts.append(near.log_evidence)
+        return EffectScore(effect, evidence(effect.shape))
+
+    found = search_shape(entry, score, sigma, budget=30, min_gain=min_gain)
+    moves = np.diff(list(dict.fromkeys(starts)) + [found.log_evidence])  # the best so far, each time it changed
+    moves = moves[moves != 0]
+    assert np.all(moves > min_gain)
+    if min_gain > 1e6:
+        assert found is entry  # no neighbour gains that much: the grid point stands
+    else:
+        assert found.log_evidence > entry.log_evidence + 50  # the valley's floor is found either way
+
+
+@pytest.mark.parametrize("domain", ["time", "frequency"])
+def test_only_a_frequency_route_search_asks_a_least_gain_and_passes_over_rounded_revisits(monkeypatch, domain):
+    # there a trial is refined from its neighbour's model, whose score carries that start; on the time route
+    # every trial is a full identification and the search is as it was
+    asked = {}
+
+    def fake_search(entry, near, sigma, budget, confirm=None, **kwargs):
+        asked.update(kwargs)
+        return entry
+
+    monkeypatch.setattr(scoring, "search_shape", fake_search)
+    monkeypatch.setattr(scoring, "displacement_spread", lambda signals, effect: 1.0)
+    entry = EffectScore(hysteresis_effect(1, BoucWen.from_branches(0.2, 1.0)), 1000.0)
+    nsi = NSIOptions(domain=domain, order=2, block_rows=20)
+    linear = CandidateModel(name="linear", terms=())
+    refine_shape(None, linear, entry, nsi, correlations=object(), base_log_evidence=600.0)
+    frequency = domain == "frequency"
+    assert asked["min_gain"] == (pytest.approx(SHAPE_MIN_GAIN * 400.0) if frequency else 0.0)
+    assert asked["rounded_revisits"] is not frequency
+    refine_shape(None, linear, entry, nsi, correlations=object())  # no base: no least gain
+    assert asked["min_gain"] == 0.0
 
 
 def test_noise_replicates_reidentify_a_boucwen_candidate(case):

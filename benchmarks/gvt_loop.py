@@ -25,8 +25,9 @@ machine): 1 N adds tanh((v7-v8)/0.00455) = 0.112 N (true 0.1 tanh(v/0.002); |Im|
 (0.72x). With the search free down to half the grid's smallest width it found 0.00351 (0.108 N; level 0
 -> 0.156, 0.69x), but the loop suite's Coulomb runs then took such sharp tanh in place of sign(v)
 (docs/measurements.md). At the data's samples the band lines of tanh(v/0.002) were 21 % off
-(tanh(v/0.0091): 8.8 %), which had made the wider width win. 8 N is unchanged: (x7-x8)**3 = 2.007e7 (|Im|/|Re| 0.04), then nothing; rms 0.443 -> 0.484
-(1.09x; level 1 0.315 -> 0.175, realisation 1 0.418 -> 0.393, level 0 0.562 -> 0.719). After the cubic,
+(tanh(v/0.0091): 8.8 %), which had made the wider width win. 8 N is unchanged: (x7-x8)**3 = 2.007e7
+(|Im|/|Re| 0.04), then nothing; rms 0.443 -> 0.484 (1.09x; level 1 0.315 -> 0.175, realisation 1
+0.418 -> 0.393, level 0 0.562 -> 0.719). After the cubic,
 tanh((v7-v8)/eps) identified beside it is negative at every width from 0.001 to 0.0075 (-0.018 to
 -0.029 N, |Im|/|Re| 0.7; the dictionary's 0.0375 and 0.075 lower the evidence), with the residual at
 0.86-0.99x the noise: the 8 N record does not inform the 0.1 N friction that governs level 0, where the

@@ -217,9 +217,9 @@ def refine_gap(
         for g in np.linspace(lower, upper, points):
             if g <= 0:
                 continue
-            trial = score_one(signals, candidate, clearance_effect(at, float(g)), nsi, evidence, correlations)
-            if trial.log_evidence > best.log_evidence:
-                best = trial
+            scored = score_one(signals, candidate, clearance_effect(at, float(g)), nsi, evidence, correlations)
+            if scored.log_evidence > best.log_evidence:
+                best = scored
         centre, step = best.effect.gap or gap, (upper - lower) / (points - 1)
         lower, upper = max(centre - step, 0.5 * step, floor), centre + step
     return best
@@ -233,7 +233,7 @@ def refine_shape(
 
     The compass search of :func:`bayesnsi.loop.shapes.search_shape` over the element's loading and
     unloading branches, each shape scored as :func:`score_effects` scores an effect; on the frequency route
-    a trial shape is identified from the best shape's model so far (``identify``'s ``start``), a shape reached
+    each shape tried is identified from the best shape's model so far (``identify``'s ``start``), a shape reached
     back up to the rounding is not identified again, and only the shape found is identified in full.
 
     Parameters
@@ -370,26 +370,27 @@ def rank_effects(context: LoopContext, candidate, exclude=(), effects=None, scre
         scored, rest = shape_fallbacks(scored, rest, lambda effect: score_one(
             context.signals, candidate, effect, context.nsi, context.evidence, correlations))
     n_tries = context.options.n_tries
-    shaped: set = set()  # Bouc-Wen locations refined: the best grid point's search stands for the location's
-    widened: set = set()  # friction locations whose width was searched (from their best grid width)
+    searched: set = set()  # (kind, location) refined: the best grid point's search stands for the location's
     current: list[float] = []  # the candidate's own Laplace log-evidence, computed when first needed
     memoryless = max((e.log_evidence for e in scored if e.effect.shape is None), default=-math.inf)
+
+    def first_better(entry, kind: str, rival: float) -> bool:
+        """The best grid point of its kind at its location, and better than the candidate and ``rival``."""
+        key = (kind, entry.effect.location)
+        if key in searched:
+            return False
+        searched.add(key)
+        if not current:
+            current.append(_log_evidence(context, candidate))
+        return entry.log_evidence > max(current[0], rival)
 
     def refinable(entry) -> bool:
         if not np.isfinite(entry.log_evidence):
             return False
-        if entry.effect.shape is not None:  # the best grid point of its location, better than the candidate
-            fresh = entry.effect.location not in shaped  # and than every effect without memory
-            shaped.add(entry.effect.location)
-            if fresh and not current:
-                current.append(_log_evidence(context, candidate))
-            return fresh and entry.log_evidence > max(current[0], memoryless) and _worth_searching(context, entry)
-        if entry.effect.eps is not None:  # the best grid width of its location, better than the candidate
-            fresh = entry.effect.location not in widened
-            widened.add(entry.effect.location)
-            if fresh and not current:
-                current.append(_log_evidence(context, candidate))
-            return fresh and entry.log_evidence > current[0]
+        if entry.effect.shape is not None:  # Bouc-Wen: also better than every effect without memory
+            return first_better(entry, "shape", memoryless) and _worth_searching(context, entry)
+        if entry.effect.eps is not None:  # a friction's width
+            return first_better(entry, "width", -math.inf)
         return entry.effect.gap is not None
 
     head = [  # a refined clearance (Bouc-Wen shape) keeps the screen rank of the grid point it was refined from

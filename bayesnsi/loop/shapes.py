@@ -78,7 +78,7 @@ def search_shape(entry: EffectScore, score: Callable[[Effect, EffectScore], Effe
     identification fails (e.g. its underlying linear model comes out unstable: a hysteresis that
     dissipates too much leaves the linear damping negative) scores −inf and is passed over. n is kept.
 
-    A trial shape is scored by ``score(effect, near)``, which may identify it from ``near``, the best entry so far
+    Each shape tried is scored by ``score(effect, near)``, which may identify it from ``near``, the best entry so far
     (a neighbouring shape: its model is a start that needs a few steps of the refinement, where a full
     identification runs the subspace step and refines from two starts). The shape the search ends on is then
     identified in full by ``confirm``, and kept when that beats ``entry``: the entry returned is the one a full
@@ -86,10 +86,10 @@ def search_shape(entry: EffectScore, score: Callable[[Effect, EffectScore], Effe
 
     The shapes are written with 3 significant digits (:func:`bayesnsi.models.dictionary.hysteresis_effect`),
     so the search can reach a shape it tried back by another path, differing from the first visit by the
-    rounding only (another term name). With ``rounded_revisits`` False such a trial (within a quarter of the
+    rounding only (another term name). With ``rounded_revisits`` False such a shape (within a quarter of the
     finest steps of a shape tried, on both axes) is not scored again: where ``score`` starts from the best
     entry so far, its second score differs from its first by the start only (on the F-16's level 3, 15 of the
-    146 trials; docs/measurements.md, "Bouc-Wen hysteresis in the loop").
+    146 shapes scored; docs/measurements.md, "Bouc-Wen hysteresis in the loop").
 
     Parameters
     ----------
@@ -108,7 +108,7 @@ def search_shape(entry: EffectScore, score: Callable[[Effect, EffectScore], Effe
     rounded_revisits : bool
         Score a shape the search reaches back up to the rounding (True), or pass it over (False).
     min_gain : float
-        Least gain in log-evidence over the best entry so far for a trial to become it (0: any gain).
+        Least gain in log-evidence over the best entry so far for a neighbour to become it (0: any gain).
 
     Returns
     -------
@@ -126,23 +126,23 @@ def search_shape(entry: EffectScore, score: Callable[[Effect, EffectScore], Effe
         point = (np.arcsinh(current.loading * sigma), np.log(current.unloading * sigma))
         moved = False
         for axis, sign in ((0, 1), (0, -1), (1, 1), (1, -1)):
-            trial_point = list(point)
-            trial_point[axis] += sign * steps[axis]
-            trial_shape = BoucWen.from_branches(np.sinh(trial_point[0]) / sigma, np.exp(trial_point[1]) / sigma,
+            moved_point = list(point)
+            moved_point[axis] += sign * steps[axis]
+            neighbour_shape = BoucWen.from_branches(np.sinh(moved_point[0]) / sigma, np.exp(moved_point[1]) / sigma,
                                                 current.n)
-            if not hysteretic_shape(trial_shape, sigma) or budget <= 0:
+            if not hysteretic_shape(neighbour_shape, sigma) or budget <= 0:
                 continue
-            trial_effect = hysteresis_effect(at, trial_shape)
-            assert trial_effect.shape is not None
-            tried = _coordinates(trial_effect.shape, sigma)
-            if trial_effect.term.name in names or (not rounded_revisits and _visited(tried, seen)):
+            neighbour_effect = hysteresis_effect(at, neighbour_shape)
+            assert neighbour_effect.shape is not None
+            tried = _coordinates(neighbour_effect.shape, sigma)
+            if neighbour_effect.term.name in names or (not rounded_revisits and _visited(tried, seen)):
                 continue
-            names.add(trial_effect.term.name)
+            names.add(neighbour_effect.term.name)
             seen.append(tried)
             budget -= 1
-            trial = score(trial_effect, best)
-            if trial.log_evidence > best.log_evidence + min_gain:
-                best, moved = trial, True
+            neighbour = score(neighbour_effect, best)
+            if neighbour.log_evidence > best.log_evidence + min_gain:
+                best, moved = neighbour, True
         if not moved:
             steps = [step / 2 for step in steps]
     if best is entry or confirm is None:

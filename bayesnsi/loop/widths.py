@@ -71,9 +71,9 @@ def search_width(entry: EffectScore, score: Callable[[Effect], EffectScore], gri
                 continue
             tried.add(width)
             budget -= 1
-            trial = score(smooth_friction_effect(at, width))
-            if trial.log_evidence > best.log_evidence:
-                best, moved = trial, True
+            neighbour = score(smooth_friction_effect(at, width))
+            if neighbour.log_evidence > best.log_evidence:
+                best, moved = neighbour, True
                 break
         if not moved:
             step /= 2

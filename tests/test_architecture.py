@@ -401,6 +401,21 @@ def test_numerical_layers_use_only_numpy_and_scipy():
     assert not offenders, "models, nsi and simulate use numpy/scipy only:\n" + "\n".join(offenders)
 
 
+def test_drawing_and_sampling_libraries_stay_in_their_packages():
+    # figures are drawn and encoded in plots only (the report arranges them); the sampler lives in
+    # evidence, the posterior summaries there and in their figures
+    plots, evidence = ("bayesnsi.plots",), ("bayesnsi.evidence",)
+    homes = {"matplotlib": plots, "emcee": evidence, "arviz": evidence + plots, "arviz_base": evidence + plots,
+             "arviz_stats": evidence + plots, "arviz_plots": plots}
+    offenders = sorted(
+        f"{module} (line {line}) imports {top}"
+        for module, top, line in third_party_imports()
+        if top in homes and not any(_in(module, home) for home in homes[top])
+    )
+    assert not offenders, "matplotlib only in plots, emcee in evidence, arviz in evidence and plots:\n" + "\n".join(
+        offenders)
+
+
 # --------------------------------------------------------------------------------------------
 # c. module size
 # --------------------------------------------------------------------------------------------

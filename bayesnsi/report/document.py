@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import base64
 import html
-import io
 import math
 import numbers
 import re
@@ -66,14 +65,10 @@ def figure_png(fig, dpi: int = FIGURE_DPI) -> bytes:
     -------
     bytes
     """
-    import matplotlib.pyplot as plt
+    from ..plots.rendering import png_bytes
 
     plain_texts(fig)
-    buffer = io.BytesIO()
-    # zlib level 3: a third of the default's (6) encoding time for files 7 % larger
-    fig.savefig(buffer, format="png", dpi=dpi, pil_kwargs={"compress_level": 3})
-    plt.close(fig)
-    return buffer.getvalue()
+    return png_bytes(fig, dpi)
 
 
 def clipped_texts(fig) -> list[str]:

@@ -43,11 +43,11 @@ def held_figures():
     """
     import gc
 
-    import matplotlib
+    from ..plots.rendering import many_open_figures
 
     gc.freeze()
     try:
-        with matplotlib.rc_context({"figure.max_open_warning": 0}):
+        with many_open_figures():
             yield
     finally:
         gc.unfreeze()
